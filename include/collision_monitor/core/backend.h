@@ -1,0 +1,38 @@
+/// \file
+/// Narrow-phase backends behind one interface, selectable at run time: our GJK/EPA ("gjk") and
+/// libccd ("libccd": ccdGJKIntersect and ccdMPRPenetration). libccd 2.1 has no distance query, so
+/// the libccd backend answers separation distances with our GJK distance and says so in name().
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "collision_monitor/core/query.h"
+
+namespace collision_monitor {
+namespace core {
+
+enum class BackendType { Gjk, Libccd };
+
+/// "gjk" or "libccd" -> type; anything else -> nullopt.
+std::optional<BackendType> parseBackend(const std::string& name);
+const char* toString(BackendType type);
+
+class NarrowPhase {
+ public:
+  virtual ~NarrowPhase() = default;
+  virtual BackendType type() const = 0;
+  virtual bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
+                         const Transform3& pose_b, PairCache* cache) const = 0;
+  /// Same contract as core::signedDistance().
+  virtual ContactResult signedDistance(const ConvexShape& a, const Transform3& pose_a,
+                                       const ConvexShape& b, const Transform3& pose_b,
+                                       PairCache* cache) const = 0;
+};
+
+/// A backend instance. Instances hold no per-query state and are safe to share across threads.
+std::unique_ptr<NarrowPhase> makeNarrowPhase(BackendType type, const QueryOptions& options = {});
+
+}  // namespace core
+}  // namespace collision_monitor

@@ -1,0 +1,36 @@
+/// \file
+/// Convex hulls by qhull (reentrant libqhull_r): point sets and meshes -> Polytope with the hull's
+/// vertex adjacency (for hill-climbing support queries).
+#pragma once
+
+#include <array>
+#include <memory>
+#include <vector>
+
+#include "collision_monitor/core/shapes.h"
+
+namespace collision_monitor {
+namespace core {
+
+/// Convex hull of `points`. Keeps only hull vertices and builds their edge adjacency.
+/// Degenerate input is valid: coincident points give a one-vertex polytope, collinear points a
+/// segment, coplanar points a flat polygon (all without qhull's full-dimensional hull, which
+/// would fail on them). Throws std::invalid_argument on empty input or non-finite coordinates.
+std::shared_ptr<const Polytope<3>> buildConvexHull(const std::vector<Vec3>& points);
+
+/// The hull's triangles (outward-facing, counter-clockwise) as vertex index triples into
+/// poly.vertices(); for visualisation and for the exact test oracle. Flat or lower-dimensional
+/// polytopes give an empty list.
+std::vector<std::array<int, 3>> hullTriangles(const Polytope<3>& poly);
+
+/// Facets of the convex hull of `points` as planes n.x <= offset with unit outward n (qhull).
+/// Used by the exact oracle in tests: the signed distance of the origin to a full-dimensional
+/// hull is max over facets of (-offset) when inside (negative) and needs a projection otherwise.
+struct HullPlane {
+  Vec3 normal;
+  double offset;
+};
+std::vector<HullPlane> hullPlanes(const std::vector<Vec3>& points);
+
+}  // namespace core
+}  // namespace collision_monitor

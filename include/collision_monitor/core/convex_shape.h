@@ -1,0 +1,76 @@
+/// \file
+/// The runtime 3D convex shape used by the world model and the ROS layer: a core support
+/// mapping (one of the shapes in shapes.h) plus a radius (sphere/capsule radius + padding).
+/// Construction validates its input and throws std::invalid_argument with a clear message;
+/// a constructed ConvexShape is always valid (finite, non-negative sizes).
+#pragma once
+
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "collision_monitor/core/math.h"
+#include "collision_monitor/core/shapes.h"
+
+namespace collision_monitor {
+namespace core {
+
+class ConvexShape {
+ public:
+  /// The core support mapping. Polytopes are shared and immutable (cheap copies of shapes).
+  using Core = std::variant<PointShape<3>, SegmentShape<3>, BoxShape<3>, CylinderShape, ConeShape,
+                            EllipsoidShape<3>, std::shared_ptr<const Polytope<3>>>;
+
+  /// Sphere of `radius` (m, >= 0) at the origin: a point core plus radius.
+  static ConvexShape sphere(double radius);
+  /// Box with full side lengths (m, each >= 0), centred (as shape_msgs/SolidPrimitive).
+  static ConvexShape box(const Vec3& sides);
+  /// Capsule: segment of `length` on z centred at the origin, swept by `radius`.
+  static ConvexShape capsule(double length, double radius);
+  /// Cylinder of `height` along z, centred, with `radius`.
+  static ConvexShape cylinder(double height, double radius);
+  /// Cone of `height` along z, centred like shape_msgs (base at -height/2, apex at +height/2).
+  static ConvexShape cone(double height, double radius);
+  /// Ellipsoid with semi-axes (a, b, c) along x, y, z.
+  static ConvexShape ellipsoid(const Vec3& semi_axes);
+  /// A single point.
+  static ConvexShape point(const Vec3& p);
+  /// Segment from a to b.
+  static ConvexShape segment(const Vec3& a, const Vec3& b);
+  /// Convex hull of `points` (qhull). Degenerate sets (coincident, collinear, coplanar points)
+  /// are valid and give a flat or lower-dimensional polytope. Throws on empty input or on
+  /// non-finite coordinates.
+  static ConvexShape convexHull(const std::vector<Vec3>& points);
+  /// A polytope built elsewhere (e.g. by buildConvexHull()).
+  static ConvexShape polytope(std::shared_ptr<const Polytope<3>> poly);
+
+  /// This shape inflated by `padding` (m, >= 0): Minkowski sum with a sphere.
+  ConvexShape padded(double padding) const;
+
+  const Core& core() const { return core_; }
+  /// Radius added to the core after GJK converges (sphere/capsule radius plus padding), m.
+  double radius() const { return radius_; }
+
+  /// Support point of the full shape (core + radius) in the shape frame.
+  Vec3 support(const Vec3& d) const;
+  /// Support point of the core only.
+  Vec3 coreSupport(const Vec3& d) const;
+  /// Exact axis-aligned bounding box of the full shape placed at `pose` (6 support queries).
+  Aabb aabb(const Transform3& pose) const;
+  /// Radius of a ball about the shape-frame origin that contains the full shape.
+  double boundingRadius() const { return bounding_radius_; }
+  /// Short human-readable name of the core type ("sphere", "box", "polytope(42)", ...).
+  std::string describe() const;
+
+ private:
+  ConvexShape(Core core, double radius, std::string kind);
+  Core core_;
+  double radius_ = 0.0;
+  double bounding_radius_ = 0.0;
+  std::string kind_;
+};
+
+}  // namespace core
+}  // namespace collision_monitor

@@ -1,0 +1,90 @@
+/// \file
+/// Small linear-algebra vocabulary of the geometry core: dimension-generic vectors and rigid
+/// transforms on Eigen fixed-size types. Units are whatever the caller uses (metres in ROS).
+#pragma once
+
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace collision_monitor {
+namespace core {
+
+template <int D>
+using Vec = Eigen::Matrix<double, D, 1>;
+template <int D>
+using Mat = Eigen::Matrix<double, D, D>;
+using Vec2 = Vec<2>;
+using Vec3 = Vec<3>;
+using Mat3 = Mat<3>;
+
+/// Rigid transform x -> R x + t in D dimensions. R is orthonormal with det +1 (checked where
+/// transforms enter the core from outside, see isValidRotation()).
+template <int D>
+struct Transform {
+  Mat<D> R = Mat<D>::Identity();
+  Vec<D> t = Vec<D>::Zero();
+
+  static Transform Identity() { return Transform(); }
+  Vec<D> operator*(const Vec<D>& x) const { return R * x + t; }
+  Transform operator*(const Transform& o) const { return Transform{R * o.R, R * o.t + t}; }
+  Transform inverse() const {
+    Transform inv;
+    inv.R = R.transpose();
+    inv.t = -(inv.R * t);
+    return inv;
+  }
+};
+using Transform3 = Transform<3>;
+
+/// Transform from a unit quaternion and a translation.
+inline Transform3 makeTransform(const Eigen::Quaterniond& q, const Vec3& t) {
+  Transform3 T;
+  T.R = q.normalized().toRotationMatrix();
+  T.t = t;
+  return T;
+}
+
+/// True when every entry is finite.
+template <class Derived>
+bool allFinite(const Eigen::MatrixBase<Derived>& m) {
+  return m.allFinite();
+}
+
+/// True when R is a rotation (orthonormal, det +1) within `tol`.
+template <int D>
+bool isValidRotation(const Mat<D>& R, double tol = 1e-6) {
+  return R.allFinite() && (R.transpose() * R - Mat<D>::Identity()).cwiseAbs().maxCoeff() <= tol &&
+         std::abs(R.determinant() - 1.0) <= tol;
+}
+
+/// Axis-aligned bounding box. An empty box has min > max.
+struct Aabb {
+  Vec3 min = Vec3::Constant(std::numeric_limits<double>::infinity());
+  Vec3 max = Vec3::Constant(-std::numeric_limits<double>::infinity());
+
+  bool empty() const { return (min.array() > max.array()).any(); }
+  void extend(const Vec3& p) {
+    min = min.cwiseMin(p);
+    max = max.cwiseMax(p);
+  }
+  void extend(const Aabb& o) {
+    min = min.cwiseMin(o.min);
+    max = max.cwiseMax(o.max);
+  }
+  Aabb inflated(double r) const { return Aabb{min.array() - r, max.array() + r}; }
+  bool overlaps(const Aabb& o) const {
+    return (min.array() <= o.max.array()).all() && (o.min.array() <= max.array()).all();
+  }
+  /// Euclidean distance between the boxes (0 when they overlap). A lower bound on the distance
+  /// between anything inside them.
+  double distance(const Aabb& o) const {
+    const Vec3 gap = (o.min - max).cwiseMax(min - o.max).cwiseMax(Vec3::Zero());
+    return gap.norm();
+  }
+};
+
+}  // namespace core
+}  // namespace collision_monitor

@@ -1,0 +1,96 @@
+/// \file
+/// Queries between two placed ConvexShapes: the public door of the geometry core.
+///
+/// Poses map shape frame -> world (any common frame). Internally every query works in A's frame
+/// (one relative transform per query, not per support call); every result field below is in the
+/// common frame the poses are given in, in the same length unit (metres in ROS).
+///
+/// Algorithms: GJK (Gilbert, Johnson, Keerthi 1988; van den Bergen 1999 termination) with the
+/// signed-volumes simplex sub-algorithm (Montanari, Petrinic, Barbieri 2017), EPA (van den Bergen
+/// 2001) for penetration. Radii and padding stay out of the iterations and are applied after
+/// convergence: the signed distance of inflated shapes equals the cores' signed distance minus the
+/// radii, exactly, for convex cores.
+#pragma once
+
+#include <array>
+#include <limits>
+
+#include "collision_monitor/core/convex_shape.h"
+#include "collision_monitor/core/math.h"
+
+namespace collision_monitor {
+namespace core {
+
+/// Outcome of a query.
+enum class Status {
+  Separated,         ///< distance > 0
+  Touching,          ///< |distance| within the tolerance band
+  Penetrating,       ///< distance < 0 (overlap); depth = -distance
+  FailedToConverge,  ///< iteration bound hit; fields hold the best estimate found
+};
+const char* toString(Status s);
+
+/// Tolerances and bounds. Relative tolerances scale with the shapes' size.
+struct QueryOptions {
+  double rel_tolerance = 1e-12;  ///< GJK/EPA convergence, relative to the shapes' size
+  int max_iterations = 128;      ///< per GJK run and per EPA run
+  /// |signed distance| <= touch_tolerance * size counts as Touching.
+  double touch_tolerance = 1e-10;
+};
+
+/// Result of distance / signedDistance / penetration.
+struct ContactResult {
+  Status status = Status::FailedToConverge;
+  /// Signed distance in metres: > 0 separation, < 0 penetration depth, 0 touching.
+  /// For distance() on overlapping shapes: 0 (status Penetrating, depth not computed).
+  double distance = std::numeric_limits<double>::infinity();
+  Vec3 point_a = Vec3::Zero();  ///< witness point on A, common frame
+  Vec3 point_b = Vec3::Zero();  ///< witness point on B, common frame
+  /// Unit vector from A towards B, common frame: the direction in which to move B (or -A) to
+  /// increase the distance. Defined (not NaN) even when the shapes touch.
+  Vec3 normal = Vec3::UnitX();
+  int gjk_iterations = 0;
+  int epa_iterations = 0;
+  double depth() const { return distance < 0.0 ? -distance : 0.0; }
+};
+
+/// Warm-start cache for one pair of shapes: the last GJK simplex (as support points in each
+/// shape's own frame, so it stays valid after the shapes move) and the polytope hill-climbing
+/// hints. Keep one per (part, part) pair across cycles; a default-constructed cache is cold.
+struct PairCache {
+  int size = 0;                                  ///< simplex vertices cached (0 = cold)
+  std::array<Vec3, 4> local_a{};                 ///< support points on A's core, A's frame
+  std::array<Vec3, 4> local_b{};                 ///< support points on B's core, B's frame
+  int hint_a = 0;                                ///< polytope hill-climbing start on A
+  int hint_b = 0;                                ///< polytope hill-climbing start on B
+  void reset() { size = 0; }
+};
+
+/// True when the full shapes (cores + radii) overlap or touch. Early exit as soon as a support
+/// point fails to pass the origin (separated) or the simplex encloses it (overlap).
+bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
+               const Transform3& pose_b, PairCache* cache = nullptr,
+               const QueryOptions& options = {});
+
+/// Separation distance and witness points; 0 with status Penetrating when the shapes overlap
+/// (no EPA run).
+ContactResult distance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
+                       const Transform3& pose_b, PairCache* cache = nullptr,
+                       const QueryOptions& options = {});
+
+/// Signed distance in one call: the distance when apart, minus the penetration depth (EPA on
+/// the GJK terminal simplex) when overlapping. Witness points and normal in both cases.
+ContactResult signedDistance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
+                             const Transform3& pose_b, PairCache* cache = nullptr,
+                             const QueryOptions& options = {});
+
+/// Penetration depth and normal by EPA. Same result as signedDistance() (when the shapes are
+/// apart it reports the separation, status Separated).
+inline ContactResult penetration(const ConvexShape& a, const Transform3& pose_a,
+                                 const ConvexShape& b, const Transform3& pose_b,
+                                 PairCache* cache = nullptr, const QueryOptions& options = {}) {
+  return signedDistance(a, pose_a, b, pose_b, cache, options);
+}
+
+}  // namespace core
+}  // namespace collision_monitor

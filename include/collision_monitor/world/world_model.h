@@ -1,0 +1,183 @@
+/// \file
+/// The ROS-free world model of the monitor: bodies (unions of convex parts), their poses in the
+/// fixed frame, which pairs may collide, the broad phase, the narrow phase with warm starts, and
+/// per-pair status with hysteresis and edge-triggered events. The ROS layer only converts
+/// messages into these calls; everything here is unit-tested without a master.
+///
+/// Times are seconds (double, e.g. ros::Time::toSec()); lengths metres; every pose and point is in
+/// the fixed frame. Not thread-safe: the owner serialises access (the node holds one mutex).
+#pragma once
+
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "collision_monitor/core/backend.h"
+#include "collision_monitor/core/convex_shape.h"
+#include "collision_monitor/core/math.h"
+
+namespace collision_monitor {
+namespace world {
+
+using core::Transform3;
+using core::Vec3;
+
+/// One convex part of a body, placed in the body frame.
+struct Part {
+  core::ConvexShape shape;                    ///< already padded by the body's padding
+  Transform3 pose = Transform3::Identity();   ///< part frame -> body frame
+};
+
+/// Where a body's pose comes from.
+enum class PoseSource {
+  Tf,     ///< attached to a TF frame (`frame`), looked up by the ROS layer each cycle
+  Topic,  ///< set from ~body_poses or the body's own pose_topic
+};
+
+/// Where a body was declared. An id declared by one origin cannot be replaced from another
+/// (e.g. a topic cannot overwrite a URDF link); the same origin replaces freely.
+enum class BodyOrigin { Urdf, Parameter, Topic };
+const char* toString(BodyOrigin origin);
+
+struct BodySpec {
+  std::string id;
+  std::string frame;   ///< TF frame the body is attached to (PoseSource::Tf)
+  std::string group;   ///< non-empty: never checked against bodies of the same group
+  std::vector<Part> parts;
+  double padding = 0.0;  ///< m, already applied to parts; kept for reporting
+  PoseSource pose_source = PoseSource::Tf;
+  std::string pose_topic;  ///< optional geometry_msgs/PoseStamped topic (ROS layer subscribes)
+  BodyOrigin origin = BodyOrigin::Topic;
+};
+
+/// Linear (m/s) and angular (rad/s) velocity in the fixed frame, angular about the body origin.
+struct Twist {
+  Vec3 linear = Vec3::Zero();
+  Vec3 angular = Vec3::Zero();
+};
+
+/// Values match collision_monitor/PairState.
+enum class PairStatus : std::uint8_t { Clear = 0, Warning = 1, Collision = 2, Unknown = 3 };
+
+struct PairResult {
+  std::string body_a;
+  std::string body_b;
+  PairStatus status = PairStatus::Unknown;
+  double distance = std::numeric_limits<double>::infinity();  ///< signed, m
+  Vec3 point_a = Vec3::Zero();   ///< fixed frame
+  Vec3 point_b = Vec3::Zero();   ///< fixed frame
+  Vec3 normal = Vec3::UnitX();   ///< unit, from a towards b
+  double time_to_collision = std::numeric_limits<double>::infinity();  ///< s
+};
+
+/// Values match collision_monitor/CollisionEvent.
+enum class EventType : std::uint8_t {
+  CollisionBegin = 1,
+  CollisionEnd = 2,
+  WarningBegin = 3,
+  WarningEnd = 4,
+  UnknownBegin = 5,
+  UnknownEnd = 6,
+};
+
+struct Event {
+  EventType type;
+  PairResult pair;
+  double stamp = 0.0;  ///< time of the poses the verdict was computed from
+};
+
+struct Settings {
+  double warning_distance = 0.05;  ///< m
+  double contact_distance = 0.0;   ///< m
+  double hysteresis = 0.005;       ///< m: a status is left only once past its threshold by this
+  double pose_timeout = 0.5;       ///< s
+  core::BackendType backend = core::BackendType::Gjk;
+  std::size_t max_bodies = 10000;
+  std::size_t max_vertices_per_part = 100000;
+  std::size_t max_parts_per_body = 1000;
+};
+
+/// Everything one check cycle produced.
+struct CycleResult {
+  double stamp = 0.0;  ///< oldest pose stamp used (the time the verdict holds for)
+  bool in_collision = false;
+  double min_distance = std::numeric_limits<double>::infinity();
+  std::vector<PairResult> pairs;         ///< every pair in WARNING, COLLISION or UNKNOWN
+  std::vector<Event> events;             ///< transitions since the previous cycle
+  std::vector<std::string> stale_bodies;
+  std::size_t num_bodies = 0;
+  std::size_t num_pairs_checked = 0;     ///< narrow-phase (GJK) pair checks this cycle
+  double compute_time = 0.0;             ///< s, wall time of check()
+};
+
+struct BodyInfo {
+  std::string id;
+  std::string frame;
+  std::string group;
+  bool stale = true;
+};
+
+class WorldModel {
+ public:
+  explicit WorldModel(const Settings& settings = Settings());
+  ~WorldModel();
+  WorldModel(const WorldModel&) = delete;
+  WorldModel& operator=(const WorldModel&) = delete;
+
+  const Settings& settings() const { return settings_; }
+
+  /// Adds, or replaces a body with the same id (same origin only). Returns an empty string on
+  /// success, else the reason it was refused (nothing changed then).
+  std::string addBody(BodySpec spec);
+  /// Removes a body and its pair states (ends its events silently). False when unknown.
+  bool removeBody(const std::string& id);
+  bool hasBody(const std::string& id) const;
+  std::vector<BodyInfo> listBodies(double now) const;
+
+  /// Pairs never checked: adjacent links, SRDF <disable_collisions>, the disabled_pairs param.
+  /// Order of a and b does not matter; ids need not exist yet.
+  void disablePair(const std::string& a, const std::string& b);
+  bool isPairDisabled(const std::string& a, const std::string& b) const;
+
+  /// Sets a body's pose (body frame -> fixed frame) valid at `stamp` (s). A stamp older than the
+  /// one held is ignored (returns false): out-of-order input never replaces newer data.
+  /// `stamp` <= 0 means static (never stale).
+  bool setPose(const std::string& id, const Transform3& pose, double stamp,
+               const std::optional<Twist>& twist = std::nullopt);
+  /// Marks a body's pose as unresolvable now (e.g. TF lookup failed): its pairs turn UNKNOWN.
+  void markUnresolved(const std::string& id);
+  /// Forgets every held pose (e.g. time jumped backwards): all pairs UNKNOWN until new poses.
+  void clearPoses();
+
+  /// One cycle at time `now` (s): staleness, broad phase, narrow phase, hysteresis, events.
+  CycleResult check(double now);
+
+  /// Signed distance between two bodies at their current poses. nullopt with `why` set when an
+  /// id is unknown or a pose is stale/unresolved at `now`.
+  std::optional<PairResult> distance(const std::string& a, const std::string& b, double now,
+                                     std::string* why) const;
+  /// Nearest body to `a` among those it may collide with (respects groups and disabled pairs).
+  std::optional<PairResult> nearest(const std::string& a, double now, std::string* why) const;
+  /// A hypothetical body at `pose` (body frame -> fixed frame) against every body with a fresh
+  /// pose (respecting its group); returns all within `margin`, sorted by distance.
+  std::vector<PairResult> checkHypothetical(const BodySpec& body, const Transform3& pose,
+                                            double margin, double now) const;
+
+  /// Current pose of a body (fixed frame) if it has one.
+  std::optional<Transform3> pose(const std::string& id) const;
+  const BodySpec* body(const std::string& id) const;
+  std::size_t size() const;
+
+ private:
+  struct Impl;
+  Settings settings_;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace world
+}  // namespace collision_monitor

@@ -1,0 +1,19 @@
+# Sourced by the scripts: where things are, and the ROS environment of a standalone build.
+# shellcheck shell=bash
+CM_ROOT="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+CM_BUILD="${CM_BUILD:-$CM_ROOT/build}"
+# Real robot descriptions (Franka Panda, PR2) used by tests and benchmarks.
+CM_ROBOT_DATA="${CM_ROBOT_DATA:-$CM_ROOT/../shared/data}"
+# A pyenv python3 may shadow the system one; catkin needs Debian's python3 with catkin_pkg.
+CM_PYTHON=/usr/bin/python3
+cm_source_devel() {
+  # shellcheck disable=SC1091
+  set +u
+  source "$CM_BUILD/devel/setup.bash"
+  set -u
+  if [ -d "$CM_ROBOT_DATA" ]; then
+    export ROS_PACKAGE_PATH="$ROS_PACKAGE_PATH:$(cd "$CM_ROBOT_DATA" && pwd)"
+  fi
+  export ROS_HOME="${ROS_HOME:-$CM_BUILD/ros_home}"
+  export PATH="/usr/bin:$PATH"
+}

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Every test: install dependencies, build with -Werror, run the whole CTest suite (core gtests,
+# world gtests, rostests over a real roscore), then the geometry core again under ASan+UBSan,
+# then a build inside a catkin workspace. Exits non-zero on any failure.
+set -euo pipefail
+source "$(dirname "$0")/env.sh"
+JOBS="$(nproc)"
+bash "$CM_ROOT/scripts/install_deps.sh"
+
+echo "=== 1/3 standalone build (-Werror) and full test suite"
+bash "$CM_ROOT/scripts/build.sh" -DCOLLISION_MONITOR_WERROR=ON
+cm_source_devel
+if [ ! -d "$CM_ROBOT_DATA/example-robot-data" ]; then
+  echo "test.sh: robot data not found at $CM_ROBOT_DATA (set CM_ROBOT_DATA)" >&2
+  exit 1
+fi
+(cd "$CM_BUILD" && ctest --output-on-failure -j"$JOBS" --timeout 900)
+
+echo "=== 2/3 geometry core under AddressSanitizer + UndefinedBehaviorSanitizer"
+SAN_BUILD="$CM_BUILD-asan"
+cmake -S "$CM_ROOT" -B "$SAN_BUILD" -DCOLLISION_MONITOR_CORE_ONLY=ON -DCOLLISION_MONITOR_SANITIZE=ON \
+  -DCOLLISION_MONITOR_WERROR=ON -DCOLLISION_MONITOR_BENCHMARKS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+cmake --build "$SAN_BUILD" -j"$JOBS"
+(cd "$SAN_BUILD" && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+  CM_SWEEP_SCALE="${CM_SWEEP_SCALE_SANITIZER:-0.1}" ctest --output-on-failure -j"$JOBS" --timeout 900)
+
+echo "=== 3/3 build inside a catkin workspace (catkin_make)"
+WS="$CM_BUILD-ws"
+mkdir -p "$WS/src"
+ln -sfn "$CM_ROOT" "$WS/src/collision_monitor"
+(cd "$WS" && catkin_make -DPYTHON_EXECUTABLE="$CM_PYTHON" -DCOLLISION_MONITOR_BENCHMARKS=OFF \
+  -DCATKIN_ENABLE_TESTING=OFF -DCOLLISION_MONITOR_WERROR=ON -j"$JOBS" >"$WS.log" 2>&1) \
+  || { tail -50 "$WS.log"; exit 1; }
+echo "catkin workspace build: ok"
