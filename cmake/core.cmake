@@ -11,5 +11,5 @@ target_include_directories(collision_monitor_core PUBLIC
 target_link_libraries(collision_monitor_core PUBLIC Eigen3::Eigen PRIVATE Qhull::qhull_r PkgConfig::CCD)
 target_compile_options(collision_monitor_core PRIVATE ${CM_WARNING_FLAGS})
 
-# Core tests (no ROS master, no catkin needed).
-set(CM_CORE_TESTS)   # filled in below as tests are added
+include(cmake/core_tests.cmake)    # exact-answer, shape, dimension and warm-start tests
+include(cmake/core_oracle.cmake)   # qhull hull tests, exact-oracle random sweeps, libccd backend

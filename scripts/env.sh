@@ -17,3 +17,4 @@ cm_source_devel() {
   export ROS_HOME="${ROS_HOME:-$CM_BUILD/ros_home}"
   export PATH="/usr/bin:$PATH"
 }
+export CCACHE_BASEDIR="$CM_ROOT"

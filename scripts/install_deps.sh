@@ -4,7 +4,7 @@ set -euo pipefail
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 PACKAGES=(
-  build-essential cmake pkg-config git
+  build-essential cmake pkg-config git ccache
   # ROS 1 (Debian packages, no /opt/ros)
   ros-base-dev catkin python3-catkin-pkg python3-rospkg rosbash rosout
   ros-message-generation ros-message-runtime
