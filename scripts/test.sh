@@ -5,6 +5,30 @@
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
 JOBS="$(nproc)"
+PASSED=0
+FAILED=0
+# run_ctest <build dir> [env...]: runs the suite there, adds its counts to the totals.
+run_ctest() {
+  local dir="$1"
+  shift
+  local log="$dir/ctest.log"
+  local rc=0
+  (cd "$dir" && env "$@" ctest --output-on-failure -j"$JOBS" --timeout 900) 2>&1 | tee "$log" || rc=1
+  local line
+  line="$(grep -E "tests passed, [0-9]+ tests? failed out of [0-9]+" "$log" | tail -1)"
+  if [ -z "$line" ]; then
+    echo "test.sh: no CTest summary in $dir" >&2
+    FAILED=$((FAILED + 1))
+    return
+  fi
+  local total failed
+  failed="$(sed -E 's/.* ([0-9]+) tests? failed out of ([0-9]+).*/\1/' <<<"$line")"
+  total="$(sed -E 's/.* ([0-9]+) tests? failed out of ([0-9]+).*/\2/' <<<"$line")"
+  PASSED=$((PASSED + total - failed))
+  FAILED=$((FAILED + failed))
+  if [ "$total" -eq 0 ]; then FAILED=$((FAILED + 1)); echo "test.sh: no tests ran in $dir" >&2; fi
+  [ "$rc" -eq 0 ] || [ "$failed" -gt 0 ] || FAILED=$((FAILED + 1))
+}
 bash "$CM_ROOT/scripts/install_deps.sh"
 
 echo "=== 1/3 standalone build (-Werror) and full test suite"
@@ -14,15 +38,15 @@ if [ ! -d "$CM_ROBOT_DATA/example-robot-data" ]; then
   echo "test.sh: robot data not found at $CM_ROBOT_DATA (set CM_ROBOT_DATA)" >&2
   exit 1
 fi
-(cd "$CM_BUILD" && ctest --output-on-failure -j"$JOBS" --timeout 900)
+run_ctest "$CM_BUILD" CM_ARTIFACTS="$CM_BUILD/test_results"
 
 echo "=== 2/3 geometry core under AddressSanitizer + UndefinedBehaviorSanitizer"
 SAN_BUILD="$CM_BUILD-asan"
 cmake -S "$CM_ROOT" -B "$SAN_BUILD" -DCOLLISION_MONITOR_CORE_ONLY=ON -DCOLLISION_MONITOR_SANITIZE=ON \
   -DCOLLISION_MONITOR_WERROR=ON -DCOLLISION_MONITOR_BENCHMARKS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build "$SAN_BUILD" -j"$JOBS"
-(cd "$SAN_BUILD" && ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
-  CM_SWEEP_SCALE="${CM_SWEEP_SCALE_SANITIZER:-0.1}" ctest --output-on-failure -j"$JOBS" --timeout 900)
+run_ctest "$SAN_BUILD" ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
+  CM_SWEEP_SCALE="${CM_SWEEP_SCALE_SANITIZER:-0.1}"
 
 echo "=== 3/3 build inside a catkin workspace (catkin_make)"
 WS="$CM_BUILD-ws"
@@ -32,3 +56,7 @@ ln -sfn "$CM_ROOT" "$WS/src/collision_monitor"
   -DCATKIN_ENABLE_TESTING=OFF -DCOLLISION_MONITOR_WERROR=ON -j"$JOBS" >"$WS.log" 2>&1) \
   || { tail -50 "$WS.log"; exit 1; }
 echo "catkin workspace build: ok"
+
+# One closing line for CI: every CTest test of both builds.
+echo "all: $PASSED passed, $FAILED failed"
+[ "$FAILED" -eq 0 ]
