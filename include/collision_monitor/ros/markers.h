@@ -3,13 +3,28 @@
 /// bodies drawn as their convex parts coloured by their worst pair status, witness segments,
 /// distance labels and penetration normals. Built from the world model and the last cycle; the
 /// builder remembers what it published so removed bodies and cleared pairs are deleted (no ghosts).
+///
+/// Namespaces (one per kind, so each can be toggled in rviz):
+///  - "bodies":  one marker per convex part, in the part's frame posed in the fixed frame:
+///               SPHERE (sphere, ellipsoid), CUBE (box), CYLINDER (cylinder), TRIANGLE_LIST
+///               (hull triangles of polytopes and meshes; tessellated capsules and cones).
+///  - "padding": a translucent shell per part of a padded body (the part inflated by the padding).
+///  - "witness": LINE_LIST segment between the witness points of a WARNING/COLLISION pair.
+///  - "labels":  TEXT_VIEW_FACING with the signed distance in mm beside the witness segment.
+///  - "normals": ARROW along the normal (from a towards b) of a penetrating pair, as long as the
+///               penetration depth (at least MarkerOptions::min_arrow_length, so it stays visible).
+/// Every marker is in the fixed frame and stamped with the cycle's stamp. Geometry (hull
+/// triangles, tessellations) is computed once per body shape and reused while the shape is
+/// unchanged; each cycle only poses and colours are refreshed.
 #pragma once
 
-#include <set>
+#include <map>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <ros/time.h>
+#include <std_msgs/ColorRGBA.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include "collision_monitor/world/world_model.h"
@@ -17,17 +32,65 @@
 namespace collision_monitor {
 namespace ros_layer {
 
+/// Look of the markers. Lengths in metres.
+struct MarkerOptions {
+  double body_alpha = 0.9;         ///< opacity of the bodies
+  double padding_alpha = 0.25;     ///< opacity of the padding shells
+  double line_width = 0.004;       ///< witness segment width
+  double text_height = 0.03;       ///< label height
+  double min_arrow_length = 0.03;  ///< normals shorter than this are drawn this long
+  int tessellation = 16;           ///< directions per half turn for tessellated shapes (>= 4)
+};
+
 class MarkerBuilder {
  public:
+  explicit MarkerBuilder(const MarkerOptions& options = MarkerOptions()) : options_(options) {}
+
   /// Markers for `cycle` (stamped with cycle.stamp) in `fixed_frame`, including DELETE markers for
-  /// everything published last time that no longer exists.
+  /// everything published last time that no longer exists. The first call also starts with a
+  /// DELETEALL so that markers of an earlier run of the node do not linger in an open rviz.
   visualization_msgs::MarkerArray build(const world::WorldModel& world,
                                         const world::CycleResult& cycle,
                                         const std::string& fixed_frame);
 
+  /// Forgets what was shown (the next build() starts with a DELETEALL again).
+  void reset();
+
+  /// Colour of a status: green clear, amber warning (ramped from yellow at `warning_distance`
+  /// to orange at contact by `distance`, m), red collision, grey unknown/stale. Opaque.
+  static std_msgs::ColorRGBA statusColor(world::PairStatus status, double distance,
+                                         double warning_distance);
+  /// Signed distance (m) as a label: "23.4 mm", "-4.0 mm" (penetration).
+  static std::string distanceLabel(double distance);
+
+  /// Number of markers currently shown (after the last build()).
+  std::size_t numShown() const { return shown_.size(); }
+
  private:
-  /// (namespace, id) of every marker currently shown, to delete what disappears.
-  std::set<std::pair<std::string, int>> shown_;
+  /// Drawable geometry of one part in the part's frame (everything but pose and colour).
+  struct PartGeometry {
+    visualization_msgs::Marker solid;
+    core::Vec3 offset = core::Vec3::Zero();  ///< marker origin in the part frame (sphere centre)
+    bool has_shell = false;
+    visualization_msgs::Marker shell;
+  };
+  /// Cached geometry of one body, valid while its parts' shapes and padding are unchanged.
+  struct BodyGeometry {
+    std::vector<world::Part> parts;  ///< copies (polytopes are shared, so this is cheap)
+    double padding = 0.0;
+    std::vector<PartGeometry> geometry;
+  };
+
+  const BodyGeometry& geometryOf(const world::BodySpec& spec);
+  int markerId(const std::string& ns, const std::string& key);
+
+  MarkerOptions options_;
+  std::map<std::string, BodyGeometry> geometry_;            ///< by body id
+  std::map<std::pair<std::string, std::string>, int> ids_;  ///< (ns, key) -> marker id
+  int next_id_ = 0;
+  bool first_ = true;
+  /// (namespace, id) -> key of every marker currently shown, to delete what disappears.
+  std::map<std::pair<std::string, int>, std::string> shown_;
 };
 
 }  // namespace ros_layer

@@ -1,0 +1,451 @@
+#include "collision_monitor/ros/markers.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <memory>
+#include <type_traits>
+#include <variant>
+
+#include <Eigen/Geometry>
+
+#include "collision_monitor/core/convex_hull.h"
+
+namespace collision_monitor {
+namespace ros_layer {
+
+namespace {
+
+using core::ConvexShape;
+using core::Vec3;
+using visualization_msgs::Marker;
+using world::PairStatus;
+
+const char* const kBodies = "bodies";
+const char* const kPadding = "padding";
+const char* const kWitness = "witness";
+const char* const kLabels = "labels";
+const char* const kNormals = "normals";
+
+/// Smallest drawn size (m): zero-thickness shapes (flat boxes, segments, flat hulls) stay visible.
+constexpr double kMinSize = 0.002;
+
+std_msgs::ColorRGBA rgba(double r, double g, double b, double a = 1.0) {
+  std_msgs::ColorRGBA c;
+  c.r = static_cast<float>(r);
+  c.g = static_cast<float>(g);
+  c.b = static_cast<float>(b);
+  c.a = static_cast<float>(a);
+  return c;
+}
+
+geometry_msgs::Point toPoint(const Vec3& v) {
+  geometry_msgs::Point p;
+  p.x = v.x();
+  p.y = v.y();
+  p.z = v.z();
+  return p;
+}
+
+geometry_msgs::Pose toPose(const core::Transform3& t) {
+  geometry_msgs::Pose pose;
+  pose.position = toPoint(t.t);
+  Eigen::Quaterniond q(t.R);
+  q.normalize();
+  pose.orientation.w = q.w();
+  pose.orientation.x = q.x();
+  pose.orientation.y = q.y();
+  pose.orientation.z = q.z();
+  return pose;
+}
+
+geometry_msgs::Pose identityPose() {
+  geometry_msgs::Pose pose;
+  pose.orientation.w = 1.0;
+  return pose;
+}
+
+/// Severity for "worst status" of a body: collision > warning > unknown > clear.
+int severity(PairStatus s) {
+  switch (s) {
+    case PairStatus::Collision:
+      return 3;
+    case PairStatus::Warning:
+      return 2;
+    case PairStatus::Unknown:
+      return 1;
+    case PairStatus::Clear:
+      break;
+  }
+  return 0;
+}
+
+/// True when two shapes have the same geometry (so cached triangles stay valid).
+bool sameShape(const ConvexShape& a, const ConvexShape& b) {
+  if (a.radius() != b.radius() || a.core().index() != b.core().index()) return false;
+  return std::visit(
+      [&b](const auto& ca) -> bool {
+        using T = std::decay_t<decltype(ca)>;
+        const T& cb = std::get<T>(b.core());
+        if constexpr (std::is_same_v<T, core::PointShape<3>>) {
+          return ca.p == cb.p;
+        } else if constexpr (std::is_same_v<T, core::SegmentShape<3>>) {
+          return ca.a == cb.a && ca.b == cb.b;
+        } else if constexpr (std::is_same_v<T, core::BoxShape<3>>) {
+          return ca.half == cb.half;
+        } else if constexpr (std::is_same_v<T, core::CylinderShape> ||
+                             std::is_same_v<T, core::ConeShape>) {
+          return ca.half_height == cb.half_height && ca.radius == cb.radius;
+        } else if constexpr (std::is_same_v<T, core::EllipsoidShape<3>>) {
+          return ca.semi == cb.semi;
+        } else {
+          return ca == cb;  // shared, immutable polytope: same object, same geometry
+        }
+      },
+      a.core());
+}
+
+/// A TRIANGLE_LIST approximating `core` inflated by `radius`, by sampling its support mapping on
+/// a latitude/longitude grid of directions (the Gauss map): each grid cell becomes two triangles
+/// between the support points of its corner directions. Exact at the sampled directions; flat
+/// faces and sharp edges come out right because all directions of a face's normal cone map to
+/// its vertices. Degenerate (zero-area) triangles are dropped, the rest face outwards.
+void tessellate(const ConvexShape& shape, double radius, int n, Marker* m) {
+  n = std::max(n, 4);
+  const int rings = n;         // polar angle steps over [0, pi]
+  const int segments = 2 * n;  // azimuth steps over [0, 2 pi)
+  std::vector<Vec3> dirs;
+  std::vector<Vec3> pts;
+  dirs.reserve(static_cast<std::size_t>((rings + 1) * segments));
+  pts.reserve(dirs.capacity());
+  for (int i = 0; i <= rings; ++i) {
+    const double theta = M_PI * i / rings;
+    for (int j = 0; j < segments; ++j) {
+      const double phi = 2.0 * M_PI * j / segments;
+      const Vec3 d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
+                   std::cos(theta));
+      dirs.push_back(d);
+      pts.push_back(shape.coreSupport(d) + radius * d);
+    }
+  }
+  const double scale = std::max(shape.boundingRadius(), radius) + kMinSize;
+  const double min_area2 = 1e-14 * scale * scale * scale * scale;
+  auto idx = [segments](int i, int j) { return i * segments + (j % segments); };
+  auto add = [&](int a, int b, int c) {
+    const Vec3 normal = (pts[b] - pts[a]).cross(pts[c] - pts[a]);
+    if (normal.squaredNorm() <= min_area2) return;
+    const Vec3 outward = dirs[a] + dirs[b] + dirs[c];
+    if (normal.dot(outward) < 0.0) std::swap(b, c);
+    m->points.push_back(toPoint(pts[a]));
+    m->points.push_back(toPoint(pts[b]));
+    m->points.push_back(toPoint(pts[c]));
+  };
+  m->type = Marker::TRIANGLE_LIST;
+  m->scale.x = m->scale.y = m->scale.z = 1.0;
+  m->points.clear();
+  for (int i = 0; i < rings; ++i) {
+    for (int j = 0; j < segments; ++j) {
+      add(idx(i, j), idx(i + 1, j), idx(i + 1, j + 1));
+      add(idx(i, j), idx(i + 1, j + 1), idx(i, j + 1));
+    }
+  }
+}
+
+/// The solid (unpadded) look of a part: native rviz primitives where there is one, the hull's
+/// triangles for polytopes, a tessellation otherwise. `radius` is the part's own radius without
+/// the body's padding (a sphere's or capsule's radius).
+void solidMarker(const ConvexShape& shape, double radius, int n, Marker* m) {
+  m->scale.x = m->scale.y = m->scale.z = 1.0;
+  const auto& c = shape.core();
+  if (std::holds_alternative<core::PointShape<3>>(c)) {
+    m->type = Marker::SPHERE;
+    m->scale.x = m->scale.y = m->scale.z = std::max(2.0 * radius, kMinSize);
+    return;
+  }
+  if (radius <= 0.0) {
+    if (const auto* box = std::get_if<core::BoxShape<3>>(&c)) {
+      m->type = Marker::CUBE;
+      m->scale.x = std::max(2.0 * box->half.x(), kMinSize);
+      m->scale.y = std::max(2.0 * box->half.y(), kMinSize);
+      m->scale.z = std::max(2.0 * box->half.z(), kMinSize);
+      return;
+    }
+    if (const auto* cyl = std::get_if<core::CylinderShape>(&c)) {
+      m->type = Marker::CYLINDER;
+      m->scale.x = m->scale.y = std::max(2.0 * cyl->radius, kMinSize);
+      m->scale.z = std::max(2.0 * cyl->half_height, kMinSize);
+      return;
+    }
+    if (const auto* ell = std::get_if<core::EllipsoidShape<3>>(&c)) {
+      m->type = Marker::SPHERE;
+      m->scale.x = std::max(2.0 * ell->semi.x(), kMinSize);
+      m->scale.y = std::max(2.0 * ell->semi.y(), kMinSize);
+      m->scale.z = std::max(2.0 * ell->semi.z(), kMinSize);
+      return;
+    }
+    if (const auto* poly = std::get_if<std::shared_ptr<const core::Polytope<3>>>(&c)) {
+      const auto triangles = core::hullTriangles(**poly);
+      if (!triangles.empty()) {
+        m->type = Marker::TRIANGLE_LIST;
+        m->points.reserve(triangles.size() * 3);
+        const auto& v = (*poly)->vertices();
+        for (const auto& t : triangles) {
+          for (int k : t)
+            m->points.push_back(toPoint(v[static_cast<std::size_t>(k)]));
+        }
+        return;
+      }
+      // Flat or lower-dimensional hull: a thin tessellated slab below.
+    }
+  }
+  // Capsules, cones, rounded shapes and degenerate hulls.
+  const bool thin = std::holds_alternative<core::SegmentShape<3>>(c) ||
+                    std::holds_alternative<std::shared_ptr<const core::Polytope<3>>>(c);
+  tessellate(shape, thin ? std::max(radius, 0.5 * kMinSize) : radius, n, m);
+}
+
+}  // namespace
+
+std_msgs::ColorRGBA MarkerBuilder::statusColor(PairStatus status, double distance,
+                                               double warning_distance) {
+  switch (status) {
+    case PairStatus::Clear:
+      return rgba(0.15, 0.75, 0.25);
+    case PairStatus::Warning: {
+      // Ramp by clearance: yellow at the warning distance, orange at contact.
+      double t = warning_distance > 0.0 ? distance / warning_distance : 0.0;
+      if (!std::isfinite(t)) t = 1.0;
+      t = std::clamp(t, 0.0, 1.0);
+      return rgba(1.0, 0.45 + 0.4 * t, 0.0);
+    }
+    case PairStatus::Collision:
+      return rgba(0.9, 0.08, 0.08);
+    case PairStatus::Unknown:
+      break;
+  }
+  return rgba(0.55, 0.55, 0.55);
+}
+
+std::string MarkerBuilder::distanceLabel(double distance) {
+  if (!std::isfinite(distance)) return distance > 0 ? "inf" : "?";
+  char buf[48];
+  double mm = distance * 1000.0;
+  if (std::abs(mm) < 0.05) mm = 0.0;  // no "-0.0 mm"
+  std::snprintf(buf, sizeof(buf), "%.1f mm", mm);
+  return buf;
+}
+
+void MarkerBuilder::reset() {
+  shown_.clear();
+  ids_.clear();
+  geometry_.clear();
+  first_ = true;
+}
+
+int MarkerBuilder::markerId(const std::string& ns, const std::string& key) {
+  const auto it = ids_.find({ns, key});
+  if (it != ids_.end()) return it->second;
+  const int id = next_id_++;
+  ids_.emplace(std::make_pair(ns, key), id);
+  return id;
+}
+
+const MarkerBuilder::BodyGeometry& MarkerBuilder::geometryOf(const world::BodySpec& spec) {
+  auto it = geometry_.find(spec.id);
+  if (it != geometry_.end()) {
+    const BodyGeometry& g = it->second;
+    bool same = g.padding == spec.padding && g.parts.size() == spec.parts.size();
+    for (std::size_t i = 0; same && i < spec.parts.size(); ++i) {
+      same = sameShape(g.parts[i].shape, spec.parts[i].shape);
+    }
+    if (same) return g;
+  }
+  BodyGeometry g;
+  g.parts = spec.parts;
+  g.padding = spec.padding;
+  g.geometry.resize(spec.parts.size());
+  const double padding = std::max(spec.padding, 0.0);
+  for (std::size_t i = 0; i < spec.parts.size(); ++i) {
+    const ConvexShape& shape = spec.parts[i].shape;
+    PartGeometry& pg = g.geometry[i];
+    // The part is already padded: its own radius is what remains without the padding.
+    const double own_radius = std::max(shape.radius() - padding, 0.0);
+    pg.solid.action = Marker::ADD;
+    pg.solid.pose = identityPose();
+    // Spheres are drawn as SPHERE markers centred on their core point; everything else is
+    // given in the part frame itself.
+    if (const auto* point = std::get_if<core::PointShape<3>>(&shape.core())) pg.offset = point->p;
+    solidMarker(shape, own_radius, options_.tessellation, &pg.solid);
+    if (padding > 0.0 && shape.radius() > 0.0) {
+      pg.has_shell = true;
+      pg.shell.action = Marker::ADD;
+      pg.shell.pose = identityPose();
+      if (std::holds_alternative<core::PointShape<3>>(shape.core())) {
+        pg.shell.type = Marker::SPHERE;
+        pg.shell.scale.x = pg.shell.scale.y = pg.shell.scale.z = 2.0 * shape.radius();
+      } else {
+        tessellate(shape, shape.radius(), options_.tessellation, &pg.shell);
+      }
+    }
+  }
+  auto& slot = geometry_[spec.id];
+  slot = std::move(g);
+  return slot;
+}
+
+visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& world,
+                                                     const world::CycleResult& cycle,
+                                                     const std::string& fixed_frame) {
+  visualization_msgs::MarkerArray out;
+  std_msgs::Header header;
+  header.frame_id = fixed_frame;
+  if (std::isfinite(cycle.stamp) && cycle.stamp > 0.0) header.stamp = ros::Time(cycle.stamp);
+
+  if (first_) {
+    Marker clear_all;
+    clear_all.header = header;
+    clear_all.action = Marker::DELETEALL;
+    clear_all.pose = identityPose();
+    out.markers.push_back(clear_all);
+    first_ = false;
+  }
+
+  std::map<std::pair<std::string, int>, std::string> shown;
+  auto emit = [&](Marker&& m, const std::string& key) {
+    shown.emplace(std::make_pair(m.ns, m.id), key);
+    out.markers.push_back(std::move(m));
+  };
+
+  // Worst status (and smallest distance within it) per body.
+  struct Worst {
+    PairStatus status = PairStatus::Clear;
+    double distance = std::numeric_limits<double>::infinity();
+  };
+  std::map<std::string, Worst> worst;
+  auto note = [&worst](const std::string& id, PairStatus status, double distance) {
+    Worst& w = worst[id];
+    const int s = severity(status), ws = severity(w.status);
+    if (s > ws || (s == ws && distance < w.distance)) {
+      w.status = status;
+      w.distance = distance;
+    }
+  };
+  for (const auto& p : cycle.pairs) {
+    note(p.body_a, p.status, p.distance);
+    note(p.body_b, p.status, p.distance);
+  }
+  for (const auto& id : cycle.stale_bodies)
+    note(id, PairStatus::Unknown, 0.0);
+  const double warning_distance = world.settings().warning_distance;
+
+  // Bodies.
+  for (const auto& info : world.listBodies(cycle.stamp)) {
+    const world::BodySpec* spec = world.body(info.id);
+    const auto body_pose = world.pose(info.id);
+    if (spec == nullptr || !body_pose) continue;  // nothing to draw yet: deleted below if shown
+    const BodyGeometry& g = geometryOf(*spec);
+    const auto w = worst.find(info.id);
+    std_msgs::ColorRGBA color =
+        w == worst.end() ? statusColor(PairStatus::Clear, 0.0, warning_distance)
+                         : statusColor(w->second.status, w->second.distance, warning_distance);
+    std_msgs::ColorRGBA shell_color = color;
+    color.a = static_cast<float>(options_.body_alpha);
+    shell_color.a = static_cast<float>(options_.padding_alpha);
+    for (std::size_t i = 0; i < g.geometry.size(); ++i) {
+      const PartGeometry& pg = g.geometry[i];
+      const geometry_msgs::Pose pose =
+          toPose(*body_pose * spec->parts[i].pose *
+                 core::makeTransform(Eigen::Quaterniond::Identity(), pg.offset));
+      const std::string key = info.id + '#' + std::to_string(i);
+      Marker m = pg.solid;
+      m.header = header;
+      m.ns = kBodies;
+      m.id = markerId(kBodies, key);
+      m.color = color;
+      m.pose = pose;
+      emit(std::move(m), key);
+      if (pg.has_shell) {
+        Marker s = pg.shell;
+        s.header = header;
+        s.ns = kPadding;
+        s.id = markerId(kPadding, key);
+        s.color = shell_color;
+        s.pose = pose;
+        emit(std::move(s), key);
+      }
+    }
+  }
+  for (auto it = geometry_.begin(); it != geometry_.end();) {
+    it = world.hasBody(it->first) ? std::next(it) : geometry_.erase(it);
+  }
+
+  // Pairs in WARNING or COLLISION: witness segment, label, and the normal when penetrating.
+  for (const auto& p : cycle.pairs) {
+    if (p.status != PairStatus::Warning && p.status != PairStatus::Collision) continue;
+    if (!p.point_a.allFinite() || !p.point_b.allFinite()) continue;
+    const std::string key = p.body_a + '\n' + p.body_b;
+    const std_msgs::ColorRGBA color = statusColor(p.status, p.distance, warning_distance);
+
+    Marker line;
+    line.header = header;
+    line.ns = kWitness;
+    line.id = markerId(kWitness, key);
+    line.type = Marker::LINE_LIST;
+    line.action = Marker::ADD;
+    line.pose = identityPose();
+    line.scale.x = options_.line_width;
+    line.color = color;
+    line.points = {toPoint(p.point_a), toPoint(p.point_b)};
+    emit(std::move(line), key);
+
+    Marker label;
+    label.header = header;
+    label.ns = kLabels;
+    label.id = markerId(kLabels, key);
+    label.type = Marker::TEXT_VIEW_FACING;
+    label.action = Marker::ADD;
+    label.pose = identityPose();
+    label.pose.position =
+        toPoint(0.5 * (p.point_a + p.point_b) + Vec3(0.0, 0.0, 1.2 * options_.text_height));
+    label.scale.z = options_.text_height;
+    label.color = color;
+    label.text = distanceLabel(p.distance);
+    emit(std::move(label), key);
+
+    if (p.distance < 0.0 && p.normal.allFinite() && p.normal.norm() > 0.5) {
+      const double length = std::max(-p.distance, options_.min_arrow_length);
+      Marker arrow;
+      arrow.header = header;
+      arrow.ns = kNormals;
+      arrow.id = markerId(kNormals, key);
+      arrow.type = Marker::ARROW;
+      arrow.action = Marker::ADD;
+      arrow.pose = identityPose();
+      arrow.scale.x = 1.5 * options_.line_width;     // shaft diameter
+      arrow.scale.y = 3.0 * options_.line_width;     // head diameter
+      arrow.scale.z = std::min(0.4 * length, 0.02);  // head length
+      arrow.color = color;
+      arrow.points = {toPoint(p.point_a), toPoint(p.point_a + length * p.normal.normalized())};
+      emit(std::move(arrow), key);
+    }
+  }
+
+  // Deletions: whatever was shown last time and is gone now.
+  for (const auto& [ns_id, key] : shown_) {
+    if (shown.count(ns_id) != 0) continue;
+    Marker del;
+    del.header = header;
+    del.ns = ns_id.first;
+    del.id = ns_id.second;
+    del.action = Marker::DELETE;
+    del.pose = identityPose();
+    out.markers.push_back(std::move(del));
+    ids_.erase({ns_id.first, key});
+  }
+  shown_ = std::move(shown);
+  return out;
+}
+
+}  // namespace ros_layer
+}  // namespace collision_monitor
