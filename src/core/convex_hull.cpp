@@ -1,1 +1,402 @@
-// placeholder
+/// \file
+/// Convex hulls with qhull's reentrant C API (libqhull_r): one qhT per call, so concurrent calls
+/// are safe. qhull never prints: its error/warning stream is an in-memory FILE whose text ends up
+/// in the exception message when qhull fails.
+///
+/// Degenerate input is classified before qhull sees it (qhull's 3D hull fails on flat input):
+///   - extent along the widest axis <= noise floor               -> one vertex,
+///   - max distance to the line through the two extreme points <= kFlatRel * extent -> segment,
+///   - max distance to the plane through three spread points  <= kFlatRel * extent -> polygon
+///     (projected into the plane, 2D hull by Andrew's monotone chain, adjacency = polygon cycle).
+/// The vertices kept are always input points (never projected ones). A 3D set that passes the
+/// flatness test but on which qhull still fails (e.g. thickness just above kFlatRel) is retried
+/// with joggling ("QJ") and then treated as flat.
+#include "collision_monitor/core/convex_hull.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+extern "C" {
+#include <libqhull_r/qhull_ra.h>
+}
+
+namespace collision_monitor {
+namespace core {
+namespace {
+
+/// Thickness (relative to the largest extent) below which a point set is treated as lower
+/// dimensional. Dropping that thickness changes distances by at most kFlatRel * extent, the
+/// accuracy the exact-oracle sweeps ask of the whole core.
+constexpr double kFlatRel = 1e-10;
+
+void validate(const std::vector<Vec3>& points, const char* who) {
+  if (points.empty()) {
+    throw std::invalid_argument(std::string(who) + ": empty point set (need at least one point)");
+  }
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!points[i].allFinite()) {
+      throw std::invalid_argument(std::string(who) + ": point " + std::to_string(i) +
+                                  " has a non-finite coordinate (NaN or Inf)");
+    }
+  }
+}
+
+/// Dimension analysis of a point set (indices into the input).
+struct Frame {
+  int dim = 0;             ///< 0 point, 1 segment, 2 polygon, 3 solid (affine dimension)
+  int a = 0;               ///< first extreme point along the widest axis
+  int b = 0;               ///< second extreme point (dim >= 1)
+  Vec3 u = Vec3::UnitX();  ///< unit direction a -> b
+  Vec3 v = Vec3::UnitY();  ///< unit, in plane, orthogonal to u (dim >= 2)
+  Vec3 n = Vec3::UnitZ();  ///< unit plane normal u x v (dim >= 2)
+  double extent = 0.0;     ///< |b - a|
+  double floor = 0.0;      ///< rounding floor of the coordinates (absolute)
+};
+
+Frame analyse(const std::vector<Vec3>& pts) {
+  Frame f;
+  const int count = static_cast<int>(pts.size());
+  // Widest axis of the bounding box and its two extreme points.
+  Vec3 lo = pts[0], hi = pts[0];
+  std::array<int, 3> imin{0, 0, 0}, imax{0, 0, 0};
+  double max_abs = 0.0;
+  for (int i = 0; i < count; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      if (pts[i][k] < lo[k]) lo[k] = pts[i][k], imin[k] = i;
+      if (pts[i][k] > hi[k]) hi[k] = pts[i][k], imax[k] = i;
+    }
+    max_abs = std::max(max_abs, pts[i].cwiseAbs().maxCoeff());
+  }
+  int axis = 0;
+  (hi - lo).maxCoeff(&axis);
+  f.a = imin[axis];
+  f.b = imax[axis];
+  f.extent = (pts[f.b] - pts[f.a]).norm();
+  // Rounding floor: coordinates of magnitude max_abs are only known to a few ulps.
+  const double floor = 16.0 * std::numeric_limits<double>::epsilon() * max_abs;
+  f.floor = floor;
+  if (!(f.extent > floor)) {
+    f.dim = 0;
+    return f;
+  }
+  f.u = (pts[f.b] - pts[f.a]) / f.extent;
+  const double flat = kFlatRel * f.extent + floor;
+  // Farthest point from the line a-b.
+  double h1 = -1.0;
+  int c = f.a;
+  for (int i = 0; i < count; ++i) {
+    const Vec3 w = pts[i] - pts[f.a];
+    const double h = (w - w.dot(f.u) * f.u).norm();
+    if (h > h1) h1 = h, c = i;
+  }
+  if (!(h1 > flat)) {
+    f.dim = 1;
+    return f;
+  }
+  const Vec3 w = pts[c] - pts[f.a];
+  f.v = (w - w.dot(f.u) * f.u).normalized();
+  f.n = f.u.cross(f.v).normalized();
+  double h2 = 0.0;
+  for (int i = 0; i < count; ++i)
+    h2 = std::max(h2, std::abs(f.n.dot(pts[i] - pts[f.a])));
+  f.dim = h2 > flat ? 3 : 2;
+  return f;
+}
+
+/// Indices of the extreme points along f.u (segment end points).
+std::pair<int, int> segmentEnds(const std::vector<Vec3>& pts, const Frame& f) {
+  int lo = 0, hi = 0;
+  double tlo = std::numeric_limits<double>::infinity(), thi = -tlo;
+  for (int i = 0; i < static_cast<int>(pts.size()); ++i) {
+    const double t = f.u.dot(pts[i] - pts[f.a]);
+    if (t < tlo) tlo = t, lo = i;
+    if (t > thi) thi = t, hi = i;
+  }
+  return {lo, hi};
+}
+
+/// True when o -> p -> q turns left by more than rounding: sin(angle) > sin_tol.
+bool leftTurn(const Vec2& o, const Vec2& p, const Vec2& q, double sin_tol) {
+  const Vec2 op = p - o, oq = q - o;
+  const double cross = op.x() * oq.y() - op.y() * oq.x();
+  return cross > sin_tol * op.norm() * oq.norm();
+}
+
+/// 2D hull of the points projected into the plane (u, v) of `f` by Andrew's monotone chain
+/// (Andrew 1979). Returns input indices counter-clockwise about f.n; points collinear within
+/// rounding (of the input coordinates, projected) are dropped.
+std::vector<int> planarHull(const std::vector<Vec3>& pts, const Frame& f) {
+  const int count = static_cast<int>(pts.size());
+  std::vector<Vec2> q(count);
+  for (int i = 0; i < count; ++i) {
+    const Vec3 w = pts[i] - pts[f.a];  // relative to a point of the set: no cancellation
+    q[i] = Vec2(w.dot(f.u), w.dot(f.v));
+  }
+  std::vector<int> order(count);
+  for (int i = 0; i < count; ++i)
+    order[i] = i;
+  std::sort(order.begin(), order.end(), [&](int i, int j) {
+    return q[i].x() < q[j].x() || (q[i].x() == q[j].x() && q[i].y() < q[j].y());
+  });
+  const double sin_tol = 1e-12 + f.floor / f.extent;
+  std::vector<int> hull(2 * count);
+  int k = 0;
+  for (int idx : order) {  // lower chain
+    while (k >= 2 && !leftTurn(q[hull[k - 2]], q[hull[k - 1]], q[idx], sin_tol))
+      --k;
+    hull[k++] = idx;
+  }
+  for (int i = count - 2, t = k + 1; i >= 0; --i) {  // upper chain
+    const int idx = order[i];
+    while (k >= t && !leftTurn(q[hull[k - 2]], q[hull[k - 1]], q[idx], sin_tol))
+      --k;
+    hull[k++] = idx;
+  }
+  hull.resize(std::max(k - 1, 1));
+  return hull;
+}
+
+/// RAII owner of one reentrant qhull run. Errors and warnings go to an in-memory stream.
+class Qhull {
+ public:
+  Qhull() {
+    err_ = open_memstream(&err_text_, &err_size_);
+    if (err_ == nullptr) err_ = std::fopen("/dev/null", "w");  // never qhull's stderr default
+    qh_zero(&qh_, err_);
+  }
+  ~Qhull() {
+    if (ran_) {
+      qh_freeqhull(&qh_, !qh_ALL);
+      int curlong = 0, totlong = 0;
+      qh_memfreeshort(&qh_, &curlong, &totlong);
+    }
+    if (err_ != nullptr) std::fclose(err_);
+    std::free(err_text_);
+  }
+  Qhull(const Qhull&) = delete;
+  Qhull& operator=(const Qhull&) = delete;
+
+  /// Runs qhull on `pts` (3D) with `options` (appended to "qhull "). True on success.
+  bool run(const std::vector<Vec3>& pts, const char* options) {
+    coords_.resize(3 * pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      for (int k = 0; k < 3; ++k)
+        coords_[3 * i + k] = pts[i][k];
+    }
+    std::string cmd = std::string("qhull ") + options;
+    ran_ = true;
+    const int code = qh_new_qhull(&qh_, 3, static_cast<int>(pts.size()), coords_.data(), False,
+                                  cmd.data(), nullptr, err_);
+    return code == 0;
+  }
+  /// Text qhull wrote to its error stream so far.
+  std::string errors() {
+    if (err_ == nullptr) return "(no error stream)";
+    std::fflush(err_);
+    return err_text_ != nullptr ? std::string(err_text_, err_size_) : std::string();
+  }
+  qhT* get() { return &qh_; }
+
+ private:
+  qhT qh_;
+  FILE* err_ = nullptr;
+  char* err_text_ = nullptr;
+  std::size_t err_size_ = 0;
+  bool ran_ = false;
+  std::vector<coordT> coords_;
+};
+
+/// Runs the 3D hull, retrying with joggle. Returns false (and `why`) if both fail.
+bool runSolid(Qhull& qh, const std::vector<Vec3>& pts, const char* options, std::string* why) {
+  if (qh.run(pts, options)) return true;
+  if (why != nullptr) *why = qh.errors();
+  return false;
+}
+
+std::shared_ptr<const Polytope<3>> makePolygon(const std::vector<Vec3>& pts, const Frame& f) {
+  const std::vector<int> ring = planarHull(pts, f);
+  const int m = static_cast<int>(ring.size());
+  std::vector<Vec3> verts(m);
+  for (int i = 0; i < m; ++i)
+    verts[i] = pts[ring[i]];
+  std::vector<int> offsets(m + 1), adj;
+  adj.reserve(2 * m);
+  for (int i = 0; i < m; ++i) {
+    offsets[i] = static_cast<int>(adj.size());
+    if (m == 1) continue;
+    adj.push_back((i + m - 1) % m);
+    if (m > 2) adj.push_back((i + 1) % m);
+  }
+  offsets[m] = static_cast<int>(adj.size());
+  return std::make_shared<const Polytope<3>>(std::move(verts), std::move(offsets), std::move(adj));
+}
+
+std::shared_ptr<const Polytope<3>> makeLowDim(const std::vector<Vec3>& pts, const Frame& f) {
+  if (f.dim == 0) {
+    return std::make_shared<const Polytope<3>>(std::vector<Vec3>{pts[0]}, std::vector<int>{0, 0},
+                                               std::vector<int>{});
+  }
+  if (f.dim == 1) {
+    const auto ends = segmentEnds(pts, f);
+    return std::make_shared<const Polytope<3>>(std::vector<Vec3>{pts[ends.first], pts[ends.second]},
+                                               std::vector<int>{0, 1, 2}, std::vector<int>{1, 0});
+  }
+  return makePolygon(pts, f);
+}
+
+/// Hull vertices and edge graph of a successful 3D qhull run.
+std::shared_ptr<const Polytope<3>> extractSolid(Qhull& q, const std::vector<Vec3>& pts) {
+  qhT* qh = q.get();
+  std::vector<int> remap(pts.size(), -1);
+  std::vector<Vec3> verts;
+  std::vector<std::pair<int, int>> edges;
+  auto index = [&](vertexT* vx) {
+    const int id = qh_pointid(qh, vx->point);
+    if (remap[id] < 0) {
+      remap[id] = static_cast<int>(verts.size());
+      verts.push_back(pts[id]);
+    }
+    return remap[id];
+  };
+  auto addEdge = [&](int i, int j) {
+    if (i != j) edges.emplace_back(std::min(i, j), std::max(i, j));
+  };
+  facetT* facet;
+  FORALLfacets {
+    const bool has_ridges = facet->ridges != nullptr && qh_setsize(qh, facet->ridges) > 0;
+    if (has_ridges) {
+      // Ridges are the real edges between distinct (possibly merged, non-triangular) facets.
+      ridgeT *ridge, **ridgep;
+      FOREACHridge_(facet->ridges) {
+        vertexT* v0 = static_cast<vertexT*>(SETfirst_(ridge->vertices));
+        vertexT* v1 = static_cast<vertexT*>(SETsecond_(ridge->vertices));
+        if (v0 != nullptr && v1 != nullptr) addEdge(index(v0), index(v1));
+      }
+    } else {
+      // Simplicial facet without ridges: its three vertices are pairwise hull edges.
+      std::vector<int> fv;
+      vertexT *vertex, **vertexp;
+      FOREACHvertex_(facet->vertices) fv.push_back(index(vertex));
+      for (std::size_t i = 0; i < fv.size(); ++i) {
+        for (std::size_t j = i + 1; j < fv.size(); ++j)
+          addEdge(fv[i], fv[j]);
+      }
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  const int m = static_cast<int>(verts.size());
+  std::vector<int> offsets(m + 1, 0), adj(2 * edges.size());
+  for (const auto& e : edges)
+    ++offsets[e.first + 1], ++offsets[e.second + 1];
+  for (int i = 0; i < m; ++i)
+    offsets[i + 1] += offsets[i];
+  std::vector<int> fill(offsets.begin(), offsets.end() - 1);
+  for (const auto& e : edges) {
+    adj[fill[e.first]++] = e.second;
+    adj[fill[e.second]++] = e.first;
+  }
+  return std::make_shared<const Polytope<3>>(std::move(verts), std::move(offsets), std::move(adj));
+}
+
+/// Outward, counter-clockwise triangles of a simplicial (triangulated) 3D qhull run.
+void collectTriangles(Qhull& q, const std::vector<Vec3>& pts,
+                      std::vector<std::array<int, 3>>* tris) {
+  qhT* qh = q.get();
+  facetT* facet;
+  FORALLfacets {
+    std::array<int, 3> t{};
+    int k = 0;
+    vertexT *vertex, **vertexp;
+    FOREACHvertex_(facet->vertices) {
+      if (k < 3) t[k] = qh_pointid(qh, vertex->point);
+      ++k;
+    }
+    if (k != 3) continue;
+    const Vec3 nrm(facet->normal[0], facet->normal[1], facet->normal[2]);
+    const Vec3 c = (pts[t[1]] - pts[t[0]]).cross(pts[t[2]] - pts[t[0]]);
+    if (c.dot(nrm) < 0.0) std::swap(t[1], t[2]);  // counter-clockwise seen from outside
+    tris->push_back(t);
+  }
+}
+
+}  // namespace
+
+std::shared_ptr<const Polytope<3>> buildConvexHull(const std::vector<Vec3>& points) {
+  validate(points, "buildConvexHull");
+  const Frame f = analyse(points);
+  if (f.dim < 3) return makeLowDim(points, f);
+  std::string why;
+  {
+    Qhull q;  // default options: coplanar facets merged, so ridges are the real edges
+    if (runSolid(q, points, "", &why)) return extractSolid(q, points);
+  }
+  {
+    Qhull q;  // nearly flat input: joggled input always gives a (simplicial) hull
+    if (runSolid(q, points, "QJ", &why)) return extractSolid(q, points);
+  }
+  // Both failed: the set is flat to qhull's precision; its in-plane hull is the best answer.
+  Frame flat = f;
+  flat.dim = 2;
+  return makePolygon(points, flat);
+}
+
+std::vector<std::array<int, 3>> hullTriangles(const Polytope<3>& poly) {
+  const std::vector<Vec3>& pts = poly.vertices();
+  std::vector<std::array<int, 3>> tris;
+  if (pts.size() < 4) return tris;
+  if (analyse(pts).dim < 3) return tris;
+  // Triangulated output ("Qt"); joggled ("QJ", simplicial by construction) if qhull finds the
+  // set too flat for its precision.
+  Qhull q;
+  if (!q.run(pts, "Qt")) {
+    Qhull qj;
+    if (qj.run(pts, "QJ")) collectTriangles(qj, pts, &tris);
+    return tris;
+  }
+  collectTriangles(q, pts, &tris);
+  return tris;
+}
+
+std::vector<HullPlane> hullPlanes(const std::vector<Vec3>& points) {
+  validate(points, "hullPlanes");
+  const Frame f = analyse(points);
+  std::vector<HullPlane> planes;
+  if (f.dim == 3) {
+    Qhull q;
+    if (q.run(points, "")) {
+      qhT* qh = q.get();
+      facetT* facet;
+      FORALLfacets {
+        // qhull's hyperplane: normal . x + offset = 0, normal outward, interior negative.
+        planes.push_back(
+            HullPlane{Vec3(facet->normal[0], facet->normal[1], facet->normal[2]), -facet->offset});
+      }
+      return planes;
+    }
+  }
+  if (f.dim < 2) return planes;
+  // Flat polygon: the two faces of the zero-thickness slab plus one plane per edge.
+  const Vec3& o = points[f.a];
+  planes.push_back(HullPlane{f.n, f.n.dot(o)});
+  planes.push_back(HullPlane{-f.n, -f.n.dot(o)});
+  const std::vector<int> ring = planarHull(points, f);
+  const std::size_t m = ring.size();
+  for (std::size_t i = 0; i < m; ++i) {
+    const Vec3& p = points[ring[i]];
+    const Vec3 e = points[ring[(i + 1) % m]] - p;
+    const Vec3 out = e.cross(f.n).normalized();  // ring is counter-clockwise about n
+    planes.push_back(HullPlane{out, out.dot(p)});
+  }
+  return planes;
+}
+
+}  // namespace core
+}  // namespace collision_monitor

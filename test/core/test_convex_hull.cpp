@@ -1,0 +1,360 @@
+// Tests of buildConvexHull / hullTriangles / hullPlanes (qhull): exact vertex sets and edge
+// graphs on known solids, hill-climbing support against a linear scan, degenerate input, errors,
+// silence (qhull must not print) and concurrent use.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <random>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "collision_monitor/core/convex_hull.h"
+#include "oracle.h"
+
+namespace cm = collision_monitor::core;
+using cm::Vec3;
+
+namespace {
+
+std::vector<Vec3> cubeCorners(double h, const Vec3& c = Vec3::Zero()) {
+  std::vector<Vec3> p;
+  for (int i = 0; i < 8; ++i) {
+    p.push_back(c + Vec3((i & 1) ? h : -h, (i & 2) ? h : -h, (i & 4) ? h : -h));
+  }
+  return p;
+}
+
+std::set<int> neighbours(const cm::Polytope<3>& poly, int i) {
+  const auto& off = poly.adjacencyOffsets();
+  const auto& adj = poly.adjacency();
+  return std::set<int>(adj.begin() + off[i], adj.begin() + off[i + 1]);
+}
+
+/// Adjacency must be symmetric, without self loops or duplicates.
+void expectWellFormedAdjacency(const cm::Polytope<3>& poly) {
+  ASSERT_TRUE(poly.hasAdjacency());
+  const auto& off = poly.adjacencyOffsets();
+  for (int i = 0; i < poly.size(); ++i) {
+    const std::set<int> nb = neighbours(poly, i);
+    EXPECT_EQ(static_cast<int>(nb.size()), off[i + 1] - off[i]) << "duplicate neighbour of " << i;
+    EXPECT_EQ(nb.count(i), 0u) << "self loop at " << i;
+    for (int j : nb) {
+      ASSERT_GE(j, 0);
+      ASSERT_LT(j, poly.size());
+      EXPECT_EQ(neighbours(poly, j).count(i), 1u) << "asymmetric edge " << i << "-" << j;
+    }
+  }
+}
+
+Vec3 randomUnit(std::mt19937_64& rng) {
+  std::normal_distribution<double> g;
+  Vec3 v(g(rng), g(rng), g(rng));
+  return v.normalized();
+}
+
+}  // namespace
+
+TEST(ConvexHull, CubeWithInteriorPointsKeepsExactlyTheEightCorners) {
+  std::vector<Vec3> pts = cubeCorners(0.5);
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> u(-0.49, 0.49);
+  for (int i = 0; i < 200; ++i)
+    pts.push_back(Vec3(u(rng), u(rng), u(rng)));
+  // Points on faces and edges are not vertices either.
+  pts.push_back(Vec3(0.5, 0.1, -0.2));
+  pts.push_back(Vec3(0.5, 0.5, 0.0));
+  std::shuffle(pts.begin(), pts.end(), rng);
+
+  const auto poly = cm::buildConvexHull(pts);
+  ASSERT_EQ(poly->size(), 8);
+  std::set<std::array<double, 3>> got;
+  for (const Vec3& v : poly->vertices())
+    got.insert({v.x(), v.y(), v.z()});
+  for (const Vec3& c : cubeCorners(0.5))
+    EXPECT_EQ(got.count({c.x(), c.y(), c.z()}), 1u);
+}
+
+// qhull merges the two coplanar triangles of every face (default C-0 premerge) and the edges are
+// taken from the ridges between merged facets: a cube vertex has exactly its 3 real edges, no
+// face diagonals.
+TEST(ConvexHull, CubeAdjacencyIsTheTwelveRealEdges) {
+  const auto poly = cm::buildConvexHull(cubeCorners(1.0, Vec3(3.0, -2.0, 1.0)));
+  ASSERT_EQ(poly->size(), 8);
+  expectWellFormedAdjacency(*poly);
+  EXPECT_EQ(poly->adjacency().size(), 24u);  // 12 edges, both directions
+  for (int i = 0; i < 8; ++i) {
+    const std::set<int> nb = neighbours(*poly, i);
+    EXPECT_EQ(nb.size(), 3u);
+    for (int j : nb) {
+      // A real cube edge changes exactly one coordinate, by the side length 2.
+      const Vec3 d = (poly->vertices()[j] - poly->vertices()[i]).cwiseAbs();
+      EXPECT_EQ((d.array() == 2.0).count(), 1) << i << "-" << j;
+      EXPECT_EQ((d.array() == 0.0).count(), 2) << i << "-" << j;
+    }
+  }
+}
+
+TEST(ConvexHull, HillClimbingSupportEqualsLinearScanOn500VertexHull) {
+  std::mt19937_64 rng(42);
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 500; ++i) {
+    Vec3 v = randomUnit(rng);
+    pts.push_back(Vec3(2.0 * v.x(), 1.0 * v.y(), 0.5 * v.z()) + Vec3(10.0, 0.0, -3.0));
+  }
+  const auto poly = cm::buildConvexHull(pts);
+  ASSERT_EQ(poly->size(), 500);  // every point of an ellipsoid surface is a hull vertex
+  ASSERT_GT(poly->size(), cm::Polytope<3>::kLinearScanMax);
+  expectWellFormedAdjacency(*poly);
+  std::uniform_int_distribution<int> pick(0, poly->size() - 1);
+  int warm = 0;
+  for (int k = 0; k < 1000; ++k) {
+    const Vec3 d = randomUnit(rng);
+    double best = -std::numeric_limits<double>::infinity();
+    for (const Vec3& v : poly->vertices())
+      best = std::max(best, v.dot(d));
+    int cold = pick(rng);
+    EXPECT_EQ(poly->vertices()[poly->supportIndex(d, cold)].dot(d), best) << "direction " << k;
+    EXPECT_EQ(poly->support(d, warm).dot(d), best) << "warm, direction " << k;
+  }
+}
+
+TEST(ConvexHull, CoincidentPointsGiveOneVertex) {
+  const Vec3 p(1.25, -3.0, 1e3);
+  const auto poly = cm::buildConvexHull({p, p, p, p, p});
+  ASSERT_EQ(poly->size(), 1);
+  EXPECT_EQ(poly->vertices()[0], p);
+  EXPECT_EQ(poly->support(Vec3(0.3, -1.0, 2.0)), p);
+  EXPECT_EQ(poly->support(Vec3::Zero()), p);
+  EXPECT_TRUE(cm::hullTriangles(*poly).empty());
+}
+
+TEST(ConvexHull, CollinearPointsGiveTheTwoExtremePoints) {
+  const Vec3 a(1.0, 2.0, 3.0), dir(0.6, -0.8, 0.0);
+  std::vector<Vec3> pts;
+  for (double t : {0.5, -2.0, 1.0, 3.5, 0.0, 2.0, 3.5})
+    pts.push_back(a + t * dir);
+  const auto poly = cm::buildConvexHull(pts);
+  ASSERT_EQ(poly->size(), 2);
+  const Vec3 lo = a - 2.0 * dir, hi = a + 3.5 * dir;
+  EXPECT_EQ(poly->support(-dir), lo);
+  EXPECT_EQ(poly->support(dir), hi);
+  EXPECT_EQ(neighbours(*poly, 0), std::set<int>{1});
+  EXPECT_EQ(neighbours(*poly, 1), std::set<int>{0});
+}
+
+TEST(ConvexHull, CoplanarPointsGiveThePolygonCycle) {
+  // A 5x5 grid on a tilted plane far from the origin: the hull is the 4 corners, a 4-cycle.
+  const Vec3 o(100.0, -50.0, 7.0);
+  const Vec3 u = Vec3(1.0, 1.0, 0.0).normalized(), v = Vec3(-1.0, 1.0, 1.0).normalized();
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 5; ++i) {
+    for (int j = 0; j < 5; ++j)
+      pts.push_back(o + 0.25 * i * u + 0.25 * j * v);
+  }
+  const auto poly = cm::buildConvexHull(pts);
+  ASSERT_EQ(poly->size(), 4);
+  expectWellFormedAdjacency(*poly);
+  std::set<int> corner_ids;
+  for (int k = 0; k < 4; ++k) {
+    const Vec3& p = poly->vertices()[k];
+    const auto it = std::find(pts.begin(), pts.end(), p);
+    ASSERT_NE(it, pts.end()) << "vertices must be input points";
+    const int idx = static_cast<int>(it - pts.begin());
+    corner_ids.insert(idx);
+    // Polygon cycle: the two neighbours are the adjacent corners, never the opposite one.
+    const std::set<int> nb = neighbours(*poly, k);
+    ASSERT_EQ(nb.size(), 2u);
+    for (int j : nb) {
+      const double len = (poly->vertices()[j] - p).norm();
+      EXPECT_NEAR(len, 1.0, 1e-12);
+    }
+  }
+  EXPECT_EQ(corner_ids, (std::set<int>{0, 4, 20, 24}));
+  EXPECT_TRUE(cm::hullTriangles(*poly).empty());
+}
+
+TEST(ConvexHull, FlatPolygonHillClimbingEqualsLinearScan) {
+  // 200 points on a tilted circle (all hull vertices) + interior: cycle adjacency of 200.
+  std::mt19937_64 rng(3);
+  const Vec3 u = Vec3(1.0, 2.0, 3.0).normalized(), v = u.cross(Vec3::UnitX()).normalized();
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 200; ++i) {
+    const double a = 2.0 * M_PI * i / 200.0;
+    pts.push_back(std::cos(a) * u + std::sin(a) * v);
+    pts.push_back(0.5 * std::cos(a) * u + 0.3 * std::sin(a) * v);
+  }
+  const auto poly = cm::buildConvexHull(pts);
+  ASSERT_EQ(poly->size(), 200);
+  expectWellFormedAdjacency(*poly);
+  int hint = 0;
+  for (int k = 0; k < 1000; ++k) {
+    const Vec3 d = randomUnit(rng);
+    double best = -std::numeric_limits<double>::infinity();
+    for (const Vec3& p : pts)
+      best = std::max(best, p.dot(d));
+    EXPECT_EQ(poly->support(d, hint).dot(d), best) << "direction " << k;
+  }
+}
+
+TEST(ConvexHull, NearlyFlatInputDoesNotFailAndStaysClose) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (double thickness : {0.0, 1e-15, 1e-12, 1e-10, 1e-9, 1e-7, 1e-5}) {
+    std::vector<Vec3> pts;
+    for (int i = 0; i < 100; ++i)
+      pts.push_back(Vec3(u(rng), u(rng), thickness * u(rng)));
+    testing::internal::CaptureStdout();
+    testing::internal::CaptureStderr();
+    std::shared_ptr<const cm::Polytope<3>> poly;
+    EXPECT_NO_THROW(poly = cm::buildConvexHull(pts)) << "thickness " << thickness;
+    EXPECT_EQ(testing::internal::GetCapturedStdout(), "");
+    EXPECT_EQ(testing::internal::GetCapturedStderr(), "") << "qhull must not print";
+    ASSERT_TRUE(poly);
+    ASSERT_GE(poly->size(), 3);
+    // The hull's support matches the point set's within the thickness, in every direction.
+    for (int k = 0; k < 200; ++k) {
+      const Vec3 d = randomUnit(rng);
+      double best = -std::numeric_limits<double>::infinity();
+      for (const Vec3& p : pts)
+        best = std::max(best, p.dot(d));
+      EXPECT_NEAR(poly->support(d).dot(d), best, 2.0 * thickness + 1e-15);
+      EXPECT_LE(poly->support(d).dot(d), best);  // vertices are input points
+    }
+  }
+}
+
+TEST(ConvexHull, EmptyOrNonFiniteInputThrowsWithAClearMessage) {
+  try {
+    cm::buildConvexHull({});
+    FAIL() << "no exception on empty input";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("empty"), std::string::npos) << e.what();
+  }
+  for (double bad :
+       {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    std::vector<Vec3> pts = cubeCorners(1.0);
+    pts[2].y() = bad;
+    try {
+      cm::buildConvexHull(pts);
+      FAIL() << "no exception on " << bad;
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("point 2"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("non-finite"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(cm::hullPlanes(pts), std::invalid_argument);
+  }
+  EXPECT_THROW(cm::hullPlanes({}), std::invalid_argument);
+}
+
+TEST(ConvexHull, TrianglesOfACubeAreOutwardAndClosed) {
+  const Vec3 c(0.0, 1e3, -1e3);
+  const auto poly = cm::buildConvexHull(cubeCorners(0.25, c));
+  const auto tris = cm::hullTriangles(*poly);
+  ASSERT_EQ(tris.size(), 12u);
+  std::map<std::pair<int, int>, int> directed;
+  for (const auto& t : tris) {
+    const Vec3 &a = poly->vertices()[t[0]], &b = poly->vertices()[t[1]],
+               &d = poly->vertices()[t[2]];
+    const Vec3 n = (b - a).cross(d - a);
+    EXPECT_NEAR(n.norm(), 0.25, 1e-9);  // half of a 0.5 x 0.5 face
+    EXPECT_GT(n.dot((a + b + d) / 3.0 - c), 0.0) << "inward triangle";
+    for (int k = 0; k < 3; ++k)
+      ++directed[{t[k], t[(k + 1) % 3]}];
+  }
+  // Closed and consistently oriented: every directed edge once, its reverse once.
+  for (const auto& e : directed) {
+    EXPECT_EQ(e.second, 1);
+    EXPECT_EQ(directed.count({e.first.second, e.first.first}), 1u);
+  }
+}
+
+TEST(ConvexHull, PlanesOfACubeAndOfRandomPoints) {
+  const auto planes = cm::hullPlanes(cubeCorners(2.0, Vec3(1.0, 0.0, 0.0)));
+  ASSERT_EQ(planes.size(), 6u);
+  for (const auto& pl : planes) {
+    EXPECT_NEAR(pl.normal.norm(), 1.0, 1e-15);
+    EXPECT_NEAR(pl.normal.cwiseAbs().maxCoeff(), 1.0, 1e-15);  // axis aligned
+    const double expected = 2.0 + pl.normal.x() * 1.0;         // |half| + n . centre
+    EXPECT_NEAR(pl.offset, expected, 1e-14);
+  }
+  std::mt19937_64 rng(5);
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 300; ++i)
+    pts.push_back(3.0 * randomUnit(rng) * std::cbrt(0.5 + i / 600.0));
+  const auto rp = cm::hullPlanes(pts);
+  ASSERT_GE(rp.size(), 4u);
+  for (const auto& pl : rp) {
+    double top = -std::numeric_limits<double>::infinity();
+    for (const Vec3& p : pts)
+      top = std::max(top, pl.normal.dot(p));
+    EXPECT_NEAR(top, pl.offset, 1e-13) << "plane must touch the set and bound it";
+  }
+}
+
+TEST(ConvexHull, PlanesOfAFlatSquareAreTheSlabAndTheEdges) {
+  const std::vector<Vec3> sq{{0, 0, 1}, {2, 0, 1}, {2, 2, 1}, {0, 2, 1}, {1, 1, 1}};
+  const auto planes = cm::hullPlanes(sq);
+  ASSERT_EQ(planes.size(), 6u);
+  int z_up = 0, z_down = 0;
+  for (const auto& pl : planes) {
+    if (pl.normal.isApprox(Vec3::UnitZ())) {
+      ++z_up;
+      EXPECT_DOUBLE_EQ(pl.offset, 1.0);
+    }
+    if (pl.normal.isApprox(-Vec3::UnitZ())) {
+      ++z_down;
+      EXPECT_DOUBLE_EQ(pl.offset, -1.0);
+    }
+    for (const Vec3& p : sq)
+      EXPECT_LE(pl.normal.dot(p), pl.offset + 1e-15);
+  }
+  EXPECT_EQ(z_up, 1);
+  EXPECT_EQ(z_down, 1);
+  EXPECT_TRUE(cm::hullPlanes({Vec3(1, 2, 3), Vec3(2, 2, 3)}).empty());  // segment: no H-form
+}
+
+TEST(ConvexHull, TheOracleAgreesWithHullPlanesAndTriangles) {
+  // Two independent qhull paths over the same random set: the oracle's hull (triangulated) and
+  // buildConvexHull + hullTriangles must see the same surface.
+  std::mt19937_64 rng(9);
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 60; ++i)
+    pts.push_back(randomUnit(rng) * (1.0 + 0.1 * i / 60.0));
+  const auto poly = cm::buildConvexHull(pts);
+  const oracle::Hull h = oracle::makeHull(pts);
+  std::set<int> oracle_vertices;
+  for (const auto& t : h.triangles)
+    oracle_vertices.insert(t.begin(), t.end());
+  EXPECT_EQ(static_cast<int>(oracle_vertices.size()), poly->size());
+  EXPECT_EQ(cm::hullTriangles(*poly).size(), h.triangles.size());
+  for (const Vec3& v : poly->vertices())
+    EXPECT_NEAR(oracle::signedDistance(h, v), 0.0, 1e-14);
+}
+
+TEST(ConvexHull, ConcurrentCallsGiveIdenticalResults) {
+  std::mt19937_64 rng(13);
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 400; ++i)
+    pts.push_back(randomUnit(rng) * std::cbrt((i + 1) / 400.0));
+  const auto ref = cm::buildConvexHull(pts);
+  std::vector<int> ok(4, 0);
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 4; ++t) {
+    threads.emplace_back([&, t] {
+      for (int k = 0; k < 20; ++k) {
+        const auto p = cm::buildConvexHull(pts);
+        ok[t] += p->vertices() == ref->vertices() && p->adjacency() == ref->adjacency();
+      }
+    });
+  }
+  for (auto& th : threads)
+    th.join();
+  for (int t = 0; t < 4; ++t)
+    EXPECT_EQ(ok[t], 20) << "thread " << t;
+}
