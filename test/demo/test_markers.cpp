@@ -1,0 +1,365 @@
+// MarkerBuilder without a master: colours per status, hull triangles, labels, normals, stamps,
+// padding shells, cache invalidation and the deletions that keep rviz free of ghosts.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <string>
+#include <vector>
+
+#include "collision_monitor/ros/markers.h"
+
+namespace cm = collision_monitor;
+using cm::core::ConvexShape;
+using cm::core::Transform3;
+using cm::core::Vec3;
+using cm::ros_layer::MarkerBuilder;
+using cm::world::PairResult;
+using cm::world::PairStatus;
+using visualization_msgs::Marker;
+using visualization_msgs::MarkerArray;
+
+namespace {
+
+const char* const kFrame = "world";
+
+Transform3 at(double x, double y, double z) {
+  Transform3 t;
+  t.t = Vec3(x, y, z);
+  return t;
+}
+
+cm::world::BodySpec boxBody(const std::string& id, double padding = 0.0) {
+  cm::world::BodySpec spec;
+  spec.id = id;
+  spec.frame = kFrame;
+  spec.pose_source = cm::world::PoseSource::Topic;
+  const ConvexShape box = ConvexShape::box(Vec3(0.1, 0.1, 0.1));
+  // Parts are stored already padded (world_model.h); padding keeps the amount for reporting.
+  spec.parts.push_back(
+      cm::world::Part{padding > 0.0 ? box.padded(padding) : box, Transform3::Identity()});
+  spec.padding = padding;
+  return spec;
+}
+
+void addBody(cm::world::WorldModel& world, cm::world::BodySpec spec, const Transform3& pose) {
+  const std::string id = spec.id;
+  ASSERT_EQ(world.addBody(std::move(spec)), "") << id;
+  ASSERT_TRUE(world.setPose(id, pose, 0.0)) << id;  // stamp 0: static, never stale
+}
+
+PairResult pair(const std::string& a, const std::string& b, PairStatus status, double distance) {
+  PairResult p;
+  p.body_a = a;
+  p.body_b = b;
+  p.status = status;
+  p.distance = distance;
+  p.point_a = Vec3(0.0, 0.0, 0.0);
+  p.point_b = Vec3(std::max(distance, 0.0), 0.0, 0.0);
+  p.normal = Vec3::UnitX();
+  return p;
+}
+
+std::vector<const Marker*> find(const MarkerArray& a, const std::string& ns, int action) {
+  std::vector<const Marker*> out;
+  for (const auto& m : a.markers) {
+    if (m.ns == ns && m.action == action) out.push_back(&m);
+  }
+  return out;
+}
+
+bool isGreen(const std_msgs::ColorRGBA& c) {
+  return c.g > 0.6 && c.r < 0.4 && c.b < 0.4;
+}
+bool isAmber(const std_msgs::ColorRGBA& c) {
+  return c.r > 0.9 && c.g > 0.3 && c.g < 0.9 && c.b < 0.1;
+}
+bool isRed(const std_msgs::ColorRGBA& c) {
+  return c.r > 0.8 && c.g < 0.2 && c.b < 0.2;
+}
+bool isGrey(const std_msgs::ColorRGBA& c) {
+  return std::abs(c.r - c.g) < 0.01 && std::abs(c.g - c.b) < 0.01 && c.r > 0.3 && c.r < 0.7;
+}
+
+/// The "bodies" marker of each body id, in build order (one part per body in these tests).
+std::map<std::string, const Marker*> bodyMarkers(const MarkerArray& a,
+                                                 const std::vector<std::string>& ids) {
+  // Bodies are emitted in the world's listing order; match them by position instead of relying
+  // on the builder's id numbering: each body here is at a distinct x.
+  std::map<std::string, const Marker*> out;
+  const auto bodies = find(a, "bodies", Marker::ADD);
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    for (const Marker* m : bodies) {
+      if (std::abs(m->pose.position.x - static_cast<double>(i)) < 1e-9) out[ids[i]] = m;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(MarkerColours, OnePerStatus) {
+  EXPECT_TRUE(isGreen(MarkerBuilder::statusColor(PairStatus::Clear, 1.0, 0.05)));
+  EXPECT_TRUE(isAmber(MarkerBuilder::statusColor(PairStatus::Warning, 0.02, 0.05)));
+  EXPECT_TRUE(isRed(MarkerBuilder::statusColor(PairStatus::Collision, -0.01, 0.05)));
+  EXPECT_TRUE(isGrey(MarkerBuilder::statusColor(PairStatus::Unknown, 0.0, 0.05)));
+  // The warning ramp: closer is more orange (less green), and stays amber at both ends.
+  const auto near = MarkerBuilder::statusColor(PairStatus::Warning, 0.001, 0.05);
+  const auto far = MarkerBuilder::statusColor(PairStatus::Warning, 0.049, 0.05);
+  EXPECT_LT(near.g, far.g);
+  EXPECT_TRUE(isAmber(near));
+  EXPECT_TRUE(isAmber(far));
+  // Defined for odd input.
+  EXPECT_TRUE(isAmber(MarkerBuilder::statusColor(PairStatus::Warning, 0.01, 0.0)));
+}
+
+TEST(MarkerLabels, MillimetresWithSign) {
+  EXPECT_EQ(MarkerBuilder::distanceLabel(0.0234), "23.4 mm");
+  EXPECT_EQ(MarkerBuilder::distanceLabel(-0.004), "-4.0 mm");
+  EXPECT_EQ(MarkerBuilder::distanceLabel(0.0), "0.0 mm");
+  EXPECT_EQ(MarkerBuilder::distanceLabel(-1e-6), "0.0 mm");
+  EXPECT_EQ(MarkerBuilder::distanceLabel(1.5), "1500.0 mm");
+}
+
+TEST(MarkerBuilder, BodiesColouredByWorstPairStatus) {
+  cm::world::WorldModel world;
+  const std::vector<std::string> ids = {"a", "b", "c", "d", "e"};
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    addBody(world, boxBody(ids[i]), at(static_cast<double>(i), 0.0, 0.0));
+  }
+  cm::world::CycleResult cycle;
+  cycle.stamp = 12.5;
+  cycle.pairs.push_back(pair("a", "b", PairStatus::Collision, -0.01));
+  cycle.pairs.push_back(pair("b", "c", PairStatus::Warning, 0.02));
+  cycle.pairs.push_back(pair("d", "e", PairStatus::Unknown, 0.0));
+  cycle.stale_bodies.push_back("e");
+
+  MarkerBuilder builder;
+  const MarkerArray out = builder.build(world, cycle, kFrame);
+  const auto bodies = bodyMarkers(out, ids);
+  ASSERT_EQ(bodies.size(), ids.size());
+  EXPECT_TRUE(isRed(bodies.at("a")->color));
+  EXPECT_TRUE(isRed(bodies.at("b")->color)) << "worst of collision and warning";
+  EXPECT_TRUE(isAmber(bodies.at("c")->color));
+  EXPECT_TRUE(isGrey(bodies.at("d")->color));
+  EXPECT_TRUE(isGrey(bodies.at("e")->color));
+  for (const auto& [id, m] : bodies) {
+    EXPECT_EQ(m->type, Marker::CUBE) << id;
+    EXPECT_NEAR(m->scale.x, 0.1, 1e-12) << id;
+    EXPECT_GT(m->color.a, 0.5) << id;
+  }
+
+  // Every marker is in the fixed frame and stamped like the state.
+  for (const auto& m : out.markers) {
+    EXPECT_EQ(m.header.frame_id, kFrame);
+    EXPECT_DOUBLE_EQ(m.header.stamp.toSec(), 12.5);
+  }
+
+  // Everything clear: all green.
+  cm::world::CycleResult clear;
+  clear.stamp = 13.0;
+  const MarkerArray out2 = builder.build(world, clear, kFrame);
+  for (const auto& [id, m] : bodyMarkers(out2, ids))
+    EXPECT_TRUE(isGreen(m->color)) << id;
+}
+
+TEST(MarkerBuilder, CubeHullIsTwelveTriangles) {
+  cm::world::WorldModel world;
+  cm::world::BodySpec spec;
+  spec.id = "cube";
+  spec.frame = kFrame;
+  spec.pose_source = cm::world::PoseSource::Topic;
+  std::vector<Vec3> corners;
+  for (int i = 0; i < 8; ++i) {
+    corners.emplace_back(i & 1 ? 0.1 : -0.1, i & 2 ? 0.1 : -0.1, i & 4 ? 0.1 : -0.1);
+  }
+  spec.parts.push_back(cm::world::Part{ConvexShape::convexHull(corners), Transform3::Identity()});
+  addBody(world, spec, at(0.0, 0.0, 0.0));
+
+  MarkerBuilder builder;
+  const MarkerArray out = builder.build(world, cm::world::CycleResult(), kFrame);
+  const auto bodies = find(out, "bodies", Marker::ADD);
+  ASSERT_EQ(bodies.size(), 1u);
+  EXPECT_EQ(bodies[0]->type, Marker::TRIANGLE_LIST);
+  EXPECT_EQ(bodies[0]->points.size(), 36u);
+  for (const auto& p : bodies[0]->points) {
+    EXPECT_NEAR(std::abs(p.x), 0.1, 1e-12);
+    EXPECT_NEAR(std::abs(p.y), 0.1, 1e-12);
+    EXPECT_NEAR(std::abs(p.z), 0.1, 1e-12);
+  }
+}
+
+TEST(MarkerBuilder, PrimitivesAndTessellations) {
+  cm::world::WorldModel world;
+  cm::world::BodySpec spec;
+  spec.id = "mixed";
+  spec.frame = kFrame;
+  spec.pose_source = cm::world::PoseSource::Topic;
+  for (const ConvexShape& s : {ConvexShape::sphere(0.05), ConvexShape::cylinder(0.2, 0.05),
+                               ConvexShape::capsule(0.2, 0.05), ConvexShape::cone(0.2, 0.05),
+                               ConvexShape::ellipsoid(Vec3(0.1, 0.05, 0.02))}) {
+    spec.parts.push_back(cm::world::Part{s, at(0.0, 0.0, 0.5)});
+  }
+  addBody(world, spec, at(1.0, 0.0, 0.0));
+  MarkerBuilder builder;
+  const MarkerArray out = builder.build(world, cm::world::CycleResult(), kFrame);
+  const auto bodies = find(out, "bodies", Marker::ADD);
+  ASSERT_EQ(bodies.size(), 5u);
+  std::vector<int> types;
+  for (const Marker* m : bodies) {
+    types.push_back(m->type);
+    EXPECT_NEAR(m->pose.position.x, 1.0, 1e-12);
+    EXPECT_NEAR(m->pose.position.z, 0.5, 1e-12);  // body pose * part pose
+  }
+  std::sort(types.begin(), types.end());
+  // SPHERE (sphere, ellipsoid), CYLINDER, TRIANGLE_LIST (capsule, cone).
+  EXPECT_EQ(types, (std::vector<int>{Marker::SPHERE, Marker::SPHERE, Marker::CYLINDER,
+                                     Marker::TRIANGLE_LIST, Marker::TRIANGLE_LIST}));
+  for (const Marker* m : bodies) {
+    if (m->type != Marker::TRIANGLE_LIST) continue;
+    ASSERT_GT(m->points.size(), 30u);
+    EXPECT_EQ(m->points.size() % 3, 0u);
+    for (const auto& p : m->points) {
+      // Capsule: |z| <= 0.1 + 0.05, radius 0.05; cone: |z| <= 0.1.
+      EXPECT_LE(std::abs(p.z), 0.15 + 1e-9);
+      EXPECT_LE(std::hypot(p.x, p.y), 0.05 + 1e-9);
+    }
+  }
+}
+
+TEST(MarkerBuilder, PaddingShell) {
+  cm::world::WorldModel world;
+  addBody(world, boxBody("padded", 0.02), at(0.0, 0.0, 0.0));
+  MarkerBuilder builder;
+  const MarkerArray out = builder.build(world, cm::world::CycleResult(), kFrame);
+  const auto solid = find(out, "bodies", Marker::ADD);
+  const auto shell = find(out, "padding", Marker::ADD);
+  ASSERT_EQ(solid.size(), 1u);
+  ASSERT_EQ(shell.size(), 1u);
+  EXPECT_EQ(solid[0]->type, Marker::CUBE);
+  EXPECT_NEAR(solid[0]->scale.x, 0.1, 1e-12) << "the solid is drawn without its padding";
+  EXPECT_EQ(shell[0]->type, Marker::TRIANGLE_LIST);
+  EXPECT_LT(shell[0]->color.a, solid[0]->color.a);
+  double max_x = 0.0;
+  for (const auto& p : shell[0]->points)
+    max_x = std::max(max_x, p.x);
+  EXPECT_NEAR(max_x, 0.05 + 0.02, 1e-9) << "the shell is the box inflated by the padding";
+}
+
+TEST(MarkerBuilder, WitnessLabelAndNormal) {
+  cm::world::WorldModel world;
+  addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
+  addBody(world, boxBody("b"), at(1.0, 0.0, 0.0));
+  addBody(world, boxBody("c"), at(2.0, 0.0, 0.0));
+  cm::world::CycleResult cycle;
+  cycle.stamp = 3.0;
+  cycle.pairs.push_back(pair("a", "b", PairStatus::Warning, 0.0234));
+  cycle.pairs.push_back(pair("b", "c", PairStatus::Collision, -0.004));
+  MarkerBuilder builder;
+  const MarkerArray out = builder.build(world, cycle, kFrame);
+
+  const auto lines = find(out, "witness", Marker::ADD);
+  ASSERT_EQ(lines.size(), 2u);
+  for (const Marker* m : lines) {
+    EXPECT_EQ(m->type, Marker::LINE_LIST);
+    EXPECT_EQ(m->points.size(), 2u);
+  }
+  const auto labels = find(out, "labels", Marker::ADD);
+  ASSERT_EQ(labels.size(), 2u);
+  std::vector<std::string> texts;
+  for (const Marker* m : labels) {
+    EXPECT_EQ(m->type, Marker::TEXT_VIEW_FACING);
+    texts.push_back(m->text);
+  }
+  std::sort(texts.begin(), texts.end());
+  EXPECT_EQ(texts, (std::vector<std::string>{"-4.0 mm", "23.4 mm"}));
+  EXPECT_TRUE(isAmber(labels[0]->text == "23.4 mm" ? labels[0]->color : labels[1]->color));
+
+  // Only the penetrating pair gets a normal, along +x (a towards b), at least min length long.
+  const auto arrows = find(out, "normals", Marker::ADD);
+  ASSERT_EQ(arrows.size(), 1u);
+  EXPECT_EQ(arrows[0]->type, Marker::ARROW);
+  ASSERT_EQ(arrows[0]->points.size(), 2u);
+  const double dx = arrows[0]->points[1].x - arrows[0]->points[0].x;
+  EXPECT_GE(dx, 0.004);
+  EXPECT_NEAR(arrows[0]->points[1].y - arrows[0]->points[0].y, 0.0, 1e-12);
+  EXPECT_TRUE(isRed(arrows[0]->color));
+}
+
+TEST(MarkerBuilder, DeletesRemovedBodiesAndClearedPairs) {
+  cm::world::WorldModel world;
+  addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
+  addBody(world, boxBody("b", 0.01), at(1.0, 0.0, 0.0));
+  addBody(world, boxBody("c"), at(2.0, 0.0, 0.0));
+  cm::world::CycleResult cycle;
+  cycle.stamp = 1.0;
+  cycle.pairs.push_back(pair("a", "b", PairStatus::Collision, -0.01));
+  cycle.pairs.push_back(pair("a", "c", PairStatus::Warning, 0.03));
+  MarkerBuilder builder;
+
+  const MarkerArray first = builder.build(world, cycle, kFrame);
+  ASSERT_FALSE(first.markers.empty());
+  EXPECT_EQ(first.markers.front().action, Marker::DELETEALL) << "first build clears old markers";
+  EXPECT_EQ(builder.numShown(), 3u + 1u + 2u * 2u + 1u);  // bodies, shell, 2 x (line, label), arrow
+
+  // Same cycle again: same markers, nothing deleted, no DELETEALL.
+  const MarkerArray again = builder.build(world, cycle, kFrame);
+  for (const auto& m : again.markers)
+    EXPECT_EQ(m.action, Marker::ADD);
+  EXPECT_EQ(again.markers.size(), first.markers.size() - 1);
+
+  // Body b removed, pair a-c cleared: b's body and shell markers, both pairs' markers go.
+  ASSERT_TRUE(world.removeBody("b"));
+  cm::world::CycleResult later;
+  later.stamp = 2.0;
+  const MarkerArray second = builder.build(world, later, kFrame);
+  std::map<std::string, int> deleted;
+  for (const auto& m : second.markers) {
+    if (m.action == Marker::DELETE) {
+      ++deleted[m.ns];
+      EXPECT_EQ(m.header.frame_id, kFrame);
+    }
+  }
+  EXPECT_EQ(deleted,
+            (std::map<std::string, int>{
+                {"bodies", 1}, {"padding", 1}, {"witness", 2}, {"labels", 2}, {"normals", 1}}));
+  EXPECT_EQ(find(second, "bodies", Marker::ADD).size(), 2u);
+  EXPECT_EQ(builder.numShown(), 2u);
+
+  // Deleted once, not again.
+  const MarkerArray third = builder.build(world, later, kFrame);
+  for (const auto& m : third.markers)
+    EXPECT_EQ(m.action, Marker::ADD);
+
+  // A pair that clears and comes back is shown again.
+  cycle.pairs.erase(cycle.pairs.begin());  // a-b: b is gone
+  const MarkerArray fourth = builder.build(world, cycle, kFrame);
+  EXPECT_EQ(find(fourth, "witness", Marker::ADD).size(), 1u);
+  EXPECT_EQ(find(fourth, "labels", Marker::ADD).size(), 1u);
+}
+
+TEST(MarkerBuilder, ReplacedBodyGetsNewGeometry) {
+  cm::world::WorldModel world;
+  addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
+  MarkerBuilder builder;
+  const MarkerArray before = builder.build(world, cm::world::CycleResult(), kFrame);
+  ASSERT_EQ(find(before, "bodies", Marker::ADD).size(), 1u);
+  EXPECT_EQ(find(before, "bodies", Marker::ADD)[0]->type, Marker::CUBE);
+
+  cm::world::BodySpec sphere = boxBody("a");
+  sphere.parts.clear();
+  sphere.parts.push_back(cm::world::Part{ConvexShape::sphere(0.3), Transform3::Identity()});
+  addBody(world, sphere, at(0.0, 0.0, 0.0));
+  const MarkerArray after = builder.build(world, cm::world::CycleResult(), kFrame);
+  const auto bodies = find(after, "bodies", Marker::ADD);
+  ASSERT_EQ(bodies.size(), 1u);
+  EXPECT_EQ(bodies[0]->type, Marker::SPHERE);
+  EXPECT_NEAR(bodies[0]->scale.x, 0.6, 1e-12);
+}
+
+TEST(MarkerBuilder, BodyWithoutPoseIsNotDrawn) {
+  cm::world::WorldModel world;
+  ASSERT_EQ(world.addBody(boxBody("nopose")), "");
+  MarkerBuilder builder;
+  const MarkerArray out = builder.build(world, cm::world::CycleResult(), kFrame);
+  EXPECT_TRUE(find(out, "bodies", Marker::ADD).empty());
+}
