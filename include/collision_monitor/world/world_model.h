@@ -8,6 +8,7 @@
 /// the fixed frame. Not thread-safe: the owner serialises access (the node holds one mutex).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <map>
@@ -29,8 +30,8 @@ using core::Vec3;
 
 /// One convex part of a body, placed in the body frame.
 struct Part {
-  core::ConvexShape shape;                    ///< already padded by the body's padding
-  Transform3 pose = Transform3::Identity();   ///< part frame -> body frame
+  core::ConvexShape shape;                   ///< already padded by the body's padding
+  Transform3 pose = Transform3::Identity();  ///< part frame -> body frame
 };
 
 /// Where a body's pose comes from.
@@ -46,8 +47,8 @@ const char* toString(BodyOrigin origin);
 
 struct BodySpec {
   std::string id;
-  std::string frame;   ///< TF frame the body is attached to (PoseSource::Tf)
-  std::string group;   ///< non-empty: never checked against bodies of the same group
+  std::string frame;  ///< TF frame the body is attached to (PoseSource::Tf)
+  std::string group;  ///< non-empty: never checked against bodies of the same group
   std::vector<Part> parts;
   double padding = 0.0;  ///< m, already applied to parts; kept for reporting
   PoseSource pose_source = PoseSource::Tf;
@@ -68,10 +69,10 @@ struct PairResult {
   std::string body_a;
   std::string body_b;
   PairStatus status = PairStatus::Unknown;
-  double distance = std::numeric_limits<double>::infinity();  ///< signed, m
-  Vec3 point_a = Vec3::Zero();   ///< fixed frame
-  Vec3 point_b = Vec3::Zero();   ///< fixed frame
-  Vec3 normal = Vec3::UnitX();   ///< unit, from a towards b
+  double distance = std::numeric_limits<double>::infinity();           ///< signed, m
+  Vec3 point_a = Vec3::Zero();                                         ///< fixed frame
+  Vec3 point_b = Vec3::Zero();                                         ///< fixed frame
+  Vec3 normal = Vec3::UnitX();                                         ///< unit, from a towards b
   double time_to_collision = std::numeric_limits<double>::infinity();  ///< s
 };
 
@@ -85,8 +86,10 @@ enum class EventType : std::uint8_t {
   UnknownEnd = 6,
 };
 
+/// Event scheme (see pair_logic.h): a transition X -> Y emits END(X) unless X is CLEAR, then
+/// BEGIN(Y) unless Y is CLEAR; every BEGIN of a pair is matched by exactly one END.
 struct Event {
-  EventType type;
+  EventType type = EventType::UnknownBegin;
   PairResult pair;
   double stamp = 0.0;  ///< time of the poses the verdict was computed from
 };
@@ -107,12 +110,18 @@ struct CycleResult {
   double stamp = 0.0;  ///< oldest pose stamp used (the time the verdict holds for)
   bool in_collision = false;
   double min_distance = std::numeric_limits<double>::infinity();
-  std::vector<PairResult> pairs;         ///< every pair in WARNING, COLLISION or UNKNOWN
-  std::vector<Event> events;             ///< transitions since the previous cycle
+  std::vector<PairResult> pairs;  ///< every pair in WARNING, COLLISION or UNKNOWN
+  std::vector<Event> events;      ///< transitions since the previous cycle
   std::vector<std::string> stale_bodies;
   std::size_t num_bodies = 0;
-  std::size_t num_pairs_checked = 0;     ///< narrow-phase (GJK) pair checks this cycle
-  double compute_time = 0.0;             ///< s, wall time of check()
+  std::size_t num_pairs_checked = 0;  ///< narrow-phase (GJK) pair checks this cycle
+  double compute_time = 0.0;          ///< s, wall time of check()
+  /// Pairs the broad phase handed on (may collide, boxes within warning_distance + hysteresis);
+  /// each is either checked (num_pairs_checked) or answered from its previous result because
+  /// neither body moved since (num_pairs_cached).
+  std::size_t num_broad_phase_pairs = 0;
+  std::size_t num_pairs_cached = 0;
+  std::size_t num_part_checks = 0;  ///< convex part-pair GJK runs (<= parts_a * parts_b per pair)
 };
 
 struct BodyInfo {
@@ -133,8 +142,15 @@ class WorldModel {
 
   /// Adds, or replaces a body with the same id (same origin only). Returns an empty string on
   /// success, else the reason it was refused (nothing changed then).
+  ///
+  /// Replacing keeps the body's pair statuses (no END/BEGIN flapping when the new geometry still
+  /// collides: the next check() decides with the usual hysteresis) but drops their warm-start
+  /// caches and cached results. The held pose is kept when frame and pose source are unchanged,
+  /// else dropped (the body is UNKNOWN until its new source delivers a pose).
   std::string addBody(BodySpec spec);
-  /// Removes a body and its pair states (ends its events silently). False when unknown.
+  /// Removes a body and its pair states and warm-start caches. False when unknown. Pairs of it
+  /// that were WARNING, COLLISION or UNKNOWN get their END event (pair status CLEAR) in the next
+  /// check(), so every BEGIN stays matched; pairs never seen in such a status vanish silently.
   bool removeBody(const std::string& id);
   bool hasBody(const std::string& id) const;
   std::vector<BodyInfo> listBodies(double now) const;
@@ -155,6 +171,16 @@ class WorldModel {
   void clearPoses();
 
   /// One cycle at time `now` (s): staleness, broad phase, narrow phase, hysteresis, events.
+  ///
+  /// Every pair that may collide (not the same body, not disabled, not sharing a non-empty
+  /// group) gets a status. A pair with a stale body (no pose, older than pose_timeout at `now`,
+  /// or unresolved) is UNKNOWN; its UNKNOWN_BEGIN/END events are emitted only for pairs that were
+  /// known before (a body that never had a pose starts UNKNOWN silently). Pairs whose padded
+  /// boxes are farther apart than max(warning, contact) + hysteresis are CLEAR without GJK; a
+  /// pair whose bodies both kept their pose and geometry reuses its previous result (counted in
+  /// num_pairs_cached, not in num_pairs_checked). Pairs and events are sorted by (body_a,
+  /// body_b), with body_a < body_b; a pair's END comes before its BEGIN. Event stamps: the older
+  /// timed pose stamp of the pair, or `now` when both are static or for UNKNOWN and removal.
   CycleResult check(double now);
 
   /// Signed distance between two bodies at their current poses. nullopt with `why` set when an
@@ -172,6 +198,10 @@ class WorldModel {
   std::optional<Transform3> pose(const std::string& id) const;
   const BodySpec* body(const std::string& id) const;
   std::size_t size() const;
+
+  /// Why `spec` is not an acceptable body, ignoring capacity and origin ownership (checked by
+  /// addBody() too); empty when acceptable. For the ~check_collision service.
+  std::string checkSpec(const BodySpec& spec) const;
 
  private:
   struct Impl;

@@ -1,0 +1,776 @@
+/// \file
+/// The world model: bodies in dense slots, sweep-and-prune broad phase, compound narrow phase
+/// with per-part-pair warm starts, per-pair status with hysteresis and events.
+///
+/// Per cycle (check()):
+///  1. freshness of every body at `now`;
+///  2. broad phase over the fresh bodies' boxes (already in the fixed frame: boxes are updated
+///     when a pose or the geometry changes, not per cycle), refined by the exact box distance;
+///  3. narrow phase for each surviving pair, unless neither body moved since the pair's last
+///     result (then that result is reused); per part pair a cheap lower bound first;
+///  4. every pair with a stale body is UNKNOWN;
+///  5. tracked pairs the broad phase no longer reports are CLEAR.
+#include "collision_monitor/world/world_model.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+#include <unordered_map>
+#include <unordered_set>
+#include <utility>
+
+#include "collision_monitor/world/broad_phase.h"
+#include "collision_monitor/world/pair_logic.h"
+
+namespace collision_monitor {
+namespace world {
+
+const char* toString(BodyOrigin origin) {
+  switch (origin) {
+    case BodyOrigin::Urdf:
+      return "urdf";
+    case BodyOrigin::Parameter:
+      return "parameter";
+    case BodyOrigin::Topic:
+      return "topic";
+  }
+  return "unknown";
+}
+
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+/// Tracked pairs not reported by the broad phase for this many cycles are forgotten (their
+/// warm-start caches go with them). A pair hovering at the broad-phase margin keeps its cache.
+constexpr std::uint64_t kForgetAfterCycles = 64;
+
+std::uint64_t pairKey(int lo, int hi) {
+  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(lo)) << 32) |
+         static_cast<std::uint32_t>(hi);
+}
+int keyLo(std::uint64_t key) {
+  return static_cast<int>(key >> 32);
+}
+int keyHi(std::uint64_t key) {
+  return static_cast<int>(key & 0xffffffffu);
+}
+std::uint64_t orderedKey(int i, int j) {
+  return i < j ? pairKey(i, j) : pairKey(j, i);
+}
+
+bool validTransform(const Transform3& T) {
+  return core::isValidRotation<3>(T.R) && core::allFinite(T.t);
+}
+
+/// Narrow-phase output for a compound pair, in the fixed frame.
+struct Narrow {
+  double distance = kInf;  ///< signed, m; +inf when every part pair was beyond the cutoff
+  Vec3 point_a = Vec3::Zero();
+  Vec3 point_b = Vec3::Zero();
+  Vec3 normal = Vec3::UnitX();
+  bool exact = false;  ///< distance is the true minimum (not only "beyond the cutoff")
+  int gjk_runs = 0;
+};
+
+/// A body in its slot, with its placement in the fixed frame.
+struct BodyState {
+  bool used = false;
+  BodySpec spec;
+  int group = 0;  ///< dense id of spec.group, 0 = none
+  bool has_pose = false;
+  bool unresolved = false;
+  double stamp = 0.0;  ///< s; <= 0 static
+  Transform3 pose = Transform3::Identity();
+  bool has_twist = false;
+  Twist twist;
+  /// Bumped whenever the pose or the geometry changes: a pair result computed at the same
+  /// versions of both bodies is still exact.
+  std::uint64_t version = 0;
+  core::Aabb box;                      ///< union of part boxes, fixed frame
+  std::vector<core::Aabb> part_boxes;  ///< fixed frame
+  std::vector<Transform3> part_poses;  ///< part frame -> fixed frame
+  std::vector<double> part_radii;      ///< bounding radius about the part origin, m
+  bool fresh = false;                  ///< fresh at the last check()
+  bool fresh_prev = false;             ///< fresh at the check() before (and existed)
+
+  void place() {
+    const std::size_t n = spec.parts.size();
+    part_boxes.resize(n);
+    part_poses.resize(n);
+    part_radii.resize(n);
+    box = core::Aabb();
+    for (std::size_t i = 0; i < n; ++i) {
+      part_poses[i] = pose * spec.parts[i].pose;
+      part_boxes[i] = spec.parts[i].shape.aabb(part_poses[i]);
+      part_radii[i] = spec.parts[i].shape.boundingRadius();
+      box.extend(part_boxes[i]);
+    }
+  }
+  bool isFresh(double now, double timeout) const {
+    if (!has_pose || unresolved) return false;
+    if (stamp <= 0.0) return true;
+    return now - stamp <= timeout;
+  }
+  const Twist* twistPtr() const { return has_twist ? &twist : nullptr; }
+};
+
+/// What is remembered of a pair between cycles. Slots in key order: a = lower slot.
+struct PairEntry {
+  PairStatus status = PairStatus::Clear;
+  bool has_result = false;
+  std::uint64_t version_a = 0;
+  std::uint64_t version_b = 0;
+  double cutoff_used = 0.0;
+  Narrow result;
+  std::vector<core::PairCache> caches;  ///< parts_a * parts_b, part of a major
+  std::uint64_t last_seen = 0;          ///< cycle
+};
+
+}  // namespace
+
+struct WorldModel::Impl {
+  Settings settings;
+  std::unique_ptr<core::NarrowPhase> narrow;
+  std::vector<BodyState> bodies;  ///< by slot
+  std::vector<core::Aabb> boxes;  ///< by slot (mirror of BodyState::box)
+  std::vector<int> free_slots;
+  std::unordered_map<std::string, int> slot_of;  ///< id -> slot
+  std::unordered_map<std::string, int> group_ids;
+  std::unordered_map<std::string, std::unordered_set<std::string>> disabled;  ///< both ways
+  std::unordered_set<std::uint64_t> disabled_slots;                           ///< orderedKey
+  std::unordered_map<std::uint64_t, PairEntry> pairs;                         ///< orderedKey
+  SweepAndPrune sap;
+  std::uint64_t cycle = 0;
+  std::size_t count = 0;
+  std::vector<Event> pending;  ///< END events of removed bodies' pairs, for the next check()
+
+  // Scratch, reused across cycles.
+  std::vector<int> active;
+  std::vector<int> stale;
+  std::vector<std::uint64_t> candidates;
+  struct PartPair {
+    double lower_bound;
+    int i;
+    int j;
+  };
+  mutable std::vector<PartPair> part_pairs;
+
+  bool allowed(int i, int j) const {
+    if (i == j) return false;
+    const int gi = bodies[i].group;
+    if (gi != 0 && gi == bodies[j].group) return false;
+    return disabled_slots.empty() || disabled_slots.count(orderedKey(i, j)) == 0;
+  }
+
+  int groupId(const std::string& group) {
+    if (group.empty()) return 0;
+    auto it = group_ids.find(group);
+    if (it != group_ids.end()) return it->second;
+    const int id = static_cast<int>(group_ids.size()) + 1;
+    group_ids.emplace(group, id);
+    return id;
+  }
+
+  bool isDisabled(const std::string& a, const std::string& b) const {
+    auto it = disabled.find(a);
+    return it != disabled.end() && it->second.count(b) != 0;
+  }
+
+  /// Compound narrow phase: min over part pairs of the signed distance. Part pairs are visited
+  /// in increasing order of a lower bound on their signed distance (box gap when the boxes are
+  /// apart, bounding-sphere gap otherwise); the loop stops once the bound passes the best found
+  /// or `cutoff`. `caches` (parts_a * parts_b) may be null.
+  Narrow narrowPhase(const BodyState& A, const BodyState& B, double cutoff,
+                     core::PairCache* caches) const {
+    Narrow out;
+    const std::size_t na = A.spec.parts.size();
+    const std::size_t nb = B.spec.parts.size();
+    part_pairs.clear();
+    for (std::size_t i = 0; i < na; ++i) {
+      for (std::size_t j = 0; j < nb; ++j) {
+        const double gap = A.part_boxes[i].distance(B.part_boxes[j]);
+        const double sphere =
+            (B.part_poses[j].t - A.part_poses[i].t).norm() - A.part_radii[i] - B.part_radii[j];
+        const double lb = gap > 0.0 ? std::max(gap, sphere) : sphere;
+        if (lb > cutoff) continue;
+        part_pairs.push_back(PartPair{lb, static_cast<int>(i), static_cast<int>(j)});
+      }
+    }
+    if (part_pairs.size() > 1) {
+      std::sort(part_pairs.begin(), part_pairs.end(),
+                [](const PartPair& x, const PartPair& y) { return x.lower_bound < y.lower_bound; });
+    }
+    for (const PartPair& pp : part_pairs) {
+      if (out.exact && pp.lower_bound >= out.distance) break;
+      core::PairCache* cache = caches ? &caches[pp.i * nb + pp.j] : nullptr;
+      const core::ContactResult r =
+          narrow->signedDistance(A.spec.parts[pp.i].shape, A.part_poses[pp.i],
+                                 B.spec.parts[pp.j].shape, B.part_poses[pp.j], cache);
+      ++out.gjk_runs;
+      if (std::isnan(r.distance)) {
+        // A failed query poisons the pair: UNKNOWN, never CLEAR.
+        out.distance = std::numeric_limits<double>::quiet_NaN();
+        out.exact = true;
+        return out;
+      }
+      if (!out.exact || r.distance < out.distance) {
+        out.distance = r.distance;
+        out.point_a = r.point_a;
+        out.point_b = r.point_b;
+        out.normal = r.normal;
+        out.exact = true;
+      }
+    }
+    // All part pairs beyond the cutoff: the pair is at least that far apart.
+    return out;
+  }
+
+  PairResult makeResult(int a, int b, PairStatus status, const Narrow& n) const {
+    PairResult r;
+    r.body_a = bodies[a].spec.id;
+    r.body_b = bodies[b].spec.id;
+    r.status = status;
+    r.distance = n.exact ? n.distance : kInf;
+    r.point_a = n.point_a;
+    r.point_b = n.point_b;
+    r.normal = n.normal;
+    if (n.exact) {
+      r.time_to_collision =
+          timeToCollision(r, bodies[a].twistPtr(), bodies[a].pose.t, bodies[b].twistPtr(),
+                          bodies[b].pose.t, settings.contact_distance);
+    }
+    // Report in id order so that a pair always reads the same way.
+    if (r.body_b < r.body_a) flipPair(&r);
+    return r;
+  }
+
+  PairResult unknownResult(int a, int b) const {
+    PairResult r;
+    r.body_a = bodies[a].spec.id;
+    r.body_b = bodies[b].spec.id;
+    r.status = PairStatus::Unknown;
+    if (r.body_b < r.body_a) std::swap(r.body_a, r.body_b);
+    return r;
+  }
+
+  /// Stamp of the poses a pair's verdict was computed from: the older non-static stamp, else
+  /// `now` (static poses hold at any time).
+  double pairStamp(int a, int b, double now) const {
+    double s = kInf;
+    if (bodies[a].stamp > 0.0) s = std::min(s, bodies[a].stamp);
+    if (bodies[b].stamp > 0.0) s = std::min(s, bodies[b].stamp);
+    return std::isfinite(s) ? s : now;
+  }
+
+  static void emit(PairStatus from, PairStatus to, const PairResult& r, double stamp,
+                   std::vector<Event>* events) {
+    EventType types[2];
+    const int n = transitionEvents(from, to, types);
+    for (int k = 0; k < n; ++k)
+      events->push_back(Event{types[k], r, stamp});
+  }
+
+  std::string whyStale(int slot, double now) const {
+    const BodyState& b = bodies[slot];
+    if (!b.has_pose) return "body '" + b.spec.id + "' has no pose yet";
+    if (b.unresolved) return "body '" + b.spec.id + "' has an unresolved pose";
+    std::ostringstream os;
+    os << "body '" << b.spec.id << "' has a stale pose (" << (now - b.stamp)
+       << " s old, pose_timeout " << settings.pose_timeout << " s)";
+    return os.str();
+  }
+};
+
+WorldModel::WorldModel(const Settings& settings)
+    : settings_(settings), impl_(std::make_unique<Impl>()) {
+  impl_->settings = settings;
+  impl_->narrow = core::makeNarrowPhase(settings.backend);
+}
+
+WorldModel::~WorldModel() = default;
+
+std::string WorldModel::checkSpec(const BodySpec& spec) const {
+  const std::string name =
+      spec.id.empty() ? std::string("body with an empty id") : "body '" + spec.id + "'";
+  if (spec.id.empty()) return name + " refused: the id must not be empty";
+  if (spec.parts.empty()) return name + " refused: it has no parts";
+  if (spec.parts.size() > settings_.max_parts_per_body) {
+    return name + " refused: " + std::to_string(spec.parts.size()) +
+           " parts exceed max_parts_per_body = " + std::to_string(settings_.max_parts_per_body);
+  }
+  if (!std::isfinite(spec.padding) || spec.padding < 0.0) {
+    std::ostringstream os;
+    os << name << " refused: padding " << spec.padding << " must be finite and >= 0";
+    return os.str();
+  }
+  for (std::size_t i = 0; i < spec.parts.size(); ++i) {
+    const Part& p = spec.parts[i];
+    if (!validTransform(p.pose)) {
+      return name + " refused: part " + std::to_string(i) +
+             " has a non-finite or non-rigid pose in the body frame";
+    }
+    using PolyPtr = std::shared_ptr<const core::Polytope<3>>;
+    if (const PolyPtr* poly = std::get_if<PolyPtr>(&p.shape.core())) {
+      const std::size_t nv = *poly ? static_cast<std::size_t>((*poly)->size()) : 0;
+      if (nv == 0) return name + " refused: part " + std::to_string(i) + " is an empty polytope";
+      if (nv > settings_.max_vertices_per_part) {
+        return name + " refused: part " + std::to_string(i) + " has " + std::to_string(nv) +
+               " vertices, more than max_vertices_per_part = " +
+               std::to_string(settings_.max_vertices_per_part);
+      }
+    }
+  }
+  return {};
+}
+
+std::string WorldModel::addBody(BodySpec spec) {
+  Impl& m = *impl_;
+  std::string why = checkSpec(spec);
+  if (!why.empty()) return why;
+  auto it = m.slot_of.find(spec.id);
+  if (it != m.slot_of.end()) {
+    // Replace.
+    const int slot = it->second;
+    BodyState& b = m.bodies[slot];
+    if (b.spec.origin != spec.origin) {
+      return "body '" + spec.id + "' refused: the id is already declared by the " +
+             toString(b.spec.origin) + " and cannot be replaced from the " + toString(spec.origin);
+    }
+    const bool same_source = b.spec.frame == spec.frame && b.spec.pose_source == spec.pose_source;
+    b.spec = std::move(spec);
+    b.group = m.groupId(b.spec.group);
+    ++b.version;
+    if (same_source && b.has_pose) {
+      b.place();
+    } else {
+      b.has_pose = false;
+      b.has_twist = false;
+      b.stamp = 0.0;
+      b.box = core::Aabb();
+    }
+    m.boxes[slot] = b.box;
+    for (auto& kv : m.pairs) {
+      if (keyLo(kv.first) == slot || keyHi(kv.first) == slot) {
+        kv.second.caches.clear();
+        kv.second.has_result = false;
+      }
+    }
+    return {};
+  }
+  if (m.count >= settings_.max_bodies) {
+    return "body '" + spec.id + "' refused: the world already holds max_bodies = " +
+           std::to_string(settings_.max_bodies) + " bodies";
+  }
+  int slot;
+  if (!m.free_slots.empty()) {
+    slot = m.free_slots.back();
+    m.free_slots.pop_back();
+  } else {
+    slot = static_cast<int>(m.bodies.size());
+    m.bodies.emplace_back();
+    m.boxes.emplace_back();
+  }
+  BodyState& b = m.bodies[slot];
+  b = BodyState();
+  b.used = true;
+  b.spec = std::move(spec);
+  b.group = m.groupId(b.spec.group);
+  m.boxes[slot] = b.box;
+  m.slot_of.emplace(b.spec.id, slot);
+  ++m.count;
+  auto dis = m.disabled.find(b.spec.id);
+  if (dis != m.disabled.end()) {
+    for (const std::string& other : dis->second) {
+      auto o = m.slot_of.find(other);
+      if (o != m.slot_of.end() && o->second != slot) {
+        m.disabled_slots.insert(orderedKey(slot, o->second));
+      }
+    }
+  }
+  return {};
+}
+
+bool WorldModel::removeBody(const std::string& id) {
+  Impl& m = *impl_;
+  auto it = m.slot_of.find(id);
+  if (it == m.slot_of.end()) return false;
+  const int slot = it->second;
+  for (auto p = m.pairs.begin(); p != m.pairs.end();) {
+    const int lo = keyLo(p->first);
+    const int hi = keyHi(p->first);
+    if (lo != slot && hi != slot) {
+      ++p;
+      continue;
+    }
+    if (p->second.status != PairStatus::Clear) {
+      PairResult r;
+      r.body_a = m.bodies[lo].spec.id;
+      r.body_b = m.bodies[hi].spec.id;
+      if (r.body_b < r.body_a) std::swap(r.body_a, r.body_b);
+      r.status = PairStatus::Clear;
+      // Stamp filled in by the next check().
+      Impl::emit(p->second.status, PairStatus::Clear, r, 0.0, &m.pending);
+    }
+    p = m.pairs.erase(p);
+  }
+  for (auto ds = m.disabled_slots.begin(); ds != m.disabled_slots.end();) {
+    if (keyLo(*ds) == slot || keyHi(*ds) == slot) {
+      ds = m.disabled_slots.erase(ds);
+    } else {
+      ++ds;
+    }
+  }
+  m.bodies[slot] = BodyState();
+  m.boxes[slot] = core::Aabb();
+  m.slot_of.erase(it);
+  m.free_slots.push_back(slot);
+  --m.count;
+  return true;
+}
+
+bool WorldModel::hasBody(const std::string& id) const {
+  return impl_->slot_of.count(id) != 0;
+}
+
+std::vector<BodyInfo> WorldModel::listBodies(double now) const {
+  std::vector<BodyInfo> out;
+  out.reserve(impl_->count);
+  for (const BodyState& b : impl_->bodies) {
+    if (!b.used) continue;
+    out.push_back(
+        BodyInfo{b.spec.id, b.spec.frame, b.spec.group, !b.isFresh(now, settings_.pose_timeout)});
+  }
+  std::sort(out.begin(), out.end(),
+            [](const BodyInfo& x, const BodyInfo& y) { return x.id < y.id; });
+  return out;
+}
+
+void WorldModel::disablePair(const std::string& a, const std::string& b) {
+  Impl& m = *impl_;
+  if (a == b) return;
+  m.disabled[a].insert(b);
+  m.disabled[b].insert(a);
+  auto ia = m.slot_of.find(a);
+  auto ib = m.slot_of.find(b);
+  if (ia != m.slot_of.end() && ib != m.slot_of.end()) {
+    m.disabled_slots.insert(orderedKey(ia->second, ib->second));
+  }
+}
+
+bool WorldModel::isPairDisabled(const std::string& a, const std::string& b) const {
+  return impl_->isDisabled(a, b);
+}
+
+bool WorldModel::setPose(const std::string& id, const Transform3& pose, double stamp,
+                         const std::optional<Twist>& twist) {
+  Impl& m = *impl_;
+  auto it = m.slot_of.find(id);
+  if (it == m.slot_of.end()) return false;
+  if (std::isnan(stamp) || !validTransform(pose)) return false;
+  if (twist && !(core::allFinite(twist->linear) && core::allFinite(twist->angular))) return false;
+  BodyState& b = m.bodies[it->second];
+  // Out of order: only between two timed stamps. A static pose (stamp <= 0) always applies,
+  // and any timed pose may follow a static one.
+  if (b.has_pose && stamp > 0.0 && b.stamp > 0.0 && stamp < b.stamp) return false;
+  const bool moved = !b.has_pose || !(b.pose.R == pose.R) || !(b.pose.t == pose.t);
+  b.has_pose = true;
+  b.unresolved = false;
+  b.stamp = stamp;
+  b.has_twist = twist.has_value();
+  b.twist = twist ? *twist : Twist();
+  if (moved) {
+    b.pose = pose;
+    ++b.version;
+    b.place();
+    m.boxes[it->second] = b.box;
+  }
+  return true;
+}
+
+void WorldModel::markUnresolved(const std::string& id) {
+  auto it = impl_->slot_of.find(id);
+  if (it != impl_->slot_of.end()) impl_->bodies[it->second].unresolved = true;
+}
+
+void WorldModel::clearPoses() {
+  for (BodyState& b : impl_->bodies) {
+    if (!b.used) continue;
+    b.has_pose = false;
+    b.unresolved = false;
+    b.stamp = 0.0;
+    b.has_twist = false;
+  }
+}
+
+CycleResult WorldModel::check(double now) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Impl& m = *impl_;
+  const Settings& s = settings_;
+  CycleResult res;
+  const std::uint64_t cycle = ++m.cycle;
+  res.num_bodies = m.count;
+
+  // 1. Freshness.
+  m.active.clear();
+  m.stale.clear();
+  double oldest = kInf;
+  for (int slot = 0; slot < static_cast<int>(m.bodies.size()); ++slot) {
+    BodyState& b = m.bodies[slot];
+    if (!b.used) continue;
+    b.fresh = b.isFresh(now, s.pose_timeout);
+    if (b.fresh) {
+      m.active.push_back(slot);
+      if (b.stamp > 0.0) oldest = std::min(oldest, b.stamp);
+    } else {
+      m.stale.push_back(slot);
+    }
+  }
+  res.stamp = std::isfinite(oldest) ? oldest : now;
+
+  // Pending END events of removed bodies.
+  for (Event& e : m.pending) {
+    e.stamp = now;
+    res.events.push_back(std::move(e));
+  }
+  m.pending.clear();
+
+  // 2. Broad phase.
+  const double reach = clearCutoffAny(s);
+  m.sap.update(m.active, m.boxes, reach);
+  m.candidates.clear();
+  m.sap.forEachPair([&](int i, int j) {
+    if (!m.allowed(i, j)) return;
+    if (m.boxes[i].distance(m.boxes[j]) > reach) return;
+    m.candidates.push_back(orderedKey(i, j));
+  });
+  res.num_broad_phase_pairs = m.candidates.size();
+
+  // 3. Narrow phase, hysteresis, events.
+  for (std::uint64_t key : m.candidates) {
+    const int a = keyLo(key);
+    const int b = keyHi(key);
+    const BodyState& A = m.bodies[a];
+    const BodyState& B = m.bodies[b];
+    PairEntry& e = m.pairs[key];
+    e.last_seen = cycle;
+    const double cutoff = clearCutoff(e.status, s);
+    const bool reusable = e.has_result && e.version_a == A.version && e.version_b == B.version &&
+                          (e.result.exact || e.cutoff_used >= cutoff);
+    if (reusable) {
+      ++res.num_pairs_cached;
+    } else {
+      const std::size_t nparts = A.spec.parts.size() * B.spec.parts.size();
+      if (e.caches.size() != nparts) e.caches.assign(nparts, core::PairCache());
+      e.result = m.narrowPhase(A, B, cutoff, e.caches.data());
+      e.version_a = A.version;
+      e.version_b = B.version;
+      e.cutoff_used = cutoff;
+      e.has_result = true;
+      ++res.num_pairs_checked;
+      res.num_part_checks += static_cast<std::size_t>(e.result.gjk_runs);
+    }
+    const double d = e.result.exact ? e.result.distance : kInf;
+    const PairStatus next = nextStatus(e.status, d, s);
+    if (e.result.exact && d < res.min_distance) res.min_distance = d;
+    if (next != e.status || next != PairStatus::Clear) {
+      const PairResult r = m.makeResult(a, b, next, e.result);
+      if (next != e.status) Impl::emit(e.status, next, r, m.pairStamp(a, b, now), &res.events);
+      if (next != PairStatus::Clear) res.pairs.push_back(r);
+      if (next == PairStatus::Collision) res.in_collision = true;
+      e.status = next;
+    }
+  }
+
+  // 4. Pairs with a stale body: UNKNOWN. Events only for pairs known (both bodies fresh) in the
+  // previous cycle or already tracked; a pair never known starts UNKNOWN silently.
+  for (int sl : m.stale) {
+    for (int o = 0; o < static_cast<int>(m.bodies.size()); ++o) {
+      const BodyState& O = m.bodies[o];
+      if (!O.used || !m.allowed(sl, o)) continue;
+      if (!O.fresh && o < sl) continue;  // both stale: visited from o
+      const std::uint64_t key = orderedKey(sl, o);
+      auto it = m.pairs.find(key);
+      const PairResult r = m.unknownResult(sl, o);
+      if (it != m.pairs.end()) {
+        PairEntry& e = it->second;
+        e.last_seen = cycle;
+        if (e.status != PairStatus::Unknown) {
+          Impl::emit(e.status, PairStatus::Unknown, r, now, &res.events);
+          e.status = PairStatus::Unknown;
+        }
+      } else if (m.bodies[sl].fresh_prev && O.fresh_prev) {
+        Impl::emit(PairStatus::Clear, PairStatus::Unknown, r, now, &res.events);
+        PairEntry& e = m.pairs[key];
+        e.status = PairStatus::Unknown;
+        e.last_seen = cycle;
+      }
+      res.pairs.push_back(r);
+    }
+  }
+
+  // 5. Tracked pairs not seen: known and beyond reach (or no longer allowed) -> CLEAR.
+  for (auto it = m.pairs.begin(); it != m.pairs.end();) {
+    PairEntry& e = it->second;
+    if (e.last_seen != cycle) {
+      if (e.status != PairStatus::Clear) {
+        PairResult r;
+        r.body_a = m.bodies[keyLo(it->first)].spec.id;
+        r.body_b = m.bodies[keyHi(it->first)].spec.id;
+        if (r.body_b < r.body_a) std::swap(r.body_a, r.body_b);
+        r.status = PairStatus::Clear;
+        Impl::emit(e.status, PairStatus::Clear, r,
+                   m.pairStamp(keyLo(it->first), keyHi(it->first), now), &res.events);
+        e.status = PairStatus::Clear;
+      }
+      if (cycle - e.last_seen > kForgetAfterCycles) {
+        it = m.pairs.erase(it);
+        continue;
+      }
+    }
+    ++it;
+  }
+
+  for (int sl : m.stale)
+    res.stale_bodies.push_back(m.bodies[sl].spec.id);
+  for (BodyState& b : m.bodies)
+    b.fresh_prev = b.used && b.fresh;
+
+  // Deterministic order: pairs and events by (body_a, body_b); a pair's END before its BEGIN.
+  const auto by_ids = [](const PairResult& x, const PairResult& y) {
+    return x.body_a != y.body_a ? x.body_a < y.body_a : x.body_b < y.body_b;
+  };
+  std::sort(res.pairs.begin(), res.pairs.end(), by_ids);
+  std::stable_sort(res.events.begin(), res.events.end(),
+                   [&](const Event& x, const Event& y) { return by_ids(x.pair, y.pair); });
+  std::sort(res.stale_bodies.begin(), res.stale_bodies.end());
+
+  res.compute_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return res;
+}
+
+std::optional<PairResult> WorldModel::distance(const std::string& a, const std::string& b,
+                                               double now, std::string* why) const {
+  const Impl& m = *impl_;
+  auto fail = [&](std::string msg) -> std::optional<PairResult> {
+    if (why) *why = std::move(msg);
+    return std::nullopt;
+  };
+  auto ia = m.slot_of.find(a);
+  if (ia == m.slot_of.end()) return fail("unknown body '" + a + "'");
+  auto ib = m.slot_of.find(b);
+  if (ib == m.slot_of.end()) return fail("unknown body '" + b + "'");
+  if (ia->second == ib->second) return fail("body '" + a + "' has no distance to itself");
+  const BodyState& A = m.bodies[ia->second];
+  const BodyState& B = m.bodies[ib->second];
+  if (!A.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ia->second, now));
+  if (!B.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ib->second, now));
+  const Narrow n = m.narrowPhase(A, B, kInf, nullptr);
+  PairStatus tracked = PairStatus::Clear;
+  auto it = m.pairs.find(orderedKey(ia->second, ib->second));
+  if (it != m.pairs.end()) tracked = it->second.status;
+  PairResult r =
+      m.makeResult(ia->second, ib->second, nextStatus(tracked, n.distance, settings_), n);
+  // Keep the caller's order.
+  if (r.body_a != a) flipPair(&r);
+  return r;
+}
+
+std::optional<PairResult> WorldModel::nearest(const std::string& a, double now,
+                                              std::string* why) const {
+  const Impl& m = *impl_;
+  auto fail = [&](std::string msg) -> std::optional<PairResult> {
+    if (why) *why = std::move(msg);
+    return std::nullopt;
+  };
+  auto ia = m.slot_of.find(a);
+  if (ia == m.slot_of.end()) return fail("unknown body '" + a + "'");
+  const int sa = ia->second;
+  const BodyState& A = m.bodies[sa];
+  if (!A.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(sa, now));
+  // Candidates by a lower bound on the signed distance (box gap, or -inf when boxes overlap).
+  std::vector<std::pair<double, int>> order;
+  for (int o = 0; o < static_cast<int>(m.bodies.size()); ++o) {
+    const BodyState& O = m.bodies[o];
+    if (!O.used || !m.allowed(sa, o) || !O.isFresh(now, settings_.pose_timeout)) continue;
+    const double gap = A.box.distance(O.box);
+    order.emplace_back(gap > 0.0 ? gap : -kInf, o);
+  }
+  if (order.empty()) return fail("no other body with a fresh pose that '" + a + "' may touch");
+  std::sort(order.begin(), order.end());
+  int best_slot = -1;
+  Narrow best;
+  for (const auto& [lb, o] : order) {
+    if (best_slot >= 0 && lb >= best.distance) break;
+    const Narrow n = m.narrowPhase(A, m.bodies[o], kInf, nullptr);
+    if (best_slot < 0 || n.distance < best.distance ||
+        (n.distance == best.distance && m.bodies[o].spec.id < m.bodies[best_slot].spec.id)) {
+      best = n;
+      best_slot = o;
+    }
+  }
+  PairStatus tracked = PairStatus::Clear;
+  auto it = m.pairs.find(orderedKey(sa, best_slot));
+  if (it != m.pairs.end()) tracked = it->second.status;
+  PairResult r = m.makeResult(sa, best_slot, nextStatus(tracked, best.distance, settings_), best);
+  if (r.body_a != a) flipPair(&r);
+  return r;
+}
+
+std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, const Transform3& pose,
+                                                      double margin, double now) const {
+  const Impl& m = *impl_;
+  std::vector<PairResult> out;
+  if (!checkSpec(body).empty() || !validTransform(pose)) return out;
+  if (std::isnan(margin)) margin = 0.0;
+  BodyState H;
+  H.spec = body;
+  H.pose = pose;
+  H.has_pose = true;
+  H.place();
+  // Report every body closer than `margin`, and every one in COLLISION whatever the margin.
+  const double reach = std::max(margin, settings_.contact_distance);
+  for (int o = 0; o < static_cast<int>(m.bodies.size()); ++o) {
+    const BodyState& O = m.bodies[o];
+    if (!O.used || O.spec.id == body.id || !O.isFresh(now, settings_.pose_timeout)) continue;
+    if (!body.group.empty() && body.group == O.spec.group) continue;
+    if (m.isDisabled(body.id, O.spec.id)) continue;
+    if (H.box.distance(O.box) > reach) continue;
+    const Narrow n = m.narrowPhase(H, O, reach, nullptr);
+    if (!n.exact || !(n.distance <= reach)) continue;
+    PairResult r;
+    r.body_a = body.id;
+    r.body_b = O.spec.id;
+    r.status = nextStatus(PairStatus::Clear, n.distance, settings_);
+    r.distance = n.distance;
+    r.point_a = n.point_a;
+    r.point_b = n.point_b;
+    r.normal = n.normal;
+    r.time_to_collision =
+        timeToCollision(r, nullptr, H.pose.t, O.twistPtr(), O.pose.t, settings_.contact_distance);
+    out.push_back(std::move(r));
+  }
+  std::sort(out.begin(), out.end(), [](const PairResult& x, const PairResult& y) {
+    return x.distance != y.distance ? x.distance < y.distance : x.body_b < y.body_b;
+  });
+  return out;
+}
+
+std::optional<Transform3> WorldModel::pose(const std::string& id) const {
+  auto it = impl_->slot_of.find(id);
+  if (it == impl_->slot_of.end() || !impl_->bodies[it->second].has_pose) return std::nullopt;
+  return impl_->bodies[it->second].pose;
+}
+
+const BodySpec* WorldModel::body(const std::string& id) const {
+  auto it = impl_->slot_of.find(id);
+  if (it == impl_->slot_of.end()) return nullptr;
+  return &impl_->bodies[it->second].spec;
+}
+
+std::size_t WorldModel::size() const {
+  return impl_->count;
+}
+
+}  // namespace world
+}  // namespace collision_monitor
