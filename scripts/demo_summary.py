@@ -1,0 +1,153 @@
+#!/usr/bin/python3
+"""Live summary of the monitor for the demo: prints every event as it happens (time, type, pair,
+distance in mm) and, when the demo ends (after ~duration seconds, or on Ctrl-C), a final table:
+per pair the minimum distance and its events, counts per event type, and cycle statistics from
+~state (rate, compute_time).
+
+Parameters: ~monitor [/collision_monitor], ~duration [30 s; 0 = until shutdown]. Exits after
+printing when the duration is up (launch it with required="true" to end the demo).
+"""
+import math
+import sys
+import threading
+
+import rospy
+
+from collision_monitor.msg import CollisionEvent, CollisionState, PairState
+
+EVENT_NAMES = {
+    CollisionEvent.COLLISION_BEGIN: "COLLISION_BEGIN",
+    CollisionEvent.COLLISION_END: "COLLISION_END",
+    CollisionEvent.WARNING_BEGIN: "WARNING_BEGIN",
+    CollisionEvent.WARNING_END: "WARNING_END",
+    CollisionEvent.UNKNOWN_BEGIN: "UNKNOWN_BEGIN",
+    CollisionEvent.UNKNOWN_END: "UNKNOWN_END",
+}
+STATUS_NAMES = {PairState.CLEAR: "clear", PairState.WARNING: "warning",
+                PairState.COLLISION: "collision", PairState.UNKNOWN: "unknown"}
+
+
+def pair_key(a, b):
+    return (a, b) if a <= b else (b, a)
+
+
+def mm(d):
+    if d is None or math.isinf(d) or math.isnan(d):
+        return "-"
+    return "%.1f" % (d * 1000.0)
+
+
+def percentile(sorted_values, q):
+    if not sorted_values:
+        return float("nan")
+    i = min(len(sorted_values) - 1, max(0, int(round(q * (len(sorted_values) - 1)))))
+    return sorted_values[i]
+
+
+class Summary(object):
+    def __init__(self):
+        self.monitor = rospy.get_param("~monitor", "/collision_monitor").rstrip("/")
+        self.duration = float(rospy.get_param("~duration", 30.0))
+        self.lock = threading.Lock()
+        self.start = rospy.get_time()
+        self.pairs = {}  # key -> dict(min=, status=, counts={type: n})
+        self.counts = dict((t, 0) for t in EVENT_NAMES)
+        self.compute_times = []
+        self.state_stamps = []
+        self.num_bodies = 0
+        self.pairs_checked = []
+        self.printed = False
+        rospy.Subscriber(self.monitor + "/events", CollisionEvent, self.on_event, queue_size=1000)
+        rospy.Subscriber(self.monitor + "/state", CollisionState, self.on_state, queue_size=100)
+
+    def elapsed(self):
+        return rospy.get_time() - self.start
+
+    def entry(self, a, b):
+        return self.pairs.setdefault(pair_key(a, b), {
+            "min": float("inf"), "counts": dict((t, 0) for t in EVENT_NAMES)})
+
+    def on_event(self, ev):
+        with self.lock:
+            t = self.elapsed()
+            name = EVENT_NAMES.get(ev.type, "EVENT_%d" % ev.type)
+            if ev.type in self.counts:
+                self.counts[ev.type] += 1
+            e = self.entry(ev.pair.body_a, ev.pair.body_b)
+            e["counts"][ev.type] = e["counts"].get(ev.type, 0) + 1
+            if ev.pair.status != PairState.UNKNOWN and not math.isinf(ev.pair.distance):
+                e["min"] = min(e["min"], ev.pair.distance)
+            dist = "" if ev.pair.status == PairState.UNKNOWN else "%9s mm" % mm(ev.pair.distance)
+            print("[%7.2f s] %-16s %-32s %s" % (
+                t, name, "%s <-> %s" % (ev.pair.body_a, ev.pair.body_b), dist))
+            sys.stdout.flush()
+
+    def on_state(self, st):
+        with self.lock:
+            self.compute_times.append(st.compute_time)
+            self.state_stamps.append(rospy.get_time())
+            self.num_bodies = st.num_bodies
+            self.pairs_checked.append(st.num_pairs_checked)
+            for p in st.pairs:
+                if p.status in (PairState.WARNING, PairState.COLLISION):
+                    e = self.entry(p.body_a, p.body_b)
+                    e["min"] = min(e["min"], p.distance)
+
+    def report(self):
+        with self.lock:
+            if self.printed:
+                return
+            self.printed = True
+            out = []
+            out.append("")
+            out.append("=== collision_monitor demo summary (%.1f s) ===" % self.elapsed())
+            if not self.state_stamps:
+                out.append("no ~state received from %s: is collision_monitor_node running?"
+                           % self.monitor)
+            out.append("%-34s %10s %6s %6s %6s %6s %6s %6s" % (
+                "pair", "min [mm]", "COL+", "COL-", "WARN+", "WARN-", "UNK+", "UNK-"))
+            order = [CollisionEvent.COLLISION_BEGIN, CollisionEvent.COLLISION_END,
+                     CollisionEvent.WARNING_BEGIN, CollisionEvent.WARNING_END,
+                     CollisionEvent.UNKNOWN_BEGIN, CollisionEvent.UNKNOWN_END]
+            for key in sorted(self.pairs):
+                e = self.pairs[key]
+                out.append("%-34s %10s %s" % ("%s <-> %s" % key, mm(e["min"]), " ".join(
+                    "%6d" % e["counts"].get(t, 0) for t in order)))
+            if not self.pairs:
+                out.append("(no pair came within the warning distance)")
+            out.append("events: " + ", ".join(
+                "%s %d" % (EVENT_NAMES[t], self.counts[t]) for t in order))
+            n = len(self.compute_times)
+            if n:
+                ct = sorted(self.compute_times)
+                span = self.state_stamps[-1] - self.state_stamps[0]
+                rate = (n - 1) / span if span > 0 else float("nan")
+                out.append("cycles: %d at %.1f Hz, %d bodies, %.1f narrow-phase pairs/cycle" % (
+                    n, rate, self.num_bodies, sum(self.pairs_checked) / float(n)))
+                out.append("compute_time [ms]: mean %.3f  p50 %.3f  p95 %.3f  max %.3f" % (
+                    1000.0 * sum(ct) / n, 1000.0 * percentile(ct, 0.5),
+                    1000.0 * percentile(ct, 0.95), 1000.0 * ct[-1]))
+            print("\n".join(out))
+            sys.stdout.flush()
+
+
+def main():
+    rospy.init_node("demo_summary")
+    s = Summary()
+    rospy.on_shutdown(s.report)
+    print("demo_summary: watching %s/events and %s/state%s" % (
+        s.monitor, s.monitor,
+        "" if s.duration <= 0 else " for %.0f s" % s.duration))
+    sys.stdout.flush()
+    if s.duration > 0:
+        deadline = rospy.get_time() + s.duration
+        while not rospy.is_shutdown() and rospy.get_time() < deadline:
+            rospy.sleep(0.1)
+        s.report()
+        rospy.signal_shutdown("demo duration reached")
+    else:
+        rospy.spin()
+
+
+if __name__ == "__main__":
+    main()
