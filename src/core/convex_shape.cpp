@@ -1,1 +1,194 @@
-// placeholder
+/// \file
+/// ConvexShape: validated factories and the full-shape support mapping (core + radius).
+#include "collision_monitor/core/convex_shape.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <type_traits>
+#include <utility>
+#include <variant>
+
+#include "collision_monitor/core/convex_hull.h"
+
+namespace collision_monitor {
+namespace core {
+
+namespace {
+
+[[noreturn]] void fail(const std::string& shape, const std::string& what, double value,
+                       const std::string& requirement) {
+  std::ostringstream msg;
+  msg.precision(17);
+  msg << "ConvexShape::" << shape << ": " << what << " = " << value << " must be " << requirement;
+  throw std::invalid_argument(msg.str());
+}
+
+/// Sizes: finite and >= 0 (0 is a valid degenerate shape).
+void checkSize(const std::string& shape, const std::string& what, double value) {
+  if (!std::isfinite(value) || value < 0.0) fail(shape, what, value, "finite and >= 0");
+}
+
+/// Coordinates: finite.
+void checkPoint(const std::string& shape, const std::string& what, const Vec3& p) {
+  static const char* const kAxis[3] = {".x", ".y", ".z"};
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(p[i])) fail(shape, what + kAxis[i], p[i], "finite");
+}
+
+/// Support of a core in its own frame (the one place the variant is switched on per call; GJK
+/// visits the variant once per query instead, see query.cpp).
+Vec3 coreSupportOf(const ConvexShape::Core& core, const Vec3& d) {
+  return std::visit(
+      [&d](const auto& c) -> Vec3 {
+        using T = std::decay_t<decltype(c)>;
+        if constexpr (std::is_same_v<T, std::shared_ptr<const Polytope<3>>>) {
+          return c->support(d);
+        } else {
+          return c.support(d);
+        }
+      },
+      core);
+}
+
+}  // namespace
+
+ConvexShape::ConvexShape(Core core, double radius, std::string kind)
+    : core_(std::move(core)), radius_(radius), kind_(std::move(kind)) {
+  // Bounding radius of the core about the frame origin, plus the radius.
+  double rc = std::visit(
+      [](const auto& c) -> double {
+        using T = std::decay_t<decltype(c)>;
+        if constexpr (std::is_same_v<T, PointShape<3>>) {
+          return c.p.norm();
+        } else if constexpr (std::is_same_v<T, SegmentShape<3>>) {
+          return std::max(c.a.norm(), c.b.norm());
+        } else if constexpr (std::is_same_v<T, BoxShape<3>>) {
+          return c.half.norm();
+        } else if constexpr (std::is_same_v<T, CylinderShape> || std::is_same_v<T, ConeShape>) {
+          return std::hypot(c.half_height, c.radius);
+        } else if constexpr (std::is_same_v<T, EllipsoidShape<3>>) {
+          return c.semi.maxCoeff();
+        } else {
+          double m = 0.0;
+          for (const Vec3& v : c->vertices())
+            m = std::max(m, v.norm());
+          return m;
+        }
+      },
+      core_);
+  bounding_radius_ = rc + radius_;
+}
+
+ConvexShape ConvexShape::sphere(double radius) {
+  checkSize("sphere", "radius", radius);
+  return ConvexShape(PointShape<3>{}, radius, "sphere");
+}
+
+ConvexShape ConvexShape::box(const Vec3& sides) {
+  static const char* const kSide[3] = {"sides.x", "sides.y", "sides.z"};
+  for (int i = 0; i < 3; ++i)
+    checkSize("box", kSide[i], sides[i]);
+  BoxShape<3> b;
+  b.half = 0.5 * sides;
+  return ConvexShape(b, 0.0, "box");
+}
+
+ConvexShape ConvexShape::capsule(double length, double radius) {
+  checkSize("capsule", "length", length);
+  checkSize("capsule", "radius", radius);
+  SegmentShape<3> s;
+  s.a = Vec3(0.0, 0.0, -0.5 * length);
+  s.b = Vec3(0.0, 0.0, 0.5 * length);
+  return ConvexShape(s, radius, "capsule");
+}
+
+ConvexShape ConvexShape::cylinder(double height, double radius) {
+  checkSize("cylinder", "height", height);
+  checkSize("cylinder", "radius", radius);
+  return ConvexShape(CylinderShape{0.5 * height, radius}, 0.0, "cylinder");
+}
+
+ConvexShape ConvexShape::cone(double height, double radius) {
+  checkSize("cone", "height", height);
+  checkSize("cone", "radius", radius);
+  return ConvexShape(ConeShape{0.5 * height, radius}, 0.0, "cone");
+}
+
+ConvexShape ConvexShape::ellipsoid(const Vec3& semi_axes) {
+  static const char* const kAxis[3] = {"semi_axes.x", "semi_axes.y", "semi_axes.z"};
+  for (int i = 0; i < 3; ++i)
+    checkSize("ellipsoid", kAxis[i], semi_axes[i]);
+  EllipsoidShape<3> e;
+  e.semi = semi_axes;
+  return ConvexShape(e, 0.0, "ellipsoid");
+}
+
+ConvexShape ConvexShape::point(const Vec3& p) {
+  checkPoint("point", "p", p);
+  PointShape<3> s;
+  s.p = p;
+  return ConvexShape(s, 0.0, "point");
+}
+
+ConvexShape ConvexShape::segment(const Vec3& a, const Vec3& b) {
+  checkPoint("segment", "a", a);
+  checkPoint("segment", "b", b);
+  SegmentShape<3> s;
+  s.a = a;
+  s.b = b;
+  return ConvexShape(s, 0.0, "segment");
+}
+
+ConvexShape ConvexShape::convexHull(const std::vector<Vec3>& points) {
+  if (points.empty()) throw std::invalid_argument("ConvexShape::convexHull: no points");
+  for (std::size_t i = 0; i < points.size(); ++i)
+    checkPoint("convexHull", "points[" + std::to_string(i) + "]", points[i]);
+  return polytope(buildConvexHull(points));
+}
+
+ConvexShape ConvexShape::polytope(std::shared_ptr<const Polytope<3>> poly) {
+  if (!poly) throw std::invalid_argument("ConvexShape::polytope: null polytope");
+  if (poly->size() == 0) throw std::invalid_argument("ConvexShape::polytope: no vertices");
+  for (int i = 0; i < poly->size(); ++i)
+    checkPoint("polytope", "vertices[" + std::to_string(i) + "]", poly->vertices()[i]);
+  const int n = poly->size();
+  return ConvexShape(std::move(poly), 0.0, "polytope(" + std::to_string(n) + ")");
+}
+
+ConvexShape ConvexShape::padded(double padding) const {
+  checkSize("padded", "padding", padding);
+  ConvexShape out = *this;
+  out.radius_ += padding;
+  out.bounding_radius_ += padding;
+  return out;
+}
+
+Vec3 ConvexShape::coreSupport(const Vec3& d) const {
+  return coreSupportOf(core_, d);
+}
+
+Vec3 ConvexShape::support(const Vec3& d) const {
+  Vec3 p = coreSupport(d);
+  const double n = d.norm();
+  if (n > 0.0 && radius_ > 0.0) p += (radius_ / n) * d;
+  return p;
+}
+
+Aabb ConvexShape::aabb(const Transform3& pose) const {
+  // Extent along world axis e_i: e_i . (R s(R^T e_i) + t), s the full shape's support.
+  Aabb box;
+  for (int i = 0; i < 3; ++i) {
+    const Vec3 dir = pose.R.row(i).transpose();  // R^T e_i
+    box.max[i] = pose.R.row(i).dot(support(dir)) + pose.t[i];
+    box.min[i] = pose.R.row(i).dot(support(-dir)) + pose.t[i];
+  }
+  return box;
+}
+
+std::string ConvexShape::describe() const {
+  return kind_;
+}
+
+}  // namespace core
+}  // namespace collision_monitor

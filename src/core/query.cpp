@@ -1,1 +1,235 @@
-// placeholder
+/// \file
+/// intersect / distance / signedDistance: one std::visit over the two cores per query, then a
+/// fully typed GJK (and EPA) instantiation in A's frame. Radii are applied after convergence.
+#include "collision_monitor/core/query.h"
+
+#include <cmath>
+#include <memory>
+#include <type_traits>
+#include <variant>
+
+#include "collision_monitor/core/epa.h"
+#include "collision_monitor/core/gjk.h"
+
+namespace collision_monitor {
+namespace core {
+
+const char* toString(Status s) {
+  switch (s) {
+    case Status::Separated:
+      return "Separated";
+    case Status::Touching:
+      return "Touching";
+    case Status::Penetrating:
+      return "Penetrating";
+    case Status::FailedToConverge:
+      return "FailedToConverge";
+  }
+  return "Unknown";
+}
+
+namespace {
+
+/// The per-query support object of a core: the core itself (small value types), or a polytope
+/// with this pair's hill-climbing hint.
+template <class C>
+const C& makeSupport(const C& c, int /*hint*/) {
+  return c;
+}
+inline PolytopeSupport<3> makeSupport(const std::shared_ptr<const Polytope<3>>& p, int hint) {
+  PolytopeSupport<3> s;
+  s.poly = p.get();
+  s.hint = hint;
+  return s;
+}
+template <class S>
+int hintOf(const S& /*s*/, int old) {
+  return old;
+}
+inline int hintOf(const PolytopeSupport<3>& s, int /*old*/) {
+  return s.hint;
+}
+
+/// What every query needs about the pair: the relative transform and the size scale.
+struct PairFrame {
+  const Transform3* pose_a;
+  Transform3 T_AB;  ///< B's frame -> A's frame
+  double rA, rB;    ///< radii (m)
+  double size;      ///< bounding radii + |relative translation| (m): the tolerance scale
+};
+
+PairFrame makeFrame(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
+                    const Transform3& pose_b) {
+  PairFrame f;
+  f.pose_a = &pose_a;
+  f.T_AB = pose_a.inverse() * pose_b;
+  f.rA = a.radius();
+  f.rB = b.radius();
+  f.size = a.boundingRadius() + b.boundingRadius() + f.T_AB.t.norm();
+  return f;
+}
+
+GjkSettings gjkSettings(const PairFrame& f, const QueryOptions& o) {
+  GjkSettings s;
+  s.rel_tolerance = o.rel_tolerance;
+  s.abs_tolerance = o.rel_tolerance * f.size;
+  s.max_iterations = o.max_iterations;
+  return s;
+}
+
+/// Visit the two cores once and run `fn(md)` on their typed Minkowski difference (A's frame).
+/// Keeps the polytope hints in the cache.
+template <class Fn>
+auto withPair(const ConvexShape& a, const ConvexShape& b, const PairFrame& frame, PairCache* cache,
+              Fn&& fn) {
+  const int ha = cache != nullptr ? cache->hint_a : 0;
+  const int hb = cache != nullptr ? cache->hint_b : 0;
+  return std::visit(
+      [&](const auto& ca, const auto& cb) {
+        const auto& sa = makeSupport(ca, ha);
+        const auto& sb = makeSupport(cb, hb);
+        using SA = std::decay_t<decltype(sa)>;
+        using SB = std::decay_t<decltype(sb)>;
+        const MinkowskiDifference<3, SA, SB> md(sa, sb, frame.T_AB);
+        auto result = fn(md);
+        if (cache != nullptr) {
+          cache->hint_a = hintOf(sa, cache->hint_a);
+          cache->hint_b = hintOf(sb, cache->hint_b);
+        }
+        return result;
+      },
+      a.core(), b.core());
+}
+
+/// Warm-start seed: the cached local support points re-evaluated for the current poses (they are
+/// still points of A - B).
+template <class MD>
+const Simplex<3>* seedFromCache(const MD& md, const PairCache* cache, Simplex<3>& seed) {
+  if (cache == nullptr || cache->size <= 0 || cache->size > 4) return nullptr;
+  seed.size = cache->size;
+  for (int i = 0; i < cache->size; ++i)
+    seed.v[i] = md.fromLocal(cache->local_a[i], cache->local_b[i]);
+  return &seed;
+}
+
+template <class MD>
+void storeCache(const MD& md, const Simplex<3>& s, PairCache* cache) {
+  if (cache == nullptr) return;
+  cache->size = s.size;
+  for (int i = 0; i < s.size; ++i) {
+    cache->local_a[i] = s.v[i].a;
+    cache->local_b[i] = md.toLocalB(s.v[i].b);
+  }
+}
+
+/// Normal (A's frame, A towards B) for cores whose Minkowski difference is flat and contains the
+/// origin: every direction out of the flat set gives depth 0 for the cores, so depth rA + rB for
+/// the full shapes. Ties are broken towards B's origin (t_AB); never NaN.
+Vec3 flatNormal(const EpaResult<3>& e, const Vec3& t_AB) {
+  if (e.flat_dimension == 2) {
+    return e.normal.dot(t_AB) < 0.0 ? Vec3(-e.normal) : e.normal;
+  }
+  if (e.flat_dimension == 1) {
+    const Vec3& u = e.flat_direction;
+    const Vec3 c = t_AB - t_AB.dot(u) * u;
+    const double cn = c.norm();
+    return cn > 0.0 ? Vec3(c / cn) : Vec3(u.unitOrthogonal());
+  }
+  const double tn = t_AB.norm();
+  return tn > 0.0 ? Vec3(t_AB / tn) : Vec3(Vec3::UnitX());
+}
+
+/// Fill the common-frame fields from A-frame core results plus radii.
+void finish(const PairFrame& f, const QueryOptions& o, double core_signed, const Vec3& pa_core,
+            const Vec3& pb_core, const Vec3& n, bool failed, ContactResult& r) {
+  const Transform3& Ta = *f.pose_a;
+  r.distance = core_signed - (f.rA + f.rB);
+  r.normal = Ta.R * n;
+  r.point_a = Ta * Vec3(pa_core + f.rA * n);
+  r.point_b = Ta * Vec3(pb_core - f.rB * n);
+  const double band = o.touch_tolerance * f.size;
+  if (failed) {
+    r.status = Status::FailedToConverge;
+  } else if (std::abs(r.distance) <= band) {
+    r.status = Status::Touching;
+  } else {
+    r.status = r.distance > 0.0 ? Status::Separated : Status::Penetrating;
+  }
+}
+
+template <class MD>
+ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const QueryOptions& o,
+                    bool want_depth) {
+  ContactResult r;
+  Simplex<3> seed;
+  const GjkSettings gs = gjkSettings(f, o);
+  const GjkResult<3> g = gjkDistance(md, gs, seedFromCache(md, cache, seed));
+  storeCache(md, g.simplex, cache);
+  r.gjk_iterations = g.iterations;
+  if (g.status != GjkStatus::Intersecting) {
+    const Vec3 n = -g.v / g.distance;  // g.distance > abs_tolerance >= 0 here
+    finish(f, o, g.distance, g.point_a, g.point_b, n, g.status == GjkStatus::MaxIterations, r);
+    return r;
+  }
+  if (!want_depth) {
+    // distance(): the cores overlap (or touch within the GJK tolerance); no EPA. A full simplex
+    // encloses the origin (penetration); a smaller one means the origin is on A - B within the
+    // tolerance: touching when there are no radii.
+    const bool enclosed = g.simplex.size == 4;
+    const double tn = f.T_AB.t.norm();
+    const Vec3 n = tn > 0.0 ? Vec3(f.T_AB.t / tn) : Vec3(Vec3::UnitX());
+    finish(f, o, 0.0, g.point_a, g.point_b, n, false, r);
+    r.distance = 0.0;
+    r.status = (enclosed || f.rA + f.rB > o.touch_tolerance * f.size) ? Status::Penetrating
+                                                                      : Status::Touching;
+    return r;
+  }
+  EpaSettings es;
+  es.rel_tolerance = o.rel_tolerance;
+  es.abs_tolerance = o.rel_tolerance * f.size;
+  es.max_iterations = o.max_iterations;
+  const EpaResult<3> e = epa3(md, g.simplex, es);
+  r.epa_iterations = e.iterations;
+  if (e.status == EpaStatus::Flat) {
+    finish(f, o, 0.0, e.point_a, e.point_b, flatNormal(e, f.T_AB.t), false, r);
+    return r;
+  }
+  const bool failed = e.status != EpaStatus::Converged;
+  finish(f, o, -e.depth, e.point_a, e.point_b, e.normal, failed, r);
+  return r;
+}
+
+}  // namespace
+
+bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
+               const Transform3& pose_b, PairCache* cache, const QueryOptions& options) {
+  const PairFrame f = makeFrame(a, pose_a, b, pose_b);
+  // Touching counts as intersecting: the same band as signedDistance()'s Touching.
+  const double margin = f.rA + f.rB + options.touch_tolerance * f.size;
+  return withPair(a, b, f, cache, [&](const auto& md) {
+    Simplex<3> s;
+    const Simplex<3>* seed = seedFromCache(md, cache, s);
+    if (seed == nullptr) s.size = 0;
+    const bool hit = gjkIntersect(md, margin, gjkSettings(f, options), &s);
+    storeCache(md, s, cache);
+    return hit;
+  });
+}
+
+ContactResult distance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
+                       const Transform3& pose_b, PairCache* cache, const QueryOptions& options) {
+  const PairFrame f = makeFrame(a, pose_a, b, pose_b);
+  return withPair(a, b, f, cache,
+                  [&](const auto& md) { return query(md, f, cache, options, false); });
+}
+
+ContactResult signedDistance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
+                             const Transform3& pose_b, PairCache* cache,
+                             const QueryOptions& options) {
+  const PairFrame f = makeFrame(a, pose_a, b, pose_b);
+  return withPair(a, b, f, cache,
+                  [&](const auto& md) { return query(md, f, cache, options, true); });
+}
+
+}  // namespace core
+}  // namespace collision_monitor

@@ -1,0 +1,562 @@
+/// \file
+/// EPA, the Expanding Polytope Algorithm (van den Bergen 2001, "Proximity queries and penetration
+/// depth computation on 3D game objects", GDC; see also Jolt's EPAPenetrationDepth.h and Bullet's
+/// gjkepa2): penetration depth and normal of two overlapping convex shapes, starting from the
+/// terminal simplex of gjkDistance() (which encloses the origin, or touches it within tolerance).
+///
+/// 3D: a terminal simplex of fewer than 4 vertices is blown up to a tetrahedron by support
+/// searches; when the Minkowski difference A - B turns out to be flat (a point, a segment or a
+/// planar set: lower-dimensional cores) the answer is depth 0 with the flat set's description
+/// (EpaStatus::Flat), a defined answer instead of a degenerate polytope. The polytope is expanded
+/// towards its face closest to the origin; new faces come from the horizon (silhouette) of the new
+/// support point. Termination on a relative/absolute tolerance (exact on polytopes: the support
+/// point then lies on the face), the iteration bound, and degenerate faces.
+/// 2D: the same on a convex polygon (footprints).
+///
+/// All storage is in fixed-size arrays on the stack: no heap allocation, no virtual calls.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include "collision_monitor/core/gjk.h"
+#include "collision_monitor/core/math.h"
+
+namespace collision_monitor {
+namespace core {
+
+/// Tolerances and bounds of one EPA run.
+struct EpaSettings {
+  /// Stop when the support point along the closest face's normal gains at most
+  /// rel_tolerance * depth + abs_tolerance over that face.
+  double rel_tolerance = 1e-12;
+  /// Length unit; callers pass rel_tolerance * shape size. Also the flatness threshold.
+  double abs_tolerance = 0.0;
+  int max_iterations = 128;  ///< clamped to kEpaMaxIterations
+};
+
+/// Upper bound on EPA iterations (fixed storage).
+constexpr int kEpaMaxIterations = 128;
+
+enum class EpaStatus {
+  Converged,      ///< depth and normal within tolerance
+  Flat,           ///< A - B is flat (affine dimension < D): depth 0, see flat_dimension
+  MaxIterations,  ///< iteration bound hit: best estimate (depth is a lower bound)
+  Degenerate      ///< numerical trouble (degenerate face, broken horizon): best estimate
+};
+
+/// Result of EPA. Frames: A's frame.
+template <int D>
+struct EpaResult {
+  EpaStatus status = EpaStatus::Degenerate;
+  /// Penetration depth of the cores (length, >= 0 up to rounding): the shortest translation of B
+  /// along `normal` that separates them.
+  double depth = 0.0;
+  /// Unit, from A towards B (outward normal of A - B at its boundary point closest to the
+  /// origin). For Flat with flat_dimension == D - 1: the flat set's normal (sign arbitrary). For
+  /// flat_dimension 0 (A - B a single point): UnitX; for a segment in 3D: unit direction of the
+  /// segment in `flat_direction`, normal any unit perpendicular.
+  Vec<D> normal = Vec<D>::Unit(0);
+  Vec<D> point_a = Vec<D>::Zero();  ///< witness on A, A's frame (point_a - point_b = depth normal)
+  Vec<D> point_b = Vec<D>::Zero();  ///< witness on B, A's frame
+  int flat_dimension = -1;          ///< for Flat: affine dimension of A - B (0 .. D-1)
+  Vec<D> flat_direction = Vec<D>::Zero();  ///< for Flat, dimension 1 in 3D: the line's direction
+  int iterations = 0;
+};
+
+namespace detail {
+
+/// Witness points of the point d n on a face of the expanded polytope (barycentric weights of the
+/// face's support points).
+inline void epaWitness3(const SupportPoint<3>& p0, const SupportPoint<3>& p1,
+                        const SupportPoint<3>& p2, const Vec3& p, Vec3& a, Vec3& b) {
+  const Vec3 n = (p1.w - p0.w).cross(p2.w - p0.w);
+  const double nn = n.squaredNorm();
+  double l0 = 1.0 / 3.0;
+  double l1 = 1.0 / 3.0;
+  if (nn > 0.0) {
+    l0 = n.dot((p1.w - p).cross(p2.w - p)) / nn;
+    l1 = n.dot((p2.w - p).cross(p0.w - p)) / nn;
+  }
+  const double l2 = 1.0 - l0 - l1;
+  a = l0 * p0.a + l1 * p1.a + l2 * p2.a;
+  b = l0 * p0.b + l1 * p1.b + l2 * p2.b;
+}
+
+}  // namespace detail
+
+/// 3D EPA on the terminal simplex of gjkDistance() (status Intersecting): `md` as for GJK.
+template <class MD>
+EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st) {
+  static_assert(MD::kDim == 3, "epa3 needs a 3D Minkowski difference");
+  constexpr int kMaxVerts = kEpaMaxIterations + 4;
+  constexpr int kMaxFaces = 2 * kMaxVerts;
+  struct Face {
+    std::array<int, 3> v;         // vertex indices, counter-clockwise seen from outside
+    std::array<int, 3> adj;       // face across edge i = (v[i], v[i+1])
+    std::array<int, 3> adj_edge;  // index of that edge in the neighbour
+    Vec3 n;                       // unit outward normal
+    double d;                     // n . v0: signed distance of the plane from the origin
+    bool alive;
+  };
+  struct Edge {
+    int face;
+    int edge;
+  };
+
+  EpaResult<3> r;
+  const double tol = st.abs_tolerance;
+  const double vis_eps = 1e-2 * tol;
+  const int max_it = std::min(std::max(st.max_iterations, 0), kEpaMaxIterations);
+
+  std::array<SupportPoint<3>, kMaxVerts> verts;
+  int nv = std::min(simplex.size, 4);
+  for (int i = 0; i < nv; ++i)
+    verts[i] = simplex.v[i];
+
+  auto flat = [&](int dim) {
+    r.status = EpaStatus::Flat;
+    r.flat_dimension = dim;
+    r.depth = 0.0;
+    Simplex<3> s = simplex;
+    solveSimplex<3>(s);
+    s.witnesses(r.point_a, r.point_b);
+    return r;
+  };
+
+  // ---- Blow the terminal simplex up to a tetrahedron, or find A - B flat. ----
+  if (nv <= 0) {
+    verts[0] = md.support(md.initialDirection());
+    nv = 1;
+  }
+  for (int guard = 0;; ++guard) {
+    if (guard > 8) {
+      r.status = EpaStatus::Degenerate;
+      return r;
+    }
+    const Vec3 w0 = verts[0].w;
+    if (nv == 1) {
+      // A second point: the support point farthest from w0 over the six axis directions.
+      const std::array<Vec3, 6> dirs{Vec3::UnitX(),  -Vec3::UnitX(), Vec3::UnitY(),
+                                     -Vec3::UnitY(), Vec3::UnitZ(),  -Vec3::UnitZ()};
+      double best = -1.0;
+      for (const Vec3& d : dirs) {
+        const SupportPoint<3> p = md.support(d);
+        const double h = (p.w - w0).norm();
+        if (h > best) {
+          best = h;
+          verts[1] = p;
+        }
+      }
+      if (best <= tol) return flat(0);
+      nv = 2;
+    } else if (nv == 2) {
+      const Vec3 u = verts[1].w - w0;
+      const double len = u.norm();
+      if (len <= tol) {
+        nv = 1;
+        continue;
+      }
+      const Vec3 un = u / len;
+      const Vec3 e1 = un.unitOrthogonal();
+      const Vec3 e2 = un.cross(e1);
+      // Six directions 60 degrees apart around the segment (van den Bergen): if A - B extends
+      // off the line, at least two of them find it.
+      double best = -1.0;
+      for (int k = 0; k < 6; ++k) {
+        const double ang = k * (3.14159265358979323846 / 3.0);
+        const SupportPoint<3> p = md.support(std::cos(ang) * e1 + std::sin(ang) * e2);
+        const Vec3 off = (p.w - w0) - (p.w - w0).dot(un) * un;
+        const double h = off.norm();
+        if (h > best) {
+          best = h;
+          verts[2] = p;
+        }
+      }
+      if (best <= tol) {
+        r.flat_direction = un;
+        r.normal = e1;
+        return flat(1);
+      }
+      nv = 3;
+    } else if (nv == 3) {
+      const Vec3 n = (verts[1].w - w0).cross(verts[2].w - w0);
+      const double longest = std::max(
+          {(verts[1].w - w0).norm(), (verts[2].w - w0).norm(), (verts[2].w - verts[1].w).norm()});
+      const double nn = n.norm();
+      if (!(nn > tol * longest) || !(nn > 0.0)) {
+        // Collinear: keep the two points farthest apart.
+        int i = 0;
+        int j = 1;
+        double dmax = (verts[1].w - verts[0].w).squaredNorm();
+        if ((verts[2].w - verts[0].w).squaredNorm() > dmax) {
+          j = 2;
+          dmax = (verts[2].w - verts[0].w).squaredNorm();
+        }
+        if ((verts[2].w - verts[1].w).squaredNorm() > dmax) {
+          i = 1;
+          j = 2;
+        }
+        const SupportPoint<3> pi = verts[i];
+        const SupportPoint<3> pj = verts[j];
+        verts[0] = pi;
+        verts[1] = pj;
+        nv = 2;
+        continue;
+      }
+      const Vec3 un = n / nn;
+      const SupportPoint<3> pp = md.support(un);
+      const SupportPoint<3> pm = md.support(-un);
+      const double hp = un.dot(pp.w - w0);
+      const double hm = -un.dot(pm.w - w0);
+      if (std::max(hp, hm) <= tol) {
+        r.normal = un;
+        return flat(2);
+      }
+      verts[3] = hp >= hm ? pp : pm;
+      nv = 4;
+    } else {
+      const double vol = (verts[1].w - w0).dot((verts[2].w - w0).cross(verts[3].w - w0));
+      if (vol == 0.0 || !std::isfinite(vol)) {
+        nv = 3;  // a flat tetrahedron: redo the lift from its first face
+        continue;
+      }
+      if (vol < 0.0) std::swap(verts[1], verts[2]);
+      break;
+    }
+  }
+
+  // ---- Initial tetrahedron (positive volume): outward faces. ----
+  std::array<Face, kMaxFaces> faces;
+  int nf = 0;
+  std::array<int, kMaxFaces> free_list;
+  int nfree = 0;
+  auto allocFace = [&]() -> int {
+    if (nfree > 0) return free_list[--nfree];
+    return nf < kMaxFaces ? nf++ : -1;
+  };
+  auto makeFace = [&](int f, int a, int b, int c) -> bool {
+    Face& F = faces[f];
+    F.v = {a, b, c};
+    F.alive = true;
+    const Vec3 n = (verts[b].w - verts[a].w).cross(verts[c].w - verts[a].w);
+    const double len = n.norm();
+    if (!(len > 0.0) || !std::isfinite(len)) return false;
+    F.n = n / len;
+    F.d = (F.n.dot(verts[a].w) + F.n.dot(verts[b].w) + F.n.dot(verts[c].w)) / 3.0;
+    return true;
+  };
+  {
+    const std::array<std::array<int, 3>, 4> tet{{{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}}};
+    for (const auto& t : tet) {
+      if (!makeFace(allocFace(), t[0], t[1], t[2])) {
+        r.status = EpaStatus::Degenerate;
+        return r;
+      }
+    }
+    for (int f = 0; f < 4; ++f)
+      for (int i = 0; i < 3; ++i)
+        for (int g = 0; g < 4; ++g)
+          for (int j = 0; j < 3; ++j)
+            if (faces[g].v[j] == faces[f].v[(i + 1) % 3] &&
+                faces[g].v[(j + 1) % 3] == faces[f].v[i]) {
+              faces[f].adj[i] = g;
+              faces[f].adj_edge[i] = j;
+            }
+  }
+
+  // ---- Expansion. ----
+  std::array<Edge, kMaxFaces> horizon;
+  std::array<Edge, 2 * kMaxFaces + 3> stack;
+  std::array<int, kMaxFaces> new_faces;
+  Face best;
+  bool have_best = false;
+  r.status = EpaStatus::MaxIterations;
+  for (int it = 0;; ++it) {
+    int bi = -1;
+    double bd = std::numeric_limits<double>::infinity();
+    for (int f = 0; f < nf; ++f) {
+      if (faces[f].alive && faces[f].d < bd) {
+        bd = faces[f].d;
+        bi = f;
+      }
+    }
+    if (bi < 0) {
+      r.status = EpaStatus::Degenerate;
+      break;
+    }
+    best = faces[bi];
+    have_best = true;
+    if (it >= max_it || nv >= kMaxVerts) {
+      r.status = EpaStatus::MaxIterations;
+      break;
+    }
+    r.iterations = it + 1;
+    const SupportPoint<3> p = md.support(best.n);
+    const double gain = best.n.dot(p.w) - best.d;
+    if (gain <= st.rel_tolerance * std::abs(best.d) + tol) {
+      r.status = EpaStatus::Converged;
+      break;
+    }
+    const int wi = nv;
+    verts[nv++] = p;
+
+    // Silhouette of the new point (van den Bergen's depth-first walk; an explicit stack in the
+    // order of the recursive version, so the horizon comes out as one ordered loop).
+    int nh = 0;
+    int ns = 0;
+    faces[bi].alive = false;
+    free_list[nfree++] = bi;
+    for (int i = 2; i >= 0; --i)
+      stack[ns++] = Edge{best.adj[i], best.adj_edge[i]};
+    while (ns > 0) {
+      const Edge e = stack[--ns];
+      Face& g = faces[e.face];
+      if (!g.alive) continue;
+      if (g.n.dot(p.w) - g.d <= vis_eps) {
+        horizon[nh++] = e;
+        continue;
+      }
+      g.alive = false;
+      free_list[nfree++] = e.face;
+      const int j1 = (e.edge + 1) % 3;
+      const int j2 = (e.edge + 2) % 3;
+      stack[ns++] = Edge{g.adj[j2], g.adj_edge[j2]};
+      stack[ns++] = Edge{g.adj[j1], g.adj_edge[j1]};
+    }
+    bool ok = nh >= 3;
+    for (int k = 0; ok && k < nh; ++k) {
+      const Face& g = faces[horizon[k].face];
+      const int j = horizon[k].edge;
+      const int f = allocFace();
+      ok = f >= 0 && makeFace(f, g.v[(j + 1) % 3], g.v[j], wi);
+      if (!ok) break;
+      faces[f].adj[0] = horizon[k].face;
+      faces[f].adj_edge[0] = j;
+      faces[horizon[k].face].adj[j] = f;
+      faces[horizon[k].face].adj_edge[j] = 0;
+      new_faces[k] = f;
+    }
+    for (int k = 0; ok && k < nh; ++k) {
+      const int f = new_faces[k];
+      const int g = new_faces[(k + 1) % nh];
+      // Face k = (q_k, p_k, w), face k+1 = (q_k+1, p_k+1, w): edge 1 of k meets edge 2 of k+1
+      // when q_k+1 == p_k (the walk's order).
+      ok = faces[g].v[0] == faces[f].v[1];
+      faces[f].adj[1] = g;
+      faces[f].adj_edge[1] = 2;
+      faces[g].adj[2] = f;
+      faces[g].adj_edge[2] = 1;
+    }
+    if (!ok) {
+      r.status = EpaStatus::Degenerate;
+      break;
+    }
+  }
+  if (have_best) {
+    r.depth = best.d;
+    r.normal = best.n;
+    detail::epaWitness3(verts[best.v[0]], verts[best.v[1]], verts[best.v[2]], best.d * best.n,
+                        r.point_a, r.point_b);
+  }
+  return r;
+}
+
+/// 2D EPA on the terminal simplex of gjkDistance(): expansion of a convex polygon (kept convex:
+/// the chain of edges visible from a new support point is replaced by two edges).
+template <class MD>
+EpaResult<2> epa2(const MD& md, const Simplex<2>& simplex, const EpaSettings& st) {
+  static_assert(MD::kDim == 2, "epa2 needs a 2D Minkowski difference");
+  constexpr int kMaxVerts = kEpaMaxIterations + 3;
+  auto cross2 = [](const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); };
+  EpaResult<2> r;
+  const double tol = st.abs_tolerance;
+  const double vis_eps = 1e-2 * tol;
+  const int max_it = std::min(std::max(st.max_iterations, 0), kEpaMaxIterations);
+
+  std::array<SupportPoint<2>, kMaxVerts> P;
+  int n = std::min(simplex.size, 3);
+  for (int i = 0; i < n; ++i)
+    P[i] = simplex.v[i];
+  auto flat = [&](int dim) {
+    r.status = EpaStatus::Flat;
+    r.flat_dimension = dim;
+    r.depth = 0.0;
+    Simplex<2> s = simplex;
+    solveSimplex<2>(s);
+    s.witnesses(r.point_a, r.point_b);
+    return r;
+  };
+  if (n <= 0) {
+    P[0] = md.support(md.initialDirection());
+    n = 1;
+  }
+  for (int guard = 0;; ++guard) {
+    if (guard > 8) {
+      r.status = EpaStatus::Degenerate;
+      return r;
+    }
+    const Vec2 w0 = P[0].w;
+    if (n == 1) {
+      const std::array<Vec2, 4> dirs{Vec2::UnitX(), -Vec2::UnitX(), Vec2::UnitY(), -Vec2::UnitY()};
+      double best = -1.0;
+      for (const Vec2& d : dirs) {
+        const SupportPoint<2> p = md.support(d);
+        const double h = (p.w - w0).norm();
+        if (h > best) {
+          best = h;
+          P[1] = p;
+        }
+      }
+      if (best <= tol) return flat(0);
+      n = 2;
+    } else if (n == 2) {
+      const Vec2 u = P[1].w - w0;
+      const double len = u.norm();
+      if (len <= tol) {
+        n = 1;
+        continue;
+      }
+      const Vec2 perp(-u.y() / len, u.x() / len);
+      const SupportPoint<2> pp = md.support(perp);
+      const SupportPoint<2> pm = md.support(-perp);
+      const double hp = perp.dot(pp.w - w0);
+      const double hm = -perp.dot(pm.w - w0);
+      if (std::max(hp, hm) <= tol) {
+        r.normal = perp;
+        return flat(1);
+      }
+      P[2] = hp >= hm ? pp : pm;
+      n = 3;
+    } else {
+      const double area = cross2(P[1].w - w0, P[2].w - w0);
+      const double longest =
+          std::max({(P[1].w - w0).norm(), (P[2].w - w0).norm(), (P[2].w - P[1].w).norm()});
+      if (!(std::abs(area) > tol * longest) || area == 0.0) {
+        int i = 0;
+        int j = 1;
+        double dmax = (P[1].w - P[0].w).squaredNorm();
+        if ((P[2].w - P[0].w).squaredNorm() > dmax) {
+          j = 2;
+          dmax = (P[2].w - P[0].w).squaredNorm();
+        }
+        if ((P[2].w - P[1].w).squaredNorm() > dmax) {
+          i = 1;
+          j = 2;
+        }
+        const SupportPoint<2> pi = P[i];
+        const SupportPoint<2> pj = P[j];
+        P[0] = pi;
+        P[1] = pj;
+        n = 2;
+        continue;
+      }
+      if (area < 0.0) std::swap(P[1], P[2]);  // counter-clockwise
+      break;
+    }
+  }
+
+  std::array<Vec2, kMaxVerts> en;
+  std::array<double, kMaxVerts> ed;
+  std::array<SupportPoint<2>, kMaxVerts> Q;
+  int bi = 0;
+  r.status = EpaStatus::MaxIterations;
+  for (int it = 0;; ++it) {
+    // Outward edge normals (counter-clockwise polygon: outward is the edge turned clockwise).
+    bool ok = true;
+    bi = -1;
+    double bd = std::numeric_limits<double>::infinity();
+    for (int i = 0; i < n; ++i) {
+      const Vec2 e = P[(i + 1) % n].w - P[i].w;
+      const double len = e.norm();
+      if (!(len > 0.0)) {
+        ok = false;
+        en[i] = Vec2::Zero();
+        ed[i] = std::numeric_limits<double>::infinity();
+        continue;
+      }
+      en[i] = Vec2(e.y() / len, -e.x() / len);
+      ed[i] = 0.5 * (en[i].dot(P[i].w) + en[i].dot(P[(i + 1) % n].w));
+      if (ed[i] < bd) {
+        bd = ed[i];
+        bi = i;
+      }
+    }
+    if (bi < 0) {
+      r.status = EpaStatus::Degenerate;
+      break;
+    }
+    if (!ok) {
+      r.status = EpaStatus::Degenerate;
+      break;
+    }
+    if (it >= max_it || n >= kMaxVerts) break;
+    r.iterations = it + 1;
+    const SupportPoint<2> p = md.support(en[bi]);
+    const double gain = en[bi].dot(p.w) - ed[bi];
+    if (gain <= st.rel_tolerance * std::abs(ed[bi]) + tol) {
+      r.status = EpaStatus::Converged;
+      break;
+    }
+    // The chain of edges visible from p: start .. end (cyclic), containing bi.
+    int start = bi;
+    int end = bi;
+    int count = 1;
+    while (count < n) {
+      const int prev = (start + n - 1) % n;
+      if (en[prev].dot(p.w) - ed[prev] <= vis_eps) break;
+      start = prev;
+      ++count;
+    }
+    while (count < n) {
+      const int next = (end + 1) % n;
+      if (en[next].dot(p.w) - ed[next] <= vis_eps) break;
+      end = next;
+      ++count;
+    }
+    if (count >= n) {
+      r.status = EpaStatus::Degenerate;
+      break;
+    }
+    // Keep vertices end+1, ..., start (cyclic), then p.
+    int m = 0;
+    for (int k = (end + 1) % n;; k = (k + 1) % n) {
+      Q[m++] = P[k];
+      if (k == start) break;
+    }
+    Q[m++] = p;
+    for (int k = 0; k < m; ++k)
+      P[k] = Q[k];
+    n = m;
+  }
+  if (bi >= 0) {
+    const SupportPoint<2>& a = P[bi];
+    const SupportPoint<2>& b = P[(bi + 1) % n];
+    const Vec2 e = b.w - a.w;
+    const double ee = e.squaredNorm();
+    const Vec2 q = ed[bi] * en[bi];
+    const double t = ee > 0.0 ? (q - a.w).dot(e) / ee : 0.0;
+    r.depth = ed[bi];
+    r.normal = en[bi];
+    r.point_a = (1.0 - t) * a.a + t * b.a;
+    r.point_b = (1.0 - t) * a.b + t * b.b;
+  }
+  return r;
+}
+
+/// EPA for D = 2 or 3 (dispatch on the Minkowski difference's dimension).
+template <class MD>
+EpaResult<MD::kDim> epaPenetration(const MD& md, const Simplex<MD::kDim>& simplex,
+                                   const EpaSettings& st) {
+  static_assert(MD::kDim == 2 || MD::kDim == 3, "EPA is implemented for D = 2 and D = 3");
+  if constexpr (MD::kDim == 3) {
+    return epa3(md, simplex, st);
+  } else {
+    return epa2(md, simplex, st);
+  }
+}
+
+}  // namespace core
+}  // namespace collision_monitor

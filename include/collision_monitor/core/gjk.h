@@ -1,0 +1,585 @@
+/// \file
+/// GJK (Gilbert, Johnson, Keerthi 1988) in any dimension D, on support mappings (shapes.h).
+///
+/// All computations are done in the frame of shape A: the relative transform T_AB = T_A^-1 T_B is
+/// computed once per query and B's support points are mapped into A's frame
+/// (MinkowskiDifference). The pair's support function is a fully typed template instantiation, so
+/// the loop has no virtual call, no switch on shape type and no heap allocation.
+///
+/// Simplex sub-algorithm: signed volumes (Montanari, Petrinic, Barbieri 2017, "Improving the GJK
+/// algorithm for faster and more reliable distance queries between convex objects", ACM TOG 36(3))
+/// for D = 2 and D = 3; for other D a projection onto the affine hull with recursion into the
+/// facets whose barycentric weight is <= 0 (the closest point lies on such a facet). Both accept
+/// any simplex (not only the ones GJK builds, so warm-start seeds are safe) and degenerate ones
+/// (flat, collinear, duplicate vertices) and never produce NaN.
+///
+/// Termination (van den Bergen 1999, "A fast and robust GJK implementation for collision detection
+/// of convex objects", J. Graphics Tools 4(2)): |v|^2 - v.w <= eps_rel |v|^2 (with an absolute
+/// floor, see GjkSettings), a duplicate support point, no progress, or the iteration bound.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/QR>
+
+#include "collision_monitor/core/math.h"
+
+namespace collision_monitor {
+namespace core {
+
+// ---------------------------------------------------------------------------------------------
+// Support points and simplices
+// ---------------------------------------------------------------------------------------------
+
+/// A point of the Minkowski difference A - B with the two points it came from.
+template <int D>
+struct SupportPoint {
+  Vec<D> w;  ///< a - b, A's frame
+  Vec<D> a;  ///< point of A, A's frame
+  Vec<D> b;  ///< point of B, A's frame
+};
+
+/// A GJK simplex: up to D + 1 support points and the barycentric weights of the point of their
+/// convex hull closest to the origin (weights > 0, summing to 1, for the first `size` vertices).
+template <int D>
+struct Simplex {
+  std::array<SupportPoint<D>, D + 1> v;
+  std::array<double, D + 1> bary{};
+  int size = 0;
+
+  /// The closest point sum(bary_i w_i), A's frame.
+  Vec<D> closest() const {
+    Vec<D> p = Vec<D>::Zero();
+    for (int i = 0; i < size; ++i)
+      p += bary[i] * v[i].w;
+    return p;
+  }
+  /// Witness points sum(bary_i a_i) on A and sum(bary_i b_i) on B, A's frame.
+  void witnesses(Vec<D>& a, Vec<D>& b) const {
+    a.setZero();
+    b.setZero();
+    for (int i = 0; i < size; ++i) {
+      a += bary[i] * v[i].a;
+      b += bary[i] * v[i].b;
+    }
+  }
+};
+
+// ---------------------------------------------------------------------------------------------
+// Support-mapping adapters (Jolt's ConvexSupport.h idea: small stacked templates)
+// ---------------------------------------------------------------------------------------------
+
+/// Shape `S` placed by the rigid transform `pose` (shape frame -> outer frame).
+template <int D, class S>
+struct Transformed {
+  static constexpr int kDim = D;
+  const S* shape;
+  Transform<D> pose;
+  Transformed(const S& s, const Transform<D>& p) : shape(&s), pose(p) {}
+  Vec<D> support(const Vec<D>& d) const { return pose * shape->support(pose.R.transpose() * d); }
+};
+
+/// Minkowski sum S1 + S2 (both in the same frame).
+template <int D, class S1, class S2>
+struct MinkowskiSum {
+  static constexpr int kDim = D;
+  const S1* s1;
+  const S2* s2;
+  MinkowskiSum(const S1& a, const S2& b) : s1(&a), s2(&b) {}
+  Vec<D> support(const Vec<D>& d) const { return s1->support(d) + s2->support(d); }
+};
+
+/// Shape `S` inflated by `radius` (>= 0): S + ball(radius); support adds radius d / |d|. Used for
+/// AABBs, the libccd backend and fallbacks; the GJK loop itself keeps radii out (see query.h).
+template <int D, class S>
+struct Padded {
+  static constexpr int kDim = D;
+  const S* shape;
+  double radius;
+  Padded(const S& s, double r) : shape(&s), radius(r) {}
+  Vec<D> support(const Vec<D>& d) const {
+    Vec<D> p = shape->support(d);
+    const double n = d.norm();
+    if (n > 0.0 && radius > 0.0) p += (radius / n) * d;
+    return p;
+  }
+};
+
+/// The Minkowski difference A - B in A's frame, with B placed by T_AB (B's frame -> A's frame).
+/// support(d) = sA(d) - (R_AB sB(R_AB^T (-d)) + t_AB). SA and SB are support mappings in their
+/// own frames (shapes.h); a PolytopeSupport keeps its hill-climbing hint across calls.
+template <int D, class SA, class SB>
+class MinkowskiDifference {
+ public:
+  static constexpr int kDim = D;
+
+  MinkowskiDifference(const SA& a, const SB& b, const Transform<D>& T_AB)
+      : a_(a), b_(b), R_(T_AB.R), t_(T_AB.t) {}
+
+  /// Support point of A - B maximising dot(d, w), A's frame.
+  SupportPoint<D> support(const Vec<D>& d) const {
+    SupportPoint<D> p;
+    p.a = a_.support(d);
+    p.b = R_ * b_.support(R_.transpose() * (-d)) + t_;
+    p.w = p.a - p.b;
+    return p;
+  }
+  /// A point of A - B from a point of A (A's frame) and one of B (B's frame): how a cached
+  /// simplex is re-evaluated for the current poses.
+  SupportPoint<D> fromLocal(const Vec<D>& a_local, const Vec<D>& b_local) const {
+    SupportPoint<D> p;
+    p.a = a_local;
+    p.b = R_ * b_local + t_;
+    p.w = p.a - p.b;
+    return p;
+  }
+  /// A point given in A's frame, mapped into B's frame.
+  Vec<D> toLocalB(const Vec<D>& b) const { return R_.transpose() * (b - t_); }
+  /// First search direction: from the centre of A - B (at -t_AB) towards the origin.
+  Vec<D> initialDirection() const {
+    return t_.squaredNorm() > 0.0 ? Vec<D>(t_) : Vec<D>(Vec<D>::Unit(0));
+  }
+  const Mat<D>& rotation() const { return R_; }
+  const Vec<D>& translation() const { return t_; }
+
+ private:
+  const SA& a_;
+  const SB& b_;
+  Mat<D> R_;
+  Vec<D> t_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Simplex sub-algorithms
+// ---------------------------------------------------------------------------------------------
+
+namespace detail {
+
+/// Closest point of the convex hull of some vertices of a simplex: which vertices (indices into
+/// the input), their weights, the point and its squared norm.
+template <int D>
+struct Closest {
+  std::array<int, D + 1> idx{};
+  std::array<double, D + 1> lambda{};
+  int n = 0;
+  Vec<D> v;
+  double dist2 = std::numeric_limits<double>::infinity();
+};
+
+template <int D>
+using Points = std::array<Vec<D>, D + 1>;
+
+inline bool sameSign(double a, double b) {
+  return (a > 0.0 && b > 0.0) || (a < 0.0 && b < 0.0);
+}
+
+template <int D>
+Closest<D> vertex(const Points<D>& w, int i) {
+  Closest<D> c;
+  c.n = 1;
+  c.idx[0] = i;
+  c.lambda[0] = 1.0;
+  c.v = w[i];
+  c.dist2 = c.v.squaredNorm();
+  return c;
+}
+
+template <int D>
+void finish(Closest<D>& c, const Points<D>& w) {
+  c.v.setZero();
+  for (int k = 0; k < c.n; ++k)
+    c.v += c.lambda[k] * w[c.idx[k]];
+  c.dist2 = c.v.squaredNorm();
+}
+
+/// Segment (Montanari et al. S1D, written for an arbitrary segment: the endpoint whose weight is
+/// <= 0 is dropped, so it does not rely on which vertex GJK added last).
+template <int D>
+Closest<D> s1d(const Points<D>& w, int i0, int i1) {
+  const Vec<D> t = w[i1] - w[i0];
+  const double tt = t.squaredNorm();
+  const double l0 = w[i1].dot(t);   // tt * weight of i0
+  const double l1 = -w[i0].dot(t);  // tt * weight of i1
+  if (tt > 0.0 && l0 > 0.0 && l1 > 0.0) {
+    Closest<D> c;
+    c.n = 2;
+    c.idx = {};
+    c.idx[0] = i0;
+    c.idx[1] = i1;
+    c.lambda[0] = l0 / tt;
+    c.lambda[1] = l1 / tt;
+    finish(c, w);
+    return c;
+  }
+  if (l1 > 0.0) return vertex(w, i1);  // origin projects beyond i1
+  if (l0 > 0.0) return vertex(w, i0);  // ... before i0
+  // Coincident endpoints: either one (the nearer, for a defined answer).
+  return w[i0].squaredNorm() <= w[i1].squaredNorm() ? vertex(w, i0) : vertex(w, i1);
+}
+
+template <int D>
+void keepCloser(Closest<D>& best, const Closest<D>& c) {
+  if (c.dist2 < best.dist2) best = c;
+}
+
+/// Triangle in 3D (Montanari et al. S2D): project the origin onto the triangle's plane, take 2D
+/// barycentric coordinates in the coordinate plane where the triangle's projection is largest;
+/// recurse into the edges whose weight does not share the sign of the area.
+inline Closest<3> s2d3(const Points<3>& w, int i0, int i1, int i2) {
+  const Vec3& s0 = w[i0];
+  const Vec3& s1 = w[i1];
+  const Vec3& s2 = w[i2];
+  const Vec3 n = (s1 - s0).cross(s2 - s0);
+  const double nn = n.squaredNorm();
+  std::array<bool, 3> check{true, true, true};
+  if (nn > 0.0) {
+    const Vec3 p = n * (s0.dot(n) / nn);  // projection of the origin onto the plane
+    int I = 0;
+    n.cwiseAbs().maxCoeff(&I);
+    const int j = (I + 1) % 3;
+    const int k = (I + 2) % 3;
+    auto area2 = [j, k](const Vec3& a, const Vec3& b, const Vec3& c) {
+      return (b[j] - a[j]) * (c[k] - a[k]) - (b[k] - a[k]) * (c[j] - a[j]);
+    };
+    const double mu = n[I];  // = area2(s0, s1, s2)
+    const std::array<double, 3> C{area2(p, s1, s2), area2(s0, p, s2), area2(s0, s1, p)};
+    if (sameSign(mu, C[0]) && sameSign(mu, C[1]) && sameSign(mu, C[2])) {
+      Closest<3> c;
+      c.n = 3;
+      c.idx = {i0, i1, i2, 0};
+      for (int m = 0; m < 3; ++m)
+        c.lambda[m] = C[m] / mu;
+      finish(c, w);
+      return c;
+    }
+    for (int m = 0; m < 3; ++m)
+      check[m] = !sameSign(mu, C[m]);
+  }
+  Closest<3> best;
+  if (check[0]) keepCloser(best, s1d(w, i1, i2));
+  if (check[1]) keepCloser(best, s1d(w, i0, i2));
+  if (check[2]) keepCloser(best, s1d(w, i0, i1));
+  return best;
+}
+
+/// Tetrahedron in 3D (Montanari et al. S3D): barycentric coordinates of the origin from signed
+/// volumes; recurse into the faces opposite the vertices whose weight does not share the sign
+/// of the volume.
+inline Closest<3> s3d(const Points<3>& w, int i0, int i1, int i2, int i3) {
+  const Vec3& s0 = w[i0];
+  const Vec3& s1 = w[i1];
+  const Vec3& s2 = w[i2];
+  const Vec3& s3 = w[i3];
+  const Vec3 e1 = s1 - s0;
+  const Vec3 e2 = s2 - s0;
+  const Vec3 e3 = s3 - s0;
+  const double mu = e1.dot(e2.cross(e3));
+  // Volumes with vertex m replaced by the origin (they sum to mu).
+  const std::array<double, 4> C{s1.dot(s2.cross(s3)), -s0.dot(e2.cross(e3)), -e1.dot(s0.cross(e3)),
+                                -e1.dot(e2.cross(s0))};
+  if (mu != 0.0 && sameSign(mu, C[0]) && sameSign(mu, C[1]) && sameSign(mu, C[2]) &&
+      sameSign(mu, C[3])) {
+    Closest<3> c;
+    c.n = 4;
+    c.idx = {i0, i1, i2, i3};
+    for (int m = 0; m < 4; ++m)
+      c.lambda[m] = C[m] / mu;
+    finish(c, w);
+    return c;
+  }
+  const bool all = mu == 0.0;
+  Closest<3> best;
+  if (all || !sameSign(mu, C[0])) keepCloser(best, s2d3(w, i1, i2, i3));
+  if (all || !sameSign(mu, C[1])) keepCloser(best, s2d3(w, i0, i2, i3));
+  if (all || !sameSign(mu, C[2])) keepCloser(best, s2d3(w, i0, i1, i3));
+  if (all || !sameSign(mu, C[3])) keepCloser(best, s2d3(w, i0, i1, i2));
+  return best;
+}
+
+/// Triangle in 2D (signed areas; the origin lies in the triangle's plane).
+inline Closest<2> s2d2(const Points<2>& w, int i0, int i1, int i2) {
+  auto cross2 = [](const Vec2& a, const Vec2& b) { return a.x() * b.y() - a.y() * b.x(); };
+  const Vec2& s0 = w[i0];
+  const Vec2& s1 = w[i1];
+  const Vec2& s2 = w[i2];
+  const double mu = cross2(s1 - s0, s2 - s0);
+  const std::array<double, 3> C{cross2(s1, s2), cross2(s2, s0), cross2(s0, s1)};
+  if (mu != 0.0 && sameSign(mu, C[0]) && sameSign(mu, C[1]) && sameSign(mu, C[2])) {
+    Closest<2> c;
+    c.n = 3;
+    c.idx = {i0, i1, i2};
+    for (int m = 0; m < 3; ++m)
+      c.lambda[m] = C[m] / mu;
+    finish(c, w);
+    return c;
+  }
+  const bool all = mu == 0.0;
+  Closest<2> best;
+  if (all || !sameSign(mu, C[0])) keepCloser(best, s1d(w, i1, i2));
+  if (all || !sameSign(mu, C[1])) keepCloser(best, s1d(w, i0, i2));
+  if (all || !sameSign(mu, C[2])) keepCloser(best, s1d(w, i0, i1));
+  return best;
+}
+
+/// Any dimension: least-squares projection of the origin onto the affine hull of the vertices
+/// `idx[0..m)` (rank-revealing QR, so a degenerate simplex is detected rather than inverted).
+/// If the projection has all weights > 0 it is the answer; otherwise the closest point lies on a
+/// facet opposite a vertex with weight <= 0 (all facets when the hull is degenerate): recurse
+/// and keep the closest.
+template <int D>
+Closest<D> generic(const Points<D>& w, const std::array<int, D + 1>& idx, int m) {
+  if (m == 1) return vertex(w, idx[0]);
+  if (m == 2) return s1d(w, idx[0], idx[1]);
+  using EMat = Eigen::Matrix<double, D, Eigen::Dynamic, 0, D, D>;
+  EMat E(D, m - 1);
+  for (int k = 1; k < m; ++k)
+    E.col(k - 1) = w[idx[k]] - w[idx[0]];
+  Eigen::ColPivHouseholderQR<EMat> qr(E);
+  bool full = false;
+  std::array<double, D + 1> lambda{};
+  if (qr.rank() == m - 1) {
+    const Eigen::Matrix<double, Eigen::Dynamic, 1, 0, D, 1> mu = qr.solve(Vec<D>(-w[idx[0]]));
+    lambda[0] = 1.0 - mu.sum();
+    full = lambda[0] > 0.0;
+    for (int k = 1; k < m; ++k) {
+      lambda[k] = mu[k - 1];
+      full = full && lambda[k] > 0.0;
+    }
+    if (full && std::isfinite(mu.sum())) {
+      Closest<D> c;
+      c.n = m;
+      c.idx = idx;
+      c.lambda = lambda;
+      finish(c, w);
+      return c;
+    }
+    full = true;  // weights are meaningful: recurse only where they are <= 0
+  }
+  Closest<D> best;
+  for (int drop = 0; drop < m; ++drop) {
+    if (full && lambda[drop] > 0.0) continue;
+    std::array<int, D + 1> sub{};
+    int n = 0;
+    for (int k = 0; k < m; ++k)
+      if (k != drop) sub[n++] = idx[k];
+    keepCloser(best, generic<D>(w, sub, m - 1));
+  }
+  return best;
+}
+
+}  // namespace detail
+
+/// Closest point to the origin of the convex hull of the simplex's vertices. Reduces `s` in place
+/// to the vertices that carry it (weights in s.bary) and returns the point (A's frame). Uses signed
+/// volumes for D = 2, 3 and the generic projection otherwise; `force_generic` selects the generic
+/// one in any D (for tests). Any input is accepted, degenerate ones included; never NaN for finite
+/// input.
+template <int D>
+Vec<D> solveSimplex(Simplex<D>& s, bool force_generic = false) {
+  detail::Points<D> w;
+  for (int i = 0; i < s.size; ++i)
+    w[i] = s.v[i].w;
+  detail::Closest<D> c;
+  std::array<int, D + 1> all{};
+  for (int i = 0; i <= D; ++i)
+    all[i] = i;
+  if (s.size <= 0) {
+    return Vec<D>::Zero();
+  } else if (s.size == 1) {
+    c = detail::vertex<D>(w, 0);
+  } else if (s.size == 2) {
+    c = detail::s1d<D>(w, 0, 1);
+  } else if (force_generic) {
+    c = detail::generic<D>(w, all, s.size);
+  } else if constexpr (D == 3) {
+    c = s.size == 3 ? detail::s2d3(w, 0, 1, 2) : detail::s3d(w, 0, 1, 2, 3);
+  } else if constexpr (D == 2) {
+    c = detail::s2d2(w, 0, 1, 2);
+  } else {
+    c = detail::generic<D>(w, all, s.size);
+  }
+  // Compact: the kept vertices in increasing index order (c.idx is increasing by construction).
+  Simplex<D> out;
+  out.size = c.n;
+  for (int k = 0; k < c.n; ++k) {
+    out.v[k] = s.v[c.idx[k]];
+    out.bary[k] = c.lambda[k];
+  }
+  s = out;
+  return c.v;
+}
+
+// ---------------------------------------------------------------------------------------------
+// GJK
+// ---------------------------------------------------------------------------------------------
+
+/// Tolerances and bounds of one GJK run.
+struct GjkSettings {
+  /// Relative gap: stop when |v|^2 - v.w <= rel_tolerance |v|^2 (van den Bergen), i.e. when the
+  /// upper bound |v| and the lower bound v.w / |v| on the distance agree to this fraction.
+  double rel_tolerance = 1e-12;
+  /// Absolute floor, length unit (callers pass rel_tolerance * shape size): the gap test also
+  /// passes when |v| - v.w / |v| <= abs_tolerance (reachable in floating point when the distance
+  /// is tiny compared with the shapes), and |v| <= abs_tolerance counts as the origin reached.
+  double abs_tolerance = 0.0;
+  int max_iterations = 128;
+};
+
+enum class GjkStatus {
+  Separated,     ///< converged; distance = |v| > abs_tolerance
+  Intersecting,  ///< origin enclosed by the simplex or within abs_tolerance of it
+  MaxIterations  ///< iteration bound hit; fields hold the best estimate (distance is an upper
+                 ///< bound)
+};
+
+/// Result of gjkDistance(). Frames: A's frame throughout.
+template <int D>
+struct GjkResult {
+  GjkStatus status = GjkStatus::MaxIterations;
+  double distance = 0.0;            ///< distance between the cores, |v| (length unit)
+  Vec<D> v = Vec<D>::Zero();        ///< point of A - B closest to the origin = point_a - point_b
+  Vec<D> point_a = Vec<D>::Zero();  ///< witness point on A, A's frame
+  Vec<D> point_b = Vec<D>::Zero();  ///< witness point on B, A's frame
+  Simplex<D> simplex;               ///< terminal simplex (input of EPA; the warm-start cache)
+  int iterations = 0;               ///< support evaluations in the main loop
+};
+
+namespace detail {
+
+/// Start simplex: the (re-evaluated) seed when given, else one support point.
+template <class MD>
+Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* seed, Simplex<MD::kDim>& s) {
+  constexpr int D = MD::kDim;
+  if (seed != nullptr && seed->size > 0 && seed->size <= D + 1) {
+    s = *seed;
+    return solveSimplex<D>(s);
+  }
+  s.size = 1;
+  s.v[0] = md.support(md.initialDirection());
+  s.bary[0] = 1.0;
+  return s.v[0].w;
+}
+
+template <int D>
+bool isDuplicate(const Simplex<D>& s, const Vec<D>& w, double tol2) {
+  for (int i = 0; i < s.size; ++i)
+    if ((s.v[i].w - w).squaredNorm() <= tol2) return true;
+  return false;
+}
+
+}  // namespace detail
+
+/// Distance between two convex shapes given as their Minkowski difference `md` (anything with
+/// kDim, support(d) -> SupportPoint, initialDirection(); normally a MinkowskiDifference).
+/// `seed`: optional warm-start simplex (points of A - B for the current poses, e.g. from
+/// MinkowskiDifference::fromLocal on cached local points).
+template <class MD>
+GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st,
+                                const Simplex<MD::kDim>* seed = nullptr) {
+  constexpr int D = MD::kDim;
+  GjkResult<D> r;
+  Simplex<D>& s = r.simplex;
+  Vec<D> v = detail::gjkStart(md, seed, s);
+  double vv = v.squaredNorm();
+  const double tol = st.abs_tolerance;
+  const double tol2 = tol * tol;
+  int it = 0;
+  for (;;) {
+    if (s.size == D + 1 || vv <= tol2) {
+      r.status = GjkStatus::Intersecting;
+      break;
+    }
+    if (it >= st.max_iterations) {
+      r.status = GjkStatus::MaxIterations;
+      break;
+    }
+    ++it;
+    const SupportPoint<D> w = md.support(-v);
+    const double vw = v.dot(w.w);
+    const double vn = std::sqrt(vv);
+    // van den Bergen: upper bound |v| and lower bound v.w/|v| agree (plus an absolute floor).
+    if (vv - vw <= st.rel_tolerance * vv + tol * vn || detail::isDuplicate(s, w.w, tol2)) {
+      r.status = GjkStatus::Separated;
+      break;
+    }
+    const Simplex<D> prev = s;
+    s.v[s.size++] = w;
+    const Vec<D> v_new = solveSimplex<D>(s);
+    const double vv_new = v_new.squaredNorm();
+    if (!(vv_new < vv)) {  // no progress (rounding): keep the better simplex and stop
+      s = prev;
+      r.status = GjkStatus::Separated;
+      break;
+    }
+    v = v_new;
+    vv = vv_new;
+  }
+  r.iterations = it;
+  r.v = v;
+  r.distance = std::sqrt(vv);
+  s.witnesses(r.point_a, r.point_b);
+  if (r.status == GjkStatus::Intersecting) {
+    r.distance = s.size == D + 1 ? 0.0 : r.distance;
+  }
+  return r;
+}
+
+/// Boolean GJK with early exit: true when the cores are within `margin` (length, >= 0; the sum of
+/// the radii plus any touching band) of each other. Returns false as soon as a support point
+/// fails to pass the margin (v.w > margin |v|: a separating plane), true as soon as |v| <= margin
+/// or the simplex encloses the origin. When the iteration bound is hit undecided the answer is
+/// true (conservative for a collision monitor). `simplex` (optional, in/out): warm-start seed
+/// on input (size 0 = cold), terminal simplex on output. `iterations` (optional, out).
+template <class MD>
+bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
+                  Simplex<MD::kDim>* simplex = nullptr, int* iterations = nullptr) {
+  constexpr int D = MD::kDim;
+  Simplex<D> s;
+  Vec<D> v = detail::gjkStart(md, simplex, s);
+  double vv = v.squaredNorm();
+  const double tol = st.abs_tolerance;
+  const double reach = margin + tol;
+  int it = 0;
+  bool result = true;
+  for (;;) {
+    if (s.size == D + 1 || vv <= reach * reach) {
+      result = true;
+      break;
+    }
+    if (it >= st.max_iterations) {
+      result = true;
+      break;
+    }
+    ++it;
+    const SupportPoint<D> w = md.support(-v);
+    const double vw = v.dot(w.w);
+    const double vn = std::sqrt(vv);
+    if (vw > reach * vn) {  // separating plane with the margin: lower bound > margin
+      result = false;
+      break;
+    }
+    if (vv - vw <= st.rel_tolerance * vv + tol * vn || detail::isDuplicate(s, w.w, tol * tol)) {
+      result = vn <= reach;  // converged: the distance is |v|
+      break;
+    }
+    const Simplex<D> prev = s;
+    s.v[s.size++] = w;
+    const Vec<D> v_new = solveSimplex<D>(s);
+    const double vv_new = v_new.squaredNorm();
+    if (!(vv_new < vv)) {
+      s = prev;
+      result = vn <= reach;
+      break;
+    }
+    v = v_new;
+    vv = vv_new;
+  }
+  if (simplex != nullptr) *simplex = s;
+  if (iterations != nullptr) *iterations = it;
+  return result;
+}
+
+}  // namespace core
+}  // namespace collision_monitor
