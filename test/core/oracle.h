@@ -256,3 +256,251 @@ inline Answer solve(const Shape& a, const Shape& b) {
 }
 
 }  // namespace oracle
+
+// ---------------------------------------------------------------------------------------------
+// Random pairs for the sweeps: each pair is a pure function of (category, index), so any failure
+// is reproduced by oracle::makePair(category, index).
+// ---------------------------------------------------------------------------------------------
+#include <cstdint>
+#include <optional>
+#include <random>
+
+#include "collision_monitor/core/convex_shape.h"
+
+namespace oracle {
+
+namespace cmc = collision_monitor::core;
+
+/// Shape-pair categories of the sweeps. "Poly" means a box or a random hull (coin flip).
+enum class Category {
+  BoxBox,
+  HullHull,
+  BoxHull,
+  SphereSphere,
+  CapsuleCapsule,
+  SphereCapsule,
+  SpherePoly,
+  CapsulePoly,
+  PaddedPoly,  ///< padded box/hull vs padded box/hull
+  Count
+};
+
+inline const char* name(Category c) {
+  switch (c) {
+    case Category::BoxBox:
+      return "box-box";
+    case Category::HullHull:
+      return "hull-hull";
+    case Category::BoxHull:
+      return "box-hull";
+    case Category::SphereSphere:
+      return "sphere-sphere";
+    case Category::CapsuleCapsule:
+      return "capsule-capsule";
+    case Category::SphereCapsule:
+      return "sphere-capsule";
+    case Category::SpherePoly:
+      return "sphere-poly";
+    case Category::CapsulePoly:
+      return "capsule-poly";
+    case Category::PaddedPoly:
+      return "padded-poly";
+    case Category::Count:
+      break;
+  }
+  return "?";
+}
+
+/// One body: the shape under test, its pose, and the oracle's view of it.
+struct Body {
+  std::optional<cmc::ConvexShape> shape;
+  std::vector<V3> local_core;  ///< core vertices in the shape frame
+  Shape::Kind kind = Shape::Poly;
+  double radius = 0.0;        ///< sphere/capsule radius + padding, m
+  double circumradius = 0.0;  ///< max |x| over the full shape, shape frame, m
+  cmc::Transform3 pose;
+  Shape world;  ///< oracle shape (world frame), filled by place()
+
+  /// Support value of the full shape about its frame origin along world direction n.
+  double reach(const V3& n) const {
+    double m = -std::numeric_limits<double>::infinity();
+    for (const V3& v : local_core)
+      m = std::max(m, n.dot(pose.R * v));
+    return m + radius;
+  }
+  void place() {
+    world.kind = kind;
+    world.radius = radius;
+    world.core.clear();
+    for (const V3& v : local_core)
+      world.core.push_back(pose * v);
+    world.finish();
+  }
+};
+
+struct Pair {
+  Category category = Category::BoxBox;
+  std::uint64_t index = 0;
+  Body a, b;
+  double size = 0.0;  ///< a.circumradius + b.circumradius, m
+  double far = 0.0;   ///< |translation of A| (0 or ~1e3 m)
+};
+
+enum class Kind { Box, Hull, Sphere, Capsule };
+
+inline V3 randomUnit(std::mt19937_64& rng) {
+  std::normal_distribution<double> g;
+  for (;;) {
+    const V3 v(g(rng), g(rng), g(rng));
+    const double n = v.norm();
+    if (n > 1e-6) return v / n;
+  }
+}
+
+inline Body makeBody(Kind kind, bool padded, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  auto uni = [&](double lo, double hi) { return lo + (hi - lo) * u01(rng); };
+  const double s = std::pow(10.0, uni(-3.0, 1.0));  // 1 mm .. 10 m
+  Body body;
+  switch (kind) {
+    case Kind::Box: {
+      const V3 half(s * uni(0.1, 1.0), s * uni(0.1, 1.0), s * uni(0.1, 1.0));
+      body.shape = cmc::ConvexShape::box(2.0 * half);
+      for (int i = 0; i < 8; ++i) {
+        body.local_core.emplace_back((i & 1) ? half.x() : -half.x(), (i & 2) ? half.y() : -half.y(),
+                                     (i & 4) ? half.z() : -half.z());
+      }
+      body.kind = Shape::Poly;
+      break;
+    }
+    case Kind::Hull: {
+      const int n = 4 + static_cast<int>(u01(rng) * 17);  // 4 .. 20 points
+      const V3 stretch(uni(0.2, 1.0), uni(0.2, 1.0), uni(0.2, 1.0));
+      const V3 shift = s * V3(uni(-0.3, 0.3), uni(-0.3, 0.3), uni(-0.3, 0.3));  // off-centre
+      for (int i = 0; i < n; ++i) {
+        const V3 p = randomUnit(rng) * std::cbrt(uni(0.05, 1.0));
+        body.local_core.push_back(shift + s * p.cwiseProduct(stretch));
+      }
+      body.shape = cmc::ConvexShape::convexHull(body.local_core);
+      body.kind = Shape::Poly;
+      break;
+    }
+    case Kind::Sphere:
+      body.shape = cmc::ConvexShape::sphere(s);
+      body.local_core = {V3::Zero()};
+      body.radius = s;
+      body.kind = Shape::Point;
+      break;
+    case Kind::Capsule: {
+      const double len = s * uni(0.2, 3.0), r = s * uni(0.1, 1.0);
+      body.shape = cmc::ConvexShape::capsule(len, r);
+      body.local_core = {V3(0, 0, -0.5 * len), V3(0, 0, 0.5 * len)};
+      body.radius = r;
+      body.kind = Shape::Segment;
+      break;
+    }
+  }
+  if (padded) {
+    const double pad = s * uni(0.01, 0.5);
+    body.shape = body.shape->padded(pad);
+    body.radius += pad;
+  }
+  double cr = 0.0;
+  for (const V3& v : body.local_core)
+    cr = std::max(cr, v.norm());
+  body.circumradius = cr + body.radius;
+  return body;
+}
+
+inline cmc::Transform3 randomRotation(std::mt19937_64& rng) {
+  std::normal_distribution<double> g;
+  Eigen::Quaterniond q(g(rng), g(rng), g(rng), g(rng));
+  return cmc::makeTransform(q, V3::Zero());
+}
+
+inline std::uint64_t splitmix64(std::uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return x ^ (x >> 31);
+}
+
+/// The pair number `index` of `category` (fixed seeds: the sweep is the same on every run).
+/// B is placed along a random direction u at f * (reach_A(u) + reach_B(-u)) from A: f >= 1 is
+/// apart (a separating plane exists), f < 1 mostly overlapping; 10 % of the pairs are then slid
+/// to near contact; 20 % sit 0.5 .. 1 km from the origin.
+inline Pair makePair(Category category, std::uint64_t index) {
+  std::mt19937_64 rng(splitmix64(0xC0111DE5ull * (static_cast<std::uint64_t>(category) + 1)) ^
+                      splitmix64(index));
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  Pair p;
+  p.category = category;
+  p.index = index;
+  auto poly = [&]() { return u01(rng) < 0.5 ? Kind::Box : Kind::Hull; };
+  Kind ka = Kind::Box, kb = Kind::Box;
+  bool padded = false;
+  switch (category) {
+    case Category::BoxBox:
+      break;
+    case Category::HullHull:
+      ka = kb = Kind::Hull;
+      break;
+    case Category::BoxHull:
+      kb = Kind::Hull;
+      break;
+    case Category::SphereSphere:
+      ka = kb = Kind::Sphere;
+      break;
+    case Category::CapsuleCapsule:
+      ka = kb = Kind::Capsule;
+      break;
+    case Category::SphereCapsule:
+      ka = Kind::Sphere;
+      kb = Kind::Capsule;
+      break;
+    case Category::SpherePoly:
+      ka = Kind::Sphere;
+      kb = poly();
+      break;
+    case Category::CapsulePoly:
+      ka = Kind::Capsule;
+      kb = poly();
+      break;
+    case Category::PaddedPoly:
+      ka = poly();
+      kb = poly();
+      padded = true;
+      break;
+    case Category::Count:
+      break;
+  }
+  if (u01(rng) < 0.5) std::swap(ka, kb);  // both orders
+  p.a = makeBody(ka, padded, rng);
+  p.b = makeBody(kb, padded, rng);
+  p.a.pose = randomRotation(rng);
+  p.b.pose = randomRotation(rng);
+  if (u01(rng) < 0.2) {
+    p.a.pose.t = 1e3 * randomUnit(rng) * (0.5 + 0.5 * u01(rng));
+    p.far = p.a.pose.t.norm();
+  }
+  const V3 u = randomUnit(rng);
+  const double reach = p.a.reach(u) + p.b.reach(-u);
+  const bool near_contact = u01(rng) < 0.1;
+  const double f = near_contact ? 1.0 : 1.15 * u01(rng);
+  p.b.pose.t = p.a.pose.t + f * reach * u;
+  p.a.place();
+  p.b.place();
+  p.size = p.a.circumradius + p.b.circumradius;
+  if (near_contact) {
+    // Slide B along the exact normal to a signed distance of about +-1e-12 .. 1e-3 of the size
+    // (moving closer by delta lowers the distance by at most delta: the oracle has the last word).
+    const Answer ans = solve(p.a.world, p.b.world);
+    const double target =
+        (u01(rng) < 0.5 ? -1.0 : 1.0) * p.size * std::pow(10.0, -3.0 - 9.0 * u01(rng));
+    p.b.pose.t += (target - ans.distance) * ans.normal;
+    p.b.place();
+  }
+  return p;
+}
+
+}  // namespace oracle

@@ -358,3 +358,120 @@ TEST(ConvexHull, ConcurrentCallsGiveIdenticalResults) {
   for (int t = 0; t < 4; ++t)
     EXPECT_EQ(ok[t], 20) << "thread " << t;
 }
+
+// ---------------------------------------------------------------------------------------------
+// The oracle itself on cases with known answers (it must be right before it judges GJK).
+// ---------------------------------------------------------------------------------------------
+namespace {
+
+oracle::Shape polyShape(const std::vector<Vec3>& pts, double radius = 0.0) {
+  oracle::Shape s;
+  s.kind = oracle::Shape::Poly;
+  s.core = pts;
+  s.radius = radius;
+  s.finish();
+  return s;
+}
+oracle::Shape pointShape(const Vec3& c, double radius) {
+  oracle::Shape s;
+  s.kind = oracle::Shape::Point;
+  s.core = {c};
+  s.radius = radius;
+  return s;
+}
+oracle::Shape segmentShape(const Vec3& a, const Vec3& b, double radius) {
+  oracle::Shape s;
+  s.kind = oracle::Shape::Segment;
+  s.core = {a, b};
+  s.radius = radius;
+  return s;
+}
+
+void expectAnswer(const oracle::Answer& got, double distance, const Vec3& normal) {
+  EXPECT_NEAR(got.distance, distance, 1e-14);
+  EXPECT_NEAR((got.normal - normal).norm(), 0.0, 1e-12) << got.normal.transpose();
+}
+
+}  // namespace
+
+TEST(Oracle, ClosestPointOnTriangleInEveryVoronoiRegion) {
+  const Vec3 a(0, 0, 0), b(2, 0, 0), c(0, 2, 0);
+  using oracle::closestPointTriangle;
+  EXPECT_EQ(closestPointTriangle(Vec3(-1, -1, 3), a, b, c), a);
+  EXPECT_EQ(closestPointTriangle(Vec3(3, -1, -1), a, b, c), b);
+  EXPECT_EQ(closestPointTriangle(Vec3(-1, 3, 0), a, b, c), c);
+  EXPECT_TRUE(closestPointTriangle(Vec3(1, -5, 1), a, b, c).isApprox(Vec3(1, 0, 0)));
+  EXPECT_TRUE(closestPointTriangle(Vec3(-5, 1, 1), a, b, c).isApprox(Vec3(0, 1, 0)));
+  EXPECT_TRUE(closestPointTriangle(Vec3(2, 2, 7), a, b, c).isApprox(Vec3(1, 1, 0)));
+  EXPECT_TRUE(closestPointTriangle(Vec3(0.5, 0.25, -4), a, b, c).isApprox(Vec3(0.5, 0.25, 0)));
+}
+
+TEST(Oracle, SegmentSegmentClosestPoints) {
+  Vec3 c1, c2;
+  // Skew, crossing at distance 2.
+  EXPECT_DOUBLE_EQ(oracle::closestSegmentSegment(Vec3(-1, 0, 0), Vec3(1, 0, 0), Vec3(0, -1, 2),
+                                                 Vec3(0, 1, 2), &c1, &c2),
+                   2.0);
+  EXPECT_EQ(c1, Vec3(0, 0, 0));
+  EXPECT_EQ(c2, Vec3(0, 0, 2));
+  // Parallel, overlapping span: distance 1.
+  EXPECT_DOUBLE_EQ(oracle::closestSegmentSegment(Vec3(0, 0, 0), Vec3(2, 0, 0), Vec3(1, 1, 0),
+                                                 Vec3(3, 1, 0), &c1, &c2),
+                   1.0);
+  // End-point to end-point, and both degenerate (points).
+  EXPECT_DOUBLE_EQ(oracle::closestSegmentSegment(Vec3(0, 0, 0), Vec3(1, 0, 0), Vec3(4, 4, 0),
+                                                 Vec3(4, 8, 0), &c1, &c2),
+                   5.0);
+  EXPECT_DOUBLE_EQ(oracle::closestSegmentSegment(Vec3(1, 1, 1), Vec3(1, 1, 1), Vec3(1, 1, 4),
+                                                 Vec3(1, 1, 4), &c1, &c2),
+                   3.0);
+}
+
+TEST(Oracle, UnitCubesKnownDistancesAndDepths) {
+  const auto a = polyShape(cubeCorners(0.5));
+  expectAnswer(oracle::solve(a, polyShape(cubeCorners(0.5, Vec3(1.5, 0, 0)))), 0.5, Vec3::UnitX());
+  expectAnswer(oracle::solve(a, polyShape(cubeCorners(0.5, Vec3(0, -0.8, 0)))), -0.2,
+               -Vec3::UnitY());
+  expectAnswer(oracle::solve(a, polyShape(cubeCorners(0.5, Vec3(0.1, 0.2, 0.9)))), -0.1,
+               Vec3::UnitZ());
+  expectAnswer(oracle::solve(a, polyShape(cubeCorners(0.5, Vec3(1.5, 1.5, 0)))), std::sqrt(0.5),
+               Vec3(1, 1, 0).normalized());
+  expectAnswer(oracle::solve(a, polyShape(cubeCorners(0.5, Vec3(1.2, 1.3, 1.4)))),
+               std::sqrt(0.04 + 0.09 + 0.16), Vec3(0.2, 0.3, 0.4).normalized());
+  // A cube turned 45 degrees about z reaches 0.5 * sqrt(2) along x.
+  std::vector<Vec3> turned;
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(M_PI / 4, Vec3::UnitZ()).toRotationMatrix();
+  for (const Vec3& v : cubeCorners(0.5))
+    turned.push_back(R * v);
+  expectAnswer(oracle::solve(polyShape(turned), polyShape(cubeCorners(0.5, Vec3(3, 0, 0)))),
+               3.0 - 0.5 - 0.5 * std::sqrt(2.0), Vec3::UnitX());
+}
+
+TEST(Oracle, SpheresCapsulesAndPaddingKnownAnswers) {
+  expectAnswer(oracle::solve(pointShape(Vec3(1, 1, 1), 1.0), pointShape(Vec3(1, 4, 1), 0.5)), 1.5,
+               Vec3::UnitY());
+  // Crossed capsules: core distance 2, radii 0.25 + 0.5.
+  expectAnswer(oracle::solve(segmentShape(Vec3(0, 0, -1), Vec3(0, 0, 1), 0.25),
+                             segmentShape(Vec3(-1, 2, 0), Vec3(1, 2, 0), 0.5)),
+               1.25, Vec3::UnitY());
+  // Sphere near a cube edge: sqrt(1.5^2 + 1.5^2) - 0.5.
+  const auto cube = polyShape(cubeCorners(0.5));
+  expectAnswer(oracle::solve(cube, pointShape(Vec3(2, 2, 0.1), 0.5)), std::sqrt(4.5) - 0.5,
+               Vec3(1, 1, 0).normalized());
+  // Sphere core inside the cube: depth 0.2 of the centre plus the radius.
+  expectAnswer(oracle::solve(cube, pointShape(Vec3(0.3, 0, 0), 0.1)), -0.3, Vec3::UnitX());
+  // Padded cubes: 1.0 apart minus 0.1 + 0.05 of padding.
+  expectAnswer(oracle::solve(polyShape(cubeCorners(0.5), 0.1),
+                             polyShape(cubeCorners(0.5, Vec3(0, 0, -2)), 0.05)),
+               0.85, -Vec3::UnitZ());
+  // Capsule lying on a box face, overlapping by 0.05 (segment vs polytope Minkowski hull).
+  expectAnswer(oracle::solve(cube, segmentShape(Vec3(-2, 0, 0.7), Vec3(2, 0, 0.7), 0.25)), -0.05,
+               Vec3::UnitZ());
+  // Point-to-shape signed distances used by the witness checks.
+  EXPECT_NEAR(polyShape(cubeCorners(0.5), 0.1).signedDistanceTo(Vec3(0.6, 0, 0)), 0.0, 1e-15);
+  EXPECT_NEAR(cube.signedDistanceTo(Vec3(0.1, 0.2, 0.3)), -0.2, 1e-15);
+  EXPECT_NEAR(cube.signedDistanceTo(Vec3(1.5, 1.5, 0.0)), std::sqrt(2.0), 1e-15);
+  EXPECT_NEAR(segmentShape(Vec3(0, 0, 0), Vec3(0, 0, 1), 0.5).signedDistanceTo(Vec3(0, 2, 2)),
+              std::sqrt(5.0) - 0.5, 1e-15);
+  EXPECT_NEAR(cube.supportValue(Vec3(1, 1, 0).normalized()), std::sqrt(0.5), 1e-15);
+}
