@@ -1,0 +1,718 @@
+// The world model end to end on real shapes through the GJK core: pair filters, hysteresis and
+// events, staleness, compound bodies, broad phase against brute force, replace/remove, refusals,
+// nearest(), checkHypothetical(), time to collision.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <map>
+#include <random>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "collision_monitor/core/query.h"
+#include "collision_monitor/world/pair_logic.h"
+#include "collision_monitor/world/world_model.h"
+
+namespace collision_monitor {
+namespace world {
+namespace {
+
+using core::ConvexShape;
+using S = PairStatus;
+using E = EventType;
+
+Transform3 at(double x, double y = 0.0, double z = 0.0) {
+  Transform3 T;
+  T.t = Vec3(x, y, z);
+  return T;
+}
+
+BodySpec body(const std::string& id, std::vector<Part> parts, const std::string& group = "") {
+  BodySpec b;
+  b.id = id;
+  b.frame = id + "_frame";
+  b.group = group;
+  b.parts = std::move(parts);
+  return b;
+}
+
+BodySpec sphere(const std::string& id, double r, const std::string& group = "") {
+  return body(id, {Part{ConvexShape::sphere(r), Transform3::Identity()}}, group);
+}
+
+/// Settings with thresholds exact in binary (w = 1/16, h = 1/128).
+Settings dyadic() {
+  Settings s;
+  s.warning_distance = 0.0625;
+  s.contact_distance = 0.0;
+  s.hysteresis = 0.0078125;
+  s.pose_timeout = 0.5;
+  return s;
+}
+
+using Key = std::pair<std::string, std::string>;
+
+std::map<Key, S> statuses(const CycleResult& r) {
+  std::map<Key, S> out;
+  for (const PairResult& p : r.pairs) {
+    EXPECT_LT(p.body_a, p.body_b);
+    out[{p.body_a, p.body_b}] = p.status;
+  }
+  return out;
+}
+
+struct Ev {
+  E type;
+  std::string a;
+  std::string b;
+  bool operator==(const Ev& o) const { return type == o.type && a == o.a && b == o.b; }
+};
+std::ostream& operator<<(std::ostream& os, const Ev& e) {
+  return os << static_cast<int>(e.type) << "(" << e.a << "," << e.b << ")";
+}
+std::vector<Ev> events(const CycleResult& r) {
+  std::vector<Ev> out;
+  for (const Event& e : r.events)
+    out.push_back({e.type, e.pair.body_a, e.pair.body_b});
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+TEST(WorldModel, TwoUnitSpheresThreeMetresApart) {
+  Settings s;
+  s.warning_distance = 1.5;
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(sphere("a", 1.0)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 1.0)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(3), 0.0));
+  std::string why;
+  const auto d = w.distance("a", "b", 1.0, &why);
+  ASSERT_TRUE(d) << why;
+  EXPECT_EQ(d->distance, 1.0);
+  EXPECT_EQ(d->point_a, Vec3(1, 0, 0));
+  EXPECT_EQ(d->point_b, Vec3(2, 0, 0));
+  EXPECT_EQ(d->normal, Vec3(1, 0, 0));
+  EXPECT_EQ(d->status, S::Warning);
+  // Caller's order is kept.
+  const auto r = w.distance("b", "a", 1.0, &why);
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->body_a, "b");
+  EXPECT_EQ(r->point_a, Vec3(2, 0, 0));
+  EXPECT_EQ(r->normal, Vec3(-1, 0, 0));
+
+  const CycleResult c = w.check(1.0);
+  ASSERT_EQ(c.pairs.size(), 1u);
+  EXPECT_EQ(c.pairs[0].body_a, "a");
+  EXPECT_EQ(c.pairs[0].distance, 1.0);
+  EXPECT_EQ(c.pairs[0].point_b, Vec3(2, 0, 0));
+  EXPECT_EQ(c.min_distance, 1.0);
+  EXPECT_FALSE(c.in_collision);
+  EXPECT_EQ(c.num_pairs_checked, 1u);
+  EXPECT_EQ(c.num_bodies, 2u);
+  EXPECT_EQ(events(c), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
+  // Static poses, nothing moved: the second cycle reuses the result.
+  const CycleResult c2 = w.check(2.0);
+  EXPECT_EQ(c2.num_pairs_checked, 0u);
+  EXPECT_EQ(c2.num_pairs_cached, 1u);
+  EXPECT_EQ(c2.pairs.size(), 1u);
+  EXPECT_TRUE(c2.events.empty());
+}
+
+TEST(WorldModel, PairFilterGroupsDisabledPairsAndSelf) {
+  WorldModel w(dyadic());
+  // Disabled before the bodies exist, given in the other order than queried.
+  w.disablePair("e", "d");
+  for (const auto& [id, group] : std::vector<std::pair<std::string, std::string>>{
+           {"a", "arm"}, {"b", "arm"}, {"c", "tool"}, {"d", ""}, {"e", ""}, {"f", ""}}) {
+    ASSERT_EQ(w.addBody(sphere(id, 0.5, group)), "");
+    ASSERT_TRUE(w.setPose(id, at(0.01 * (id[0] - 'a')), 0.0));  // all overlapping
+  }
+  w.disablePair("a", "d");
+  w.disablePair("c", "c");  // self: meaningless, ignored
+  EXPECT_TRUE(w.isPairDisabled("d", "a"));
+  EXPECT_TRUE(w.isPairDisabled("a", "d"));
+  EXPECT_TRUE(w.isPairDisabled("d", "e"));
+  EXPECT_FALSE(w.isPairDisabled("a", "b"));
+  const CycleResult r = w.check(1.0);
+  std::map<Key, S> expected;
+  for (const Key& k : std::vector<Key>{{"a", "c"},
+                                       {"a", "e"},
+                                       {"a", "f"},
+                                       {"b", "c"},
+                                       {"b", "d"},
+                                       {"b", "e"},
+                                       {"b", "f"},
+                                       {"c", "d"},
+                                       {"c", "e"},
+                                       {"c", "f"},
+                                       {"d", "f"},
+                                       {"e", "f"}}) {
+    expected[k] = S::Collision;
+  }
+  EXPECT_EQ(statuses(r), expected);
+  EXPECT_TRUE(r.in_collision);
+  EXPECT_EQ(r.num_pairs_checked, expected.size());
+  // nearest() respects the same filter: a's nearest is c (0.02 apart), not b (same group).
+  std::string why;
+  const auto n = w.nearest("a", 1.0, &why);
+  ASSERT_TRUE(n) << why;
+  EXPECT_EQ(n->body_b, "c");
+  EXPECT_NEAR(n->distance, -0.98, 1e-12);
+}
+
+TEST(WorldModel, HysteresisSequenceGivesExactEvents) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));  // static
+  // Centre distance x gives signed distance x - 1 exactly (x in [1, 2]).
+  const std::vector<std::pair<double, S>> steps = {
+      {1.25, S::Clear},       {1.06, S::Warning},     {1.0690, S::Warning}, {1.0600, S::Warning},
+      {1.0690, S::Warning},   {1.0720, S::Clear},     {1.0650, S::Clear},   {0.999, S::Collision},
+      {1.0070, S::Collision}, {1.0001, S::Collision}, {1.0080, S::Warning}, {1.03, S::Warning},
+      {0.9, S::Collision},    {1.5, S::Clear}};
+  std::vector<Ev> all;
+  std::vector<double> stamps;
+  double t = 10.0;
+  for (const auto& [x, expected] : steps) {
+    t += 0.1;
+    ASSERT_TRUE(w.setPose("b", at(x), t));
+    const CycleResult r = w.check(t + 0.01);
+    const auto st = statuses(r);
+    if (expected == S::Clear) {
+      EXPECT_TRUE(st.empty()) << x;
+    } else {
+      EXPECT_EQ(st, (std::map<Key, S>{{{"a", "b"}, expected}})) << x;
+      ASSERT_EQ(r.pairs.size(), 1u);
+      EXPECT_NEAR(r.pairs[0].distance, x - 1.0, 1e-12);
+    }
+    EXPECT_EQ(r.stamp, t);  // the only timed pose
+    for (const Event& e : r.events) {
+      all.push_back({e.type, e.pair.body_a, e.pair.body_b});
+      stamps.push_back(e.stamp);
+      EXPECT_EQ(e.stamp, t);
+    }
+  }
+  const std::vector<Ev> expected = {{E::WarningBegin, "a", "b"},   {E::WarningEnd, "a", "b"},
+                                    {E::CollisionBegin, "a", "b"}, {E::CollisionEnd, "a", "b"},
+                                    {E::WarningBegin, "a", "b"},   {E::WarningEnd, "a", "b"},
+                                    {E::CollisionBegin, "a", "b"}, {E::CollisionEnd, "a", "b"}};
+  EXPECT_EQ(all, expected);
+}
+
+TEST(WorldModel, StalenessUnknownAndRecovery) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));     // static: never stale
+  ASSERT_TRUE(w.setPose("b", at(1.03), 1.0));  // WARNING (0.03)
+  CycleResult r = w.check(1.2);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
+  EXPECT_TRUE(r.stale_bodies.empty());
+
+  // b times out (0.6 s > 0.5 s): WARNING ends, UNKNOWN begins, stamped `now`.
+  r = w.check(1.6);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningEnd, "a", "b"}, {E::UnknownBegin, "a", "b"}}));
+  EXPECT_EQ(r.events[1].stamp, 1.6);
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Unknown}}));
+  EXPECT_EQ(r.stale_bodies, std::vector<std::string>{"b"});
+  EXPECT_FALSE(w.listBodies(1.6)[0].stale);
+  EXPECT_TRUE(w.listBodies(1.6)[1].stale);
+  std::string why;
+  EXPECT_FALSE(w.distance("a", "b", 1.6, &why));
+  EXPECT_NE(why.find("'b' has a stale pose"), std::string::npos) << why;
+  r = w.check(1.7);  // still unknown: no new events
+  EXPECT_TRUE(r.events.empty());
+  EXPECT_EQ(statuses(r).size(), 1u);
+
+  // Out-of-order pose: ignored.
+  EXPECT_TRUE(w.setPose("b", at(3.0), 1.65));
+  EXPECT_FALSE(w.setPose("b", at(1.01), 1.64));
+  EXPECT_EQ(w.pose("b")->t.x(), 3.0);
+  // The fresh pose ends UNKNOWN (pair now far: CLEAR).
+  r = w.check(1.7);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownEnd, "a", "b"}}));
+  EXPECT_EQ(r.events[0].pair.status, S::Clear);
+  EXPECT_TRUE(r.pairs.empty());
+  EXPECT_TRUE(r.stale_bodies.empty());
+
+  // markUnresolved: UNKNOWN at once, recovers with the next pose.
+  w.markUnresolved("b");
+  r = w.check(1.71);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownBegin, "a", "b"}}));
+  EXPECT_TRUE(w.setPose("b", at(3.0), 1.72));
+  r = w.check(1.72);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownEnd, "a", "b"}}));
+
+  // A static pose is never stale.
+  EXPECT_TRUE(w.setPose("b", at(3.0), 0.0));
+  r = w.check(1e6);
+  EXPECT_TRUE(r.events.empty());
+  EXPECT_TRUE(r.stale_bodies.empty());
+
+  // clearPoses (time jumped back): everything UNKNOWN; older stamps are accepted again.
+  w.clearPoses();
+  r = w.check(0.5);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownBegin, "a", "b"}}));
+  EXPECT_EQ(r.stale_bodies, (std::vector<std::string>{"a", "b"}));
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Unknown}}));
+  EXPECT_TRUE(w.setPose("a", at(0), 0.4));
+  EXPECT_TRUE(w.setPose("b", at(3), 0.4));
+  r = w.check(0.5);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownEnd, "a", "b"}}));
+  EXPECT_EQ(r.stamp, 0.4);
+
+  // A body that never had a pose: its pairs are UNKNOWN (listed) but were never known, so no
+  // events; the first pose brings it in silently when CLEAR.
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  r = w.check(0.6);
+  EXPECT_TRUE(r.events.empty());
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "c"}, S::Unknown}, {{"b", "c"}, S::Unknown}}));
+  EXPECT_EQ(r.stale_bodies, std::vector<std::string>{"c"});
+  EXPECT_TRUE(w.setPose("c", at(0, 10), 0.6));
+  r = w.check(0.6);
+  EXPECT_TRUE(r.events.empty());
+  EXPECT_TRUE(r.pairs.empty());
+}
+
+TEST(WorldModel, CompoundBodiesTakeTheMinimumOverParts) {
+  WorldModel w(dyadic());
+  Transform3 up = at(0, 0, 2);
+  // A: unit box at the origin and a sphere of radius 0.5 two metres up.
+  ASSERT_EQ(w.addBody(body("A", {Part{ConvexShape::box(Vec3(1, 1, 1)), Transform3::Identity()},
+                                 Part{ConvexShape::sphere(0.5), up}})),
+            "");
+  ASSERT_EQ(w.addBody(sphere("B", 0.5)), "");
+  ASSERT_TRUE(w.setPose("A", at(0), 0.0));
+  std::string why;
+  // B beside the box: the box is nearest (1.0), the sphere part is sqrt(8) - 1 away.
+  ASSERT_TRUE(w.setPose("B", at(2, 0, 0), 0.0));
+  auto d = w.distance("A", "B", 0.0, &why);
+  ASSERT_TRUE(d) << why;
+  EXPECT_NEAR(d->distance, 1.0, 1e-12);
+  EXPECT_NEAR((d->point_a - Vec3(0.5, 0, 0)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((d->point_b - Vec3(1.5, 0, 0)).norm(), 0.0, 1e-12);
+  // B above the sphere part: that part is nearest (0.5).
+  ASSERT_TRUE(w.setPose("B", at(0, 0, 3.5), 0.0));
+  d = w.distance("A", "B", 0.0, &why);
+  ASSERT_TRUE(d) << why;
+  EXPECT_EQ(d->distance, 0.5);
+  EXPECT_EQ(d->point_a, Vec3(0, 0, 2.5));
+  EXPECT_EQ(d->point_b, Vec3(0, 0, 3));
+  EXPECT_EQ(d->normal, Vec3(0, 0, 1));
+  // Rotating A by 180 degrees about x puts the sphere part below: then the box is nearest.
+  Transform3 flip = at(0);
+  flip.R = Eigen::AngleAxisd(M_PI, Vec3::UnitX()).toRotationMatrix();
+  ASSERT_TRUE(w.setPose("A", flip, 0.0));
+  d = w.distance("A", "B", 0.0, &why);
+  ASSERT_TRUE(d) << why;
+  EXPECT_NEAR(d->distance, 2.5, 1e-9);
+  // Penetrating the sphere part: negative distance, COLLISION.
+  ASSERT_TRUE(w.setPose("A", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("B", at(0, 0, 2.75), 0.0));
+  const CycleResult r = w.check(0.0);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_EQ(r.pairs[0].status, S::Collision);
+  EXPECT_NEAR(r.pairs[0].distance, -0.25, 1e-12);
+  EXPECT_NEAR(r.pairs[0].normal.z(), 1.0, 1e-12);
+}
+
+// A random scene of convex shapes (some compound), fixed seed.
+double uniform(std::mt19937& g, double lo, double hi) {
+  return lo + (hi - lo) * (static_cast<double>(g()) / 4294967296.0);
+}
+
+Part randomPart(std::mt19937& g, const Vec3& offset) {
+  Transform3 T = at(offset.x(), offset.y(), offset.z());
+  const Vec3 axis = Vec3(uniform(g, -1, 1), uniform(g, -1, 1), uniform(g, -1, 1)).normalized();
+  T.R = Eigen::AngleAxisd(uniform(g, 0, 3.14), axis).toRotationMatrix();
+  switch (g() % 4) {
+    case 0:
+      return Part{ConvexShape::sphere(uniform(g, 0.05, 0.2)), T};
+    case 1:
+      return Part{ConvexShape::box(
+                      Vec3(uniform(g, 0.05, 0.3), uniform(g, 0.05, 0.3), uniform(g, 0.05, 0.3))),
+                  T};
+    case 2:
+      return Part{ConvexShape::capsule(uniform(g, 0.05, 0.3), uniform(g, 0.03, 0.1)), T};
+    default:
+      return Part{ConvexShape::cylinder(uniform(g, 0.05, 0.3), uniform(g, 0.03, 0.15)), T};
+  }
+}
+
+struct Scene {
+  std::vector<BodySpec> specs;
+  std::vector<Transform3> poses;
+};
+
+Scene randomScene(std::mt19937& g, int n, double extent) {
+  Scene s;
+  for (int i = 0; i < n; ++i) {
+    std::vector<Part> parts{randomPart(g, Vec3::Zero())};
+    if (g() % 4 == 0) parts.push_back(randomPart(g, Vec3(0.25, 0, 0)));
+    char id[16];
+    std::snprintf(id, sizeof(id), "o%03d", i);
+    s.specs.push_back(body(id, std::move(parts), i % 10 == 0 ? "grouped" : ""));
+    s.poses.push_back(at(uniform(g, 0, extent), uniform(g, 0, extent), uniform(g, 0, extent)));
+  }
+  return s;
+}
+
+/// Brute force: every allowed pair, every part pair, through core::signedDistance directly.
+double bruteDistance(const BodySpec& a, const Transform3& pa, const BodySpec& b,
+                     const Transform3& pb) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const Part& x : a.parts) {
+    for (const Part& y : b.parts) {
+      best =
+          std::min(best, core::signedDistance(x.shape, pa * x.pose, y.shape, pb * y.pose).distance);
+    }
+  }
+  return best;
+}
+
+TEST(WorldModel, BroadPhaseMatchesBruteForceOn500Bodies) {
+  std::mt19937 g(2024);
+  const Settings s = dyadic();
+  const int n = 500;
+  Scene scene = randomScene(g, n, 6.0);
+  WorldModel w(s);
+  for (int i = 0; i < n; ++i) {
+    ASSERT_EQ(w.addBody(scene.specs[i]), "");
+    ASSERT_TRUE(w.setPose(scene.specs[i].id, scene.poses[i], 1.0));
+  }
+  std::map<Key, S> prev;
+  for (int round = 0; round < 3; ++round) {
+    if (round > 0) {
+      // Half of the bodies move a little (the rest keep cached results).
+      for (int i = round % 2; i < n; i += 2) {
+        scene.poses[i].t +=
+            Vec3(uniform(g, -0.05, 0.05), uniform(g, -0.05, 0.05), uniform(g, -0.05, 0.05));
+        ASSERT_TRUE(w.setPose(scene.specs[i].id, scene.poses[i], 1.0 + round));
+      }
+    }
+    const CycleResult r = w.check(1.0 + round);
+    std::map<Key, S> expected;
+    for (int i = 0; i < n; ++i) {
+      for (int j = i + 1; j < n; ++j) {
+        if (!scene.specs[i].group.empty() && scene.specs[i].group == scene.specs[j].group) {
+          continue;
+        }
+        const double d =
+            bruteDistance(scene.specs[i], scene.poses[i], scene.specs[j], scene.poses[j]);
+        const Key k{scene.specs[i].id, scene.specs[j].id};
+        const auto p = prev.find(k);
+        const S st = nextStatus(p == prev.end() ? S::Clear : p->second, d, s);
+        if (st != S::Clear) expected[k] = st;
+      }
+    }
+    EXPECT_EQ(statuses(r), expected) << "round " << round;
+    // The sample is meaningful: tens of near pairs, some of them colliding.
+    std::size_t collisions = 0;
+    for (const auto& kv : expected)
+      collisions += kv.second == S::Collision;
+    EXPECT_GE(expected.size(), 20u);
+    EXPECT_LE(expected.size(), 1000u);
+    EXPECT_GE(collisions, 5u);
+    // Most pairs never reach the narrow phase.
+    const std::size_t all_pairs = n * (n - 1) / 2;
+    EXPECT_LT(r.num_broad_phase_pairs * 50, all_pairs)
+        << r.num_broad_phase_pairs << " of " << all_pairs;
+    EXPECT_EQ(r.num_pairs_checked + r.num_pairs_cached, r.num_broad_phase_pairs);
+    if (round > 0) {
+      EXPECT_GT(r.num_pairs_cached, 0u);
+    }
+    std::printf(
+        "round %d: %zu near pairs (%zu colliding), broad phase %zu of %zu pairs, "
+        "checked %zu, cached %zu, %zu part GJK runs, %.3f ms\n",
+        round, expected.size(), collisions, r.num_broad_phase_pairs, all_pairs, r.num_pairs_checked,
+        r.num_pairs_cached, r.num_part_checks, r.compute_time * 1e3);
+    prev = expected;
+  }
+}
+
+TEST(WorldModel, ReplaceKeepsStatusAndPoseRemoveEndsEvents) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(0.9), 0.0));
+  ASSERT_TRUE(w.setPose("c", at(-1.03), 0.0));
+  CycleResult r = w.check(1.0);
+  EXPECT_EQ(events(r),
+            (std::vector<Ev>{{E::CollisionBegin, "a", "b"}, {E::WarningBegin, "a", "c"}}));
+
+  // Replaced by a still colliding, bigger sphere: no events, the pose is kept.
+  ASSERT_EQ(w.addBody(sphere("b", 0.7)), "");
+  EXPECT_EQ(w.size(), 3u);
+  r = w.check(1.1);
+  EXPECT_TRUE(r.events.empty());
+  EXPECT_EQ(r.num_pairs_checked, 1u);  // a-b recomputed after the replace
+  EXPECT_EQ(r.num_pairs_cached, 1u);   // a-c: neither moved
+  ASSERT_EQ(statuses(r).at({"a", "b"}), S::Collision);
+  EXPECT_NEAR(r.pairs[0].distance, 0.9 - 1.2, 1e-12);
+
+  // Replaced by a tiny sphere: the next check ends the collision with the usual hysteresis.
+  ASSERT_EQ(w.addBody(sphere("b", 0.1)), "");
+  r = w.check(1.2);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::CollisionEnd, "a", "b"}}));
+
+  // Replaced with another frame: the pose is dropped, the pair turns UNKNOWN.
+  BodySpec moved = sphere("b", 0.1);
+  moved.frame = "elsewhere";
+  ASSERT_EQ(w.addBody(moved), "");
+  EXPECT_FALSE(w.pose("b"));
+  r = w.check(1.3);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownBegin, "a", "b"}, {E::UnknownBegin, "b", "c"}}));
+
+  // Removing c ends its WARNING with a's in the next check; b's UNKNOWN pair with c too.
+  EXPECT_TRUE(w.removeBody("c"));
+  EXPECT_FALSE(w.removeBody("c"));
+  EXPECT_FALSE(w.hasBody("c"));
+  EXPECT_EQ(w.size(), 2u);
+  r = w.check(1.4);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningEnd, "a", "c"}, {E::UnknownEnd, "b", "c"}}));
+  EXPECT_EQ(r.events[0].pair.status, S::Clear);
+  EXPECT_EQ(r.events[0].stamp, 1.4);
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Unknown}}));
+
+  // The slot is reused by a new body: no leftovers from c.
+  ASSERT_EQ(w.addBody(sphere("d", 0.5)), "");
+  ASSERT_TRUE(w.setPose("d", at(-1.03), 0.0));
+  r = w.check(1.5);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningBegin, "a", "d"}}));
+  EXPECT_EQ(statuses(r),
+            (std::map<Key, S>{
+                {{"a", "b"}, S::Unknown}, {{"a", "d"}, S::Warning}, {{"b", "d"}, S::Unknown}}));
+}
+
+TEST(WorldModel, GroupChangeOrDisablingEndsEvents) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(0.5), 0.0));
+  ASSERT_TRUE(w.setPose("c", at(0, 0.5), 0.0));
+  EXPECT_EQ(w.check(1.0).events.size(), 3u);
+  ASSERT_EQ(w.addBody(sphere("b", 0.5, "g")), "");
+  ASSERT_EQ(w.addBody(sphere("a", 0.5, "g")), "");
+  w.disablePair("c", "b");
+  const CycleResult r = w.check(1.1);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::CollisionEnd, "a", "b"}, {E::CollisionEnd, "b", "c"}}));
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "c"}, S::Collision}}));
+}
+
+TEST(WorldModel, RefusalsNameTheBodyAndReasonAndChangeNothing) {
+  Settings s = dyadic();
+  s.max_bodies = 2;
+  s.max_parts_per_body = 2;
+  WorldModel w(s);
+  BodySpec urdf = sphere("link", 0.5);
+  urdf.origin = BodyOrigin::Urdf;
+  ASSERT_EQ(w.addBody(urdf), "");
+  ASSERT_EQ(w.addBody(sphere("x", 0.5)), "");
+  ASSERT_TRUE(w.setPose("link", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("x", at(0.9), 0.0));
+  EXPECT_EQ(events(w.check(1.0)), (std::vector<Ev>{{E::CollisionBegin, "link", "x"}}));
+
+  EXPECT_EQ(w.addBody(sphere("", 0.5)), "body with an empty id refused: the id must not be empty");
+  EXPECT_EQ(w.addBody(body("p", {})), "body 'p' refused: it has no parts");
+  BodySpec pad = sphere("p", 0.5);
+  pad.padding = -0.1;
+  EXPECT_EQ(w.addBody(pad), "body 'p' refused: padding -0.1 must be finite and >= 0");
+  pad.padding = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(w.addBody(pad), "body 'p' refused: padding nan must be finite and >= 0");
+  BodySpec many = sphere("x", 0.5);
+  many.parts.push_back(many.parts[0]);
+  many.parts.push_back(many.parts[0]);
+  EXPECT_EQ(w.addBody(many), "body 'x' refused: 3 parts exceed max_parts_per_body = 2");
+  BodySpec bad_pose = sphere("x", 0.5);
+  bad_pose.parts[0].pose.R(0, 0) = 2.0;
+  EXPECT_EQ(w.addBody(bad_pose),
+            "body 'x' refused: part 0 has a non-finite or non-rigid pose in the body frame");
+  EXPECT_EQ(w.addBody(sphere("y", 0.5)),
+            "body 'y' refused: the world already holds max_bodies = 2 bodies");
+  EXPECT_EQ(w.addBody(sphere("link", 2.0)),
+            "body 'link' refused: the id is already declared by the urdf and cannot be replaced "
+            "from the topic");
+
+  // Nothing changed: same bodies, geometry, poses; no events; the collision is still there.
+  EXPECT_EQ(w.size(), 2u);
+  EXPECT_FALSE(w.hasBody("y"));
+  EXPECT_EQ(w.body("x")->parts.size(), 1u);
+  EXPECT_EQ(w.body("link")->origin, BodyOrigin::Urdf);
+  EXPECT_EQ(w.pose("x")->t, Vec3(0.9, 0, 0));
+  const CycleResult r = w.check(1.1);
+  EXPECT_TRUE(r.events.empty());
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"link", "x"}, S::Collision}}));
+  EXPECT_NEAR(r.pairs[0].distance, -0.1, 1e-12);
+
+  // Bad poses are refused too.
+  Transform3 nan_pose = at(std::numeric_limits<double>::quiet_NaN());
+  EXPECT_FALSE(w.setPose("x", nan_pose, 2.0));
+  EXPECT_FALSE(w.setPose("nobody", at(0), 2.0));
+  EXPECT_EQ(w.pose("x")->t, Vec3(0.9, 0, 0));
+  // The same origin replaces freely.
+  urdf.parts[0].shape = ConvexShape::sphere(0.25);
+  EXPECT_EQ(w.addBody(urdf), "");
+}
+
+TEST(WorldModel, NearestRespectsFiltersAndStaleness) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5, "g")), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("d", 0.5, "g")), "");
+  ASSERT_EQ(w.addBody(sphere("e", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(3), 0.0));
+  ASSERT_TRUE(w.setPose("c", at(0, -2.5), 0.0));
+  ASSERT_TRUE(w.setPose("d", at(1.5), 0.0));      // same group: ignored
+  ASSERT_TRUE(w.setPose("e", at(0, 1.25), 5.0));  // stale at now = 10
+  std::string why;
+  auto n = w.nearest("a", 10.0, &why);
+  ASSERT_TRUE(n) << why;
+  EXPECT_EQ(n->body_a, "a");
+  EXPECT_EQ(n->body_b, "c");
+  EXPECT_EQ(n->distance, 1.5);
+  EXPECT_EQ(n->point_a, Vec3(0, -0.5, 0));
+  EXPECT_EQ(n->status, S::Clear);
+  n = w.nearest("a", 5.0, &why);  // e is fresh at 5
+  ASSERT_TRUE(n);
+  EXPECT_EQ(n->body_b, "e");
+  EXPECT_EQ(n->distance, 0.25);
+  w.disablePair("a", "c");
+  n = w.nearest("a", 10.0, &why);
+  ASSERT_TRUE(n);
+  EXPECT_EQ(n->body_b, "b");
+  EXPECT_EQ(n->distance, 2.0);
+  EXPECT_FALSE(w.nearest("zz", 10.0, &why));
+  EXPECT_EQ(why, "unknown body 'zz'");
+  EXPECT_FALSE(w.nearest("e", 10.0, &why));
+  EXPECT_NE(why.find("body 'e' has a stale pose"), std::string::npos) << why;
+  EXPECT_FALSE(w.distance("a", "a", 10.0, &why));
+  EXPECT_EQ(why, "body 'a' has no distance to itself");
+}
+
+TEST(WorldModel, CheckHypotheticalSortedAndMarginFiltered) {
+  WorldModel w(dyadic());
+  for (const auto& [id, x] : std::vector<std::pair<std::string, double>>{
+           {"far", 5.0}, {"mid", 3.0}, {"near", 2.0}, {"hit", -0.75}}) {
+    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
+    ASSERT_TRUE(w.setPose(id, at(x), 0.0));
+  }
+  ASSERT_EQ(w.addBody(sphere("same", 0.5, "probe")), "");
+  ASSERT_TRUE(w.setPose("same", at(0.1), 0.0));
+  ASSERT_EQ(w.addBody(sphere("stale", 0.5)), "");  // never posed
+  const BodySpec probe = sphere("probe", 0.5, "probe");
+  auto out = w.checkHypothetical(probe, at(0), 2.5, 1.0);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(out[0].body_a, "probe");
+  EXPECT_EQ(out[0].body_b, "hit");
+  EXPECT_EQ(out[0].distance, -0.25);
+  EXPECT_EQ(out[0].status, S::Collision);
+  EXPECT_EQ(out[1].body_b, "near");
+  EXPECT_EQ(out[1].distance, 1.0);
+  EXPECT_EQ(out[1].point_a, Vec3(0.5, 0, 0));
+  EXPECT_EQ(out[1].status, S::Clear);
+  EXPECT_EQ(out[2].body_b, "mid");
+  EXPECT_EQ(out[2].distance, 2.0);
+  // A margin below every distance still reports what collides.
+  out = w.checkHypothetical(probe, at(0), -1.0, 1.0);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].body_b, "hit");
+  // Nothing was added.
+  EXPECT_FALSE(w.hasBody("probe"));
+  EXPECT_EQ(w.size(), 6u);
+  // An invalid body gives nothing (the service reports checkSpec()).
+  EXPECT_TRUE(w.checkHypothetical(body("bad", {}), at(0), 10.0, 1.0).empty());
+  EXPECT_EQ(w.checkSpec(body("bad", {})), "body 'bad' refused: it has no parts");
+}
+
+TEST(WorldModel, TimeToCollisionHeadOn) {
+  Settings s = dyadic();
+  s.warning_distance = 5.0;
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  Twist ta;
+  ta.linear = Vec3(1, 0, 0);
+  Twist tb;
+  tb.linear = Vec3(-0.5, 0, 0);
+  ASSERT_TRUE(w.setPose("a", at(0), 1.0, ta));
+  ASSERT_TRUE(w.setPose("b", at(4), 1.0, tb));
+  CycleResult r = w.check(1.0);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_EQ(r.pairs[0].distance, 3.0);
+  EXPECT_EQ(r.pairs[0].time_to_collision, 2.0);
+  // Twists change, poses do not: the cached result gets the new time to collision.
+  ASSERT_TRUE(w.setPose("b", at(4), 1.1));  // b at rest (no twist)
+  r = w.check(1.1);
+  EXPECT_EQ(r.num_pairs_cached, 1u);
+  EXPECT_EQ(r.pairs[0].time_to_collision, 3.0);
+  ASSERT_TRUE(w.setPose("a", at(0), 1.2));  // nobody moves
+  r = w.check(1.2);
+  EXPECT_EQ(r.pairs[0].time_to_collision, std::numeric_limits<double>::infinity());
+  std::string why;
+  EXPECT_EQ(w.distance("a", "b", 1.2, &why)->time_to_collision,
+            std::numeric_limits<double>::infinity());
+}
+
+TEST(WorldModel, ArmAmongAThousandObstaclesIsFast) {
+  // The benchmark scene in miniature: a 7-link arm (one group) moving through 1,000 static
+  // obstacles. Prints the cycle time; asserts only a generous bound (the machine is shared).
+  std::mt19937 g(99);
+  Settings s;
+  WorldModel w(s);
+  Scene obstacles = randomScene(g, 1000, 10.0);
+  for (int i = 0; i < 1000; ++i) {
+    obstacles.specs[i].group = "";
+    ASSERT_EQ(w.addBody(obstacles.specs[i]), "");
+    ASSERT_TRUE(w.setPose(obstacles.specs[i].id, obstacles.poses[i], 0.0));
+  }
+  for (int l = 0; l < 7; ++l) {
+    ASSERT_EQ(
+        w.addBody(body("link" + std::to_string(l),
+                       {Part{ConvexShape::capsule(0.3, 0.06), Transform3::Identity()}}, "arm")),
+        "");
+  }
+  double total = 0.0;
+  double worst = 0.0;
+  std::size_t checked = 0;
+  std::size_t broad = 0;
+  const int cycles = 200;
+  for (int k = 0; k < cycles + 1; ++k) {
+    const double t = 1.0 + 0.02 * k;
+    for (int l = 0; l < 7; ++l) {
+      Transform3 T = at(5.0 + 2.0 * std::sin(0.5 * t), 5.0 + 0.35 * l, 5.0 + std::cos(0.3 * t));
+      T.R = Eigen::AngleAxisd(0.3 * t + l, Vec3::UnitY()).toRotationMatrix();
+      ASSERT_TRUE(w.setPose("link" + std::to_string(l), T, t));
+    }
+    const CycleResult r = w.check(t);
+    if (k == 0) continue;  // the first cycle computes every static obstacle pair once
+    total += r.compute_time;
+    worst = std::max(worst, r.compute_time);
+    checked += r.num_pairs_checked;
+    broad += r.num_broad_phase_pairs;
+  }
+  std::printf(
+      "1,007 bodies: mean cycle %.1f us, worst %.1f us, %.1f pairs checked, %.1f broad-"
+      "phase pairs per cycle (of %d)\n",
+      1e6 * total / cycles, 1e6 * worst, double(checked) / cycles, double(broad) / cycles,
+      1007 * 1006 / 2);
+  EXPECT_LT(total / cycles, 5e-3);
+}
+
+}  // namespace
+}  // namespace world
+}  // namespace collision_monitor
