@@ -1,0 +1,68 @@
+# Google Benchmark suites (bench/). Benchmarks are not tests: nothing here is added to CTest.
+# Results and how to reproduce them: docs/benchmarks.md (scripts/bench.sh builds build-bench/ and
+# runs the suite). The competitors are optional: a missing FCL or Bullet drops only that
+# competitor (with a message); libccd is always there (the core itself links it).
+#
+# The benchmarks are meant for an optimised build: CMAKE_BUILD_TYPE Release gives -O3 -DNDEBUG
+# with GCC; any other build type prints a warning (numbers from -O0 builds are meaningless).
+
+find_package(benchmark QUIET)
+if(NOT benchmark_FOUND)
+  message(STATUS "collision_monitor: Google Benchmark not found (libbenchmark-dev): no bench/ targets")
+  return()
+endif()
+if(NOT CMAKE_BUILD_TYPE MATCHES "^(Release|RelWithDebInfo)$")
+  message(WARNING "collision_monitor: benchmarks built with CMAKE_BUILD_TYPE='${CMAKE_BUILD_TYPE}'; "
+                  "use Release for meaningful numbers")
+endif()
+
+# FCL 0.7 (libfcl-dev): its libccd-based GJK solver is a competitor.
+find_package(fcl QUIET)
+if(TARGET fcl)
+  set(CM_BENCH_FCL_TARGET fcl)
+elseif(TARGET fcl::fcl)
+  set(CM_BENCH_FCL_TARGET fcl::fcl)
+else()
+  message(STATUS "collision_monitor: FCL not found (libfcl-dev): benchmarks run without the FCL competitor")
+endif()
+
+# Bullet 3 (libbullet-dev), double precision: the *-float64 libraries with BT_USE_DOUBLE_PRECISION
+# (pkg-config bullet-float64 carries both). Mixing the float libraries with double headers would
+# silently break the ABI, so only the float64 variant is accepted.
+pkg_check_modules(CM_BULLET64 QUIET IMPORTED_TARGET bullet-float64)
+if(NOT CM_BULLET64_FOUND)
+  message(STATUS "collision_monitor: Bullet float64 (libbullet-dev, pkg-config bullet-float64) not found: "
+                 "benchmarks run without the Bullet competitor")
+endif()
+
+add_executable(collision_monitor_bench_core
+  bench/bench_core.cpp
+  bench/pools.cpp
+)
+target_link_libraries(collision_monitor_bench_core PRIVATE
+  collision_monitor_core benchmark::benchmark PkgConfig::CCD Eigen3::Eigen)
+target_compile_options(collision_monitor_bench_core PRIVATE ${CM_WARNING_FLAGS})
+if(CM_BENCH_FCL_TARGET)
+  target_link_libraries(collision_monitor_bench_core PRIVATE ${CM_BENCH_FCL_TARGET})
+  target_compile_definitions(collision_monitor_bench_core PRIVATE CM_BENCH_HAVE_FCL=1)
+endif()
+if(CM_BULLET64_FOUND)
+  target_link_libraries(collision_monitor_bench_core PRIVATE PkgConfig::CM_BULLET64)
+  target_compile_definitions(collision_monitor_bench_core PRIVATE CM_BENCH_HAVE_BULLET=1)
+endif()
+# Competitor headers (FCL's inline libccd glue, Bullet) are not ours: keep their warnings out of
+# -Werror by treating their include directories as system headers.
+set_target_properties(collision_monitor_bench_core PROPERTIES NO_SYSTEM_FROM_IMPORTED OFF)
+
+# Node-level benchmark (world update + check cycle): needs the world model, so only in the full
+# build, and only once src/world/world_model.cpp exists.
+if(TARGET collision_monitor_world AND EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/bench/bench_world.cpp")
+  add_executable(collision_monitor_bench_world bench/bench_world.cpp)
+  target_link_libraries(collision_monitor_bench_world PRIVATE
+    collision_monitor_world collision_monitor_core benchmark::benchmark Eigen3::Eigen)
+  target_compile_options(collision_monitor_bench_world PRIVATE ${CM_WARNING_FLAGS})
+  if(CM_BENCH_FCL_TARGET)
+    target_link_libraries(collision_monitor_bench_world PRIVATE ${CM_BENCH_FCL_TARGET})
+    target_compile_definitions(collision_monitor_bench_world PRIVATE CM_BENCH_HAVE_FCL=1)
+  endif()
+endif()
