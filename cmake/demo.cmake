@@ -1,0 +1,27 @@
+# Demo robot scene: the marker builder's unit test (plain gtest, no master), the launch-level
+# rostest of the demo scene and the rviz screenshot check (Xvfb + software GL + ImageMagick).
+if(NOT CATKIN_ENABLE_TESTING)
+  return()
+endif()
+
+# MarkerBuilder against the real world model and core (markers.cpp compiled in directly, so the
+# test does not wait for the node library).
+cm_add_gtest(test_markers
+  SOURCES test/demo/test_markers.cpp src/ros/markers.cpp
+  LIBS collision_monitor_world collision_monitor_core ${catkin_LIBRARIES})
+if(TARGET test_markers)
+  target_include_directories(test_markers SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+  add_dependencies(test_markers ${catkin_EXPORTED_TARGETS})
+endif()
+
+find_package(rostest REQUIRED)
+# Python test nodes in test/demo run with /usr/bin/python3 and import the generated messages.
+set(CM_DEMO_TEST_DEPS collision_monitor_node collision_monitor_ros
+  collision_monitor_generate_messages_py)
+if(TARGET collision_monitor_node)
+  # The demo scene: designed WARNING_BEGIN, COLLISION_BEGIN and COLLISION_END on named pairs.
+  add_rostest(test/demo/demo_events.test DEPENDENCIES ${CM_DEMO_TEST_DEPS})
+  # rviz under Xvfb with software GL: red in a screenshot during a collision, green when clear.
+  # Screenshots go to $CM_ARTIFACTS (test.sh: build/test_results), else the ROS test results dir.
+  add_rostest(test/demo/demo_screenshot.test DEPENDENCIES ${CM_DEMO_TEST_DEPS})
+endif()
