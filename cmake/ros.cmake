@@ -1,0 +1,74 @@
+# Thin ROS layer: conversions, URDF/SRDF, mesh loading, the monitor (node + nodelet), rostests.
+find_package(urdfdom REQUIRED)
+find_package(urdfdom_headers REQUIRED)
+find_package(tinyxml2 REQUIRED)
+find_package(roslib REQUIRED)   # ros::package::getPath for package:// mesh URIs
+
+set(CM_ROS_SOURCES
+  src/ros/conversions.cpp
+  src/ros/mesh_loader.cpp
+  src/ros/robot_model.cpp
+  src/ros/params.cpp
+  src/ros/monitor.cpp
+  src/ros/nodelet.cpp
+)
+# The marker builder (markers.h) is written separately; publish markers once it exists.
+set(CM_HAVE_MARKERS OFF)
+if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/src/ros/markers.cpp)
+  list(APPEND CM_ROS_SOURCES src/ros/markers.cpp)
+  set(CM_HAVE_MARKERS ON)
+endif()
+
+add_library(collision_monitor_ros ${CM_ROS_SOURCES})
+target_include_directories(collision_monitor_ros PUBLIC
+  $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+  $<BUILD_INTERFACE:${CATKIN_DEVEL_PREFIX}/${CATKIN_GLOBAL_INCLUDE_DESTINATION}>)
+target_include_directories(collision_monitor_ros SYSTEM PUBLIC
+  ${catkin_INCLUDE_DIRS} ${roslib_INCLUDE_DIRS} ${urdfdom_INCLUDE_DIRS}
+  ${urdfdom_headers_INCLUDE_DIRS})
+target_link_libraries(collision_monitor_ros PUBLIC
+  collision_monitor_world collision_monitor_core ${catkin_LIBRARIES} ${roslib_LIBRARIES}
+  ${urdfdom_LIBRARIES} tinyxml2::tinyxml2)
+target_compile_options(collision_monitor_ros PRIVATE ${CM_WARNING_FLAGS})
+if(CM_HAVE_MARKERS)
+  target_compile_definitions(collision_monitor_ros PRIVATE CM_HAVE_MARKERS)
+endif()
+add_dependencies(collision_monitor_ros ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_EXPORTED_TARGETS})
+
+add_executable(collision_monitor_node src/nodes/collision_monitor_node.cpp)
+target_include_directories(collision_monitor_node SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+target_link_libraries(collision_monitor_node ${catkin_LIBRARIES})
+target_compile_options(collision_monitor_node PRIVATE ${CM_WARNING_FLAGS})
+# The node loads the nodelet from libcollision_monitor_ros at run time: build it first.
+add_dependencies(collision_monitor_node collision_monitor_ros)
+
+install(TARGETS collision_monitor_ros
+  ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
+  RUNTIME DESTINATION ${CATKIN_GLOBAL_BIN_DESTINATION})
+install(TARGETS collision_monitor_node RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+install(DIRECTORY include/collision_monitor/ros
+  DESTINATION ${CATKIN_GLOBAL_INCLUDE_DESTINATION}/collision_monitor)
+install(FILES nodelet_plugins.xml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
+install(DIRECTORY launch config DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
+
+if(CATKIN_ENABLE_TESTING)
+  find_package(rostest REQUIRED)
+
+  # Plain gtests, no master: conversions, validation, URDF/SRDF, parameters, mesh URIs.
+  cm_add_gtest(test_ros_conversions
+    SOURCES test/ros/test_conversions.cpp test/ros/test_robot_model.cpp
+    LIBS collision_monitor_ros)
+  if(TARGET test_ros_conversions)
+    target_include_directories(test_ros_conversions SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+    target_compile_definitions(test_ros_conversions PRIVATE
+      CM_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}"
+      CM_ROBOT_DATA="${CMAKE_CURRENT_SOURCE_DIR}/../shared/data")
+  endif()
+
+  # rostests over a real roscore (python test nodes in test/ros, run with /usr/bin/python3).
+  file(GLOB CM_ROSTESTS RELATIVE ${CMAKE_CURRENT_SOURCE_DIR} test/ros/*.test)
+  foreach(t ${CM_ROSTESTS})
+    add_rostest(${t} DEPENDENCIES collision_monitor_node collision_monitor_ros)
+  endforeach()
+endif()

@@ -1,0 +1,158 @@
+/// \file
+/// The collision monitor's ROS wiring: parameters, the URDF/SRDF and `~bodies` at start-up,
+/// topic and TF inputs, the check loop, outputs, services and diagnostics, around one
+/// world::WorldModel. The nodelet (and through it the node executable) owns one Monitor.
+///
+/// Threads: callbacks (subscriptions, services) run on the caller's callback queue, which may be
+/// multi-threaded (the nodelet's MT queue); the check loop runs on its own thread, woken at
+/// `rate` Hz and promptly after pose input (coalescing bursts, at most one check per
+/// `min_check_interval`). One mutex guards the world model; TF lookups, mesh loading and
+/// publishing happen outside it.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <string>
+#include <thread>
+#include <utility>
+#include <vector>
+
+#include <collision_monitor/Body.h>
+#include <collision_monitor/BodyPoses.h>
+#include <collision_monitor/CheckCollision.h>
+#include <collision_monitor/GetDistance.h>
+#include <collision_monitor/ListBodies.h>
+#include <diagnostic_updater/diagnostic_updater.h>
+#include <geometry_msgs/PoseStamped.h>
+#include <ros/ros.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "collision_monitor/ros/conversions.h"
+#include "collision_monitor/ros/mesh_loader.h"
+#include "collision_monitor/world/world_model.h"
+
+namespace collision_monitor {
+namespace ros_layer {
+
+class MarkerPublisher;
+
+class Monitor {
+ public:
+  /// `nh`: namespace of the node (robot_description, per-body pose topics resolve here);
+  /// `pnh`: private namespace (parameters, ~topics, ~services). `name` for diagnostics.
+  Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name);
+  ~Monitor();
+  Monitor(const Monitor&) = delete;
+  Monitor& operator=(const Monitor&) = delete;
+
+  const std::string& fixedFrame() const { return fixed_frame_; }
+
+ private:
+  struct Tracked {
+    std::string frame;  ///< TF frame (PoseSource::Tf) or empty
+    bool from_tf = false;
+    world::BodyOrigin origin = world::BodyOrigin::Topic;
+    std::string pose_topic;
+  };
+
+  // start-up
+  void readParameters();
+  void loadRobot();
+  void loadParameterBodies();
+  void setupDiagnostics();
+
+  // inputs
+  void onBody(const collision_monitor::Body::ConstPtr& msg);
+  void onBodyPoses(const collision_monitor::BodyPoses::ConstPtr& msg);
+  void onPoseStamped(const std::string& id, const geometry_msgs::PoseStamped::ConstPtr& msg);
+  /// Adds (or replaces) a validated body and (re)subscribes its pose topic. Empty on success.
+  std::string addBody(world::BodySpec spec);
+  bool removeBody(const std::string& id, std::string* why);
+  void updatePoseSubscription(const std::string& id, const std::string& topic);
+  /// header frame -> fixed frame at `stamp` (latest when zero); nullopt with `why`.
+  std::optional<core::Transform3> toFixed(const std::string& frame, const ros::Time& stamp,
+                                          std::string* why) const;
+  void applyPoses(const std::vector<PoseUpdate>& updates, double stamp, const std::string& source);
+
+  // services
+  bool getDistance(collision_monitor::GetDistance::Request& req,
+                   collision_monitor::GetDistance::Response& res);
+  bool checkCollision(collision_monitor::CheckCollision::Request& req,
+                      collision_monitor::CheckCollision::Response& res);
+  bool listBodies(collision_monitor::ListBodies::Request& req,
+                  collision_monitor::ListBodies::Response& res);
+  /// Why a pair is never checked (adjacent links, SRDF, disabled_pairs, same group), or empty.
+  std::string whyNeverChecked(const std::string& a, const std::string& b) const;
+
+  // the check loop
+  void loopThread();
+  void runCycle();
+  void trigger();
+
+  // bookkeeping
+  void reject(const std::string& what, bool startup = false);
+  void disablePair(const std::string& a, const std::string& b, const std::string& reason);
+  world::Settings settings_;
+  Limits limits_;
+  std::string fixed_frame_;
+  double rate_ = 50.0;
+  double min_check_interval_ = 0.002;
+  bool check_on_pose_ = true;
+  bool publish_markers_ = true;
+  double robot_padding_ = 0.0;
+  std::string robot_description_param_ = "robot_description";
+  std::string backend_name_;
+  std::vector<std::string> param_errors_;  ///< invalid parameters (fell back to defaults)
+
+  ros::NodeHandle nh_;
+  ros::NodeHandle pnh_;
+  std::string name_;
+
+  std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<MeshCache> mesh_cache_;
+  MeshLoader mesh_loader_;
+
+  mutable std::mutex world_mutex_;  ///< guards world_, tracked_
+  std::unique_ptr<world::WorldModel> world_;
+  std::map<std::string, Tracked> tracked_;
+  std::map<std::pair<std::string, std::string>, std::string> disabled_reasons_;  // sorted pairs
+
+  std::mutex subs_mutex_;
+  std::map<std::string, std::pair<std::string, ros::Subscriber>> pose_subs_;  // id -> topic, sub
+
+  ros::Publisher events_pub_, state_pub_, markers_pub_;
+  ros::Subscriber bodies_sub_, poses_sub_;
+  ros::ServiceServer distance_srv_, check_srv_, list_srv_;
+  std::unique_ptr<MarkerPublisher> markers_;
+
+  // diagnostics (guarded by stats_mutex_)
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  mutable std::mutex stats_mutex_;
+  struct Stats {
+    std::size_t bodies_msgs = 0, poses_msgs = 0, pose_topic_msgs = 0, cycles = 0;
+    std::size_t rejected = 0;
+    std::string last_rejection;
+    double cycle_time_max = 0.0, cycle_time_sum = 0.0;
+    std::size_t stale = 0, bodies = 0, pairs_checked = 0;
+    std::vector<std::string> stale_ids;
+  } stats_, stats_window_start_;
+  ros::WallTime window_start_;
+
+  // loop
+  std::thread loop_thread_;
+  std::mutex loop_mutex_;
+  std::condition_variable loop_cv_;
+  bool triggered_ = false;
+  bool stop_ = false;
+  double last_now_ = 0.0;
+};
+
+}  // namespace ros_layer
+}  // namespace collision_monitor

@@ -1,0 +1,51 @@
+/// \file
+/// Parameter-server values (XmlRpc, as loaded from YAML) -> messages. Pure: no master needed,
+/// unit-tested with hand-built XmlRpcValues.
+///
+/// `~bodies` is a list of maps with the fields of collision_monitor/Body:
+/// ```yaml
+/// bodies:
+///   - id: table
+///     frame_id: world          # TF frame (or pose_from_topic: true / pose_topic: /table_pose)
+///     group: furniture
+///     padding: 0.01
+///     parts:
+///       - type: box            # sphere|box|cylinder|cone|capsule|ellipsoid|convex|mesh, or 1..8
+///         dimensions: [1.2, 0.8, 0.05]
+///         pose: {position: [0, 0, 0.7], orientation: [0, 0, 0, 1]}   # or {x:, y:, z:(, w:)}
+///       - type: mesh
+///         resource: package://my_pkg/meshes/leg.stl
+///         scale: [1, 1, 1]
+///       - type: convex
+///         vertices: [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]]
+/// ```
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <XmlRpcValue.h>
+#include <collision_monitor/Body.h>
+
+#include "collision_monitor/ros/expected.h"
+
+namespace collision_monitor {
+namespace ros_layer {
+
+/// One entry of `~bodies` -> a Body message with operation ADD (not yet validated beyond its
+/// structure: bodyFromMsg() does that). Errors name the field ("parts[1].dimensions[0]: ...").
+Expected<collision_monitor::Body> bodyFromXmlRpc(const XmlRpc::XmlRpcValue& value);
+
+/// `~disabled_pairs`: a list of two-string lists, [[a, b], ...].
+Expected<std::vector<std::pair<std::string, std::string>>> pairsFromXmlRpc(
+    const XmlRpc::XmlRpcValue& value);
+
+/// A list of strings (`~mesh_roots`); a single string is a one-element list.
+Expected<std::vector<std::string>> stringsFromXmlRpc(const XmlRpc::XmlRpcValue& value);
+
+/// A number (int or double) as double.
+Expected<double> numberFromXmlRpc(const XmlRpc::XmlRpcValue& value);
+
+}  // namespace ros_layer
+}  // namespace collision_monitor

@@ -1,0 +1,414 @@
+#include "collision_monitor/ros/conversions.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <exception>
+#include <set>
+#include <sstream>
+
+namespace collision_monitor {
+namespace ros_layer {
+
+namespace {
+
+using core::ConvexShape;
+using core::Transform3;
+using core::Vec3;
+
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+bool finite(const geometry_msgs::Point& p) {
+  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+}
+bool finite(const geometry_msgs::Vector3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+/// Expected dimension count per Shape type (index = type); -1 for types without dimensions.
+int dimensionCount(std::uint8_t type) {
+  switch (type) {
+    case collision_monitor::Shape::SPHERE:
+      return 1;
+    case collision_monitor::Shape::BOX:
+    case collision_monitor::Shape::ELLIPSOID:
+      return 3;
+    case collision_monitor::Shape::CYLINDER:
+    case collision_monitor::Shape::CONE:
+    case collision_monitor::Shape::CAPSULE:
+      return 2;
+    default:
+      return 0;
+  }
+}
+
+const char* dimensionNames(std::uint8_t type) {
+  switch (type) {
+    case collision_monitor::Shape::SPHERE:
+      return "[radius]";
+    case collision_monitor::Shape::BOX:
+      return "[x, y, z]";
+    case collision_monitor::Shape::ELLIPSOID:
+      return "[a, b, c]";
+    case collision_monitor::Shape::CYLINDER:
+    case collision_monitor::Shape::CONE:
+      return "[height, radius]";
+    case collision_monitor::Shape::CAPSULE:
+      return "[length, radius]";
+    default:
+      return "[]";
+  }
+}
+
+/// Scale of a part: 0,0,0 -> 1,1,1; else every component finite and > 0.
+Expected<Vec3> scaleOf(const geometry_msgs::Vector3& s) {
+  if (!finite(s)) return Error{"scale is not finite"};
+  if (s.x == 0.0 && s.y == 0.0 && s.z == 0.0) return Vec3(1.0, 1.0, 1.0);
+  if (!(s.x > 0.0 && s.y > 0.0 && s.z > 0.0)) {
+    return Error{"scale (" + num(s.x) + ", " + num(s.y) + ", " + num(s.z) +
+                 ") must be all > 0 (or all 0, meaning 1)"};
+  }
+  return Vec3(s.x, s.y, s.z);
+}
+
+Expected<ConvexShape> primitive(const collision_monitor::Shape& msg) {
+  const std::uint8_t type = msg.type;
+  const auto& d = msg.dimensions;
+  const int want = dimensionCount(type);
+  if (static_cast<int>(d.size()) != want) {
+    return Error{shapeTypeName(type) + " needs " + std::to_string(want) + " dimensions " +
+                 dimensionNames(type) + ", got " + std::to_string(d.size())};
+  }
+  for (std::size_t i = 0; i < d.size(); ++i) {
+    if (!std::isfinite(d[i])) return Error{"dimension " + std::to_string(i) + " is not finite"};
+    if (d[i] < 0.0) {
+      return Error{"negative dimension " + std::to_string(i) + " " + dimensionNames(type) + ": " +
+                   num(d[i])};
+    }
+  }
+  const bool all_zero = std::all_of(d.begin(), d.end(), [](double v) { return v == 0.0; });
+  if (all_zero) return Error{"degenerate " + shapeTypeName(type) + ": every dimension is zero"};
+  switch (type) {
+    case collision_monitor::Shape::SPHERE:
+      return ConvexShape::sphere(d[0]);
+    case collision_monitor::Shape::BOX:
+      return ConvexShape::box(Vec3(d[0], d[1], d[2]));
+    case collision_monitor::Shape::CYLINDER:
+      return ConvexShape::cylinder(d[0], d[1]);
+    case collision_monitor::Shape::CONE:
+      return ConvexShape::cone(d[0], d[1]);
+    case collision_monitor::Shape::CAPSULE:
+      return ConvexShape::capsule(d[0], d[1]);
+    case collision_monitor::Shape::ELLIPSOID:
+      return ConvexShape::ellipsoid(Vec3(d[0], d[1], d[2]));
+    default:
+      return Error{"unknown shape type " + std::to_string(type)};
+  }
+}
+
+}  // namespace
+
+Expected<Transform3> toTransform(const geometry_msgs::Pose& pose, ZeroQuaternion zero) {
+  const auto& p = pose.position;
+  const auto& o = pose.orientation;
+  if (!finite(p)) return Error{"position is not finite"};
+  if (!(std::isfinite(o.x) && std::isfinite(o.y) && std::isfinite(o.z) && std::isfinite(o.w))) {
+    return Error{"orientation is not finite"};
+  }
+  const double norm = std::sqrt(o.x * o.x + o.y * o.y + o.z * o.z + o.w * o.w);
+  if (norm == 0.0) {
+    if (zero == ZeroQuaternion::Identity)
+      return core::makeTransform(Eigen::Quaterniond::Identity(), Vec3(p.x, p.y, p.z));
+    return Error{"orientation is a zero quaternion"};
+  }
+  if (std::abs(norm - 1.0) > kQuaternionTolerance) {
+    return Error{"orientation is not a unit quaternion (|q| = " + num(norm) + ")"};
+  }
+  return core::makeTransform(Eigen::Quaterniond(o.w, o.x, o.y, o.z), Vec3(p.x, p.y, p.z));
+}
+
+std::optional<std::uint8_t> shapeTypeFromString(const std::string& name) {
+  std::string s;
+  s.reserve(name.size());
+  for (char c : name) {
+    if (!std::isspace(static_cast<unsigned char>(c))) {
+      s.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
+    }
+  }
+  static const std::pair<const char*, std::uint8_t> kNames[] = {
+      {"sphere", collision_monitor::Shape::SPHERE},
+      {"box", collision_monitor::Shape::BOX},
+      {"cylinder", collision_monitor::Shape::CYLINDER},
+      {"cone", collision_monitor::Shape::CONE},
+      {"capsule", collision_monitor::Shape::CAPSULE},
+      {"ellipsoid", collision_monitor::Shape::ELLIPSOID},
+      {"convex", collision_monitor::Shape::CONVEX},
+      {"mesh", collision_monitor::Shape::MESH},
+  };
+  for (const auto& [n, t] : kNames) {
+    if (s == n) return t;
+  }
+  if (!s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
+      s.size() <= 3) {
+    const int v = std::stoi(s);
+    if (v >= collision_monitor::Shape::SPHERE && v <= collision_monitor::Shape::MESH) {
+      return static_cast<std::uint8_t>(v);
+    }
+  }
+  return std::nullopt;
+}
+
+std::string shapeTypeName(std::uint8_t type) {
+  switch (type) {
+    case collision_monitor::Shape::SPHERE:
+      return "sphere";
+    case collision_monitor::Shape::BOX:
+      return "box";
+    case collision_monitor::Shape::CYLINDER:
+      return "cylinder";
+    case collision_monitor::Shape::CONE:
+      return "cone";
+    case collision_monitor::Shape::CAPSULE:
+      return "capsule";
+    case collision_monitor::Shape::ELLIPSOID:
+      return "ellipsoid";
+    case collision_monitor::Shape::CONVEX:
+      return "convex";
+    case collision_monitor::Shape::MESH:
+      return "mesh";
+    default:
+      return "type " + std::to_string(type);
+  }
+}
+
+Expected<ConvexShape> shapeFromMsg(const collision_monitor::Shape& msg, const Limits& limits,
+                                   const MeshLoader& load_mesh) {
+  try {
+    const std::uint8_t type = msg.type;
+    if (type < collision_monitor::Shape::SPHERE || type > collision_monitor::Shape::MESH) {
+      return Error{"unknown shape type " + std::to_string(type)};
+    }
+    auto scale = scaleOf(msg.scale);
+    if (!scale) return Error{scale.error()};
+    if (type == collision_monitor::Shape::CONVEX || type == collision_monitor::Shape::MESH) {
+      if (!msg.dimensions.empty()) {
+        return Error{shapeTypeName(type) + " takes no dimensions, got " +
+                     std::to_string(msg.dimensions.size())};
+      }
+    } else {
+      if (*scale != Vec3(1.0, 1.0, 1.0)) {
+        return Error{"scale applies to mesh and convex parts only; a " + shapeTypeName(type) +
+                     " takes its size from dimensions"};
+      }
+      if (!msg.vertices.empty()) return Error{shapeTypeName(type) + " takes no vertices"};
+      return primitive(msg);
+    }
+
+    if (type == collision_monitor::Shape::CONVEX) {
+      if (msg.vertices.empty()) return Error{"convex part has no vertices"};
+      if (msg.vertices.size() > limits.max_vertices_per_part) {
+        return Error{"convex part has " + std::to_string(msg.vertices.size()) +
+                     " vertices, more than max_vertices_per_part " +
+                     std::to_string(limits.max_vertices_per_part)};
+      }
+      std::vector<Vec3> points;
+      points.reserve(msg.vertices.size());
+      for (std::size_t i = 0; i < msg.vertices.size(); ++i) {
+        if (!finite(msg.vertices[i])) {
+          return Error{"vertex " + std::to_string(i) + " is not finite"};
+        }
+        points.push_back(toVec3(msg.vertices[i]).cwiseProduct(*scale));
+      }
+      double spread = 0.0;
+      for (const Vec3& p : points)
+        spread = std::max(spread, (p - points.front()).norm());
+      if (!(spread > 0.0)) return Error{"degenerate convex part: every vertex coincides"};
+      return ConvexShape::convexHull(points);
+    }
+
+    // MESH
+    if (!msg.vertices.empty()) return Error{"mesh part takes no vertices (use resource)"};
+    if (msg.resource.empty()) return Error{"mesh part has an empty resource"};
+    if (!load_mesh) return Error{"mesh parts are not supported here"};
+    auto shape = load_mesh(msg.resource, *scale);
+    if (!shape) return Error{"mesh '" + msg.resource + "': " + shape.error()};
+    return shape;
+  } catch (const std::exception& e) {
+    return Error{shapeTypeName(msg.type) + ": " + e.what()};
+  }
+}
+
+Expected<world::Part> partFromMsg(const collision_monitor::Shape& msg, double padding,
+                                  const Limits& limits, const MeshLoader& load_mesh) {
+  auto pose = toTransform(msg.pose, ZeroQuaternion::Identity);
+  if (!pose) return Error{"pose: " + pose.error()};
+  auto shape = shapeFromMsg(msg, limits, load_mesh);
+  if (!shape) return Error{shape.error()};
+  try {
+    world::Part part{padding > 0.0 ? shape->padded(padding) : *shape, *pose};
+    return part;
+  } catch (const std::exception& e) {
+    return Error{std::string("padding: ") + e.what()};
+  }
+}
+
+Expected<world::BodySpec> bodyFromMsg(const collision_monitor::Body& msg, world::BodyOrigin origin,
+                                      const Limits& limits, const MeshLoader& load_mesh) {
+  if (msg.id.empty()) return Error{"body id is empty"};
+  if (msg.operation != collision_monitor::Body::ADD) {
+    return Error{"operation " + std::to_string(msg.operation) + " is not ADD"};
+  }
+  if (!std::isfinite(msg.padding) || msg.padding < 0.0) {
+    return Error{"padding must be finite and >= 0, got " + num(msg.padding)};
+  }
+  if (msg.parts.empty()) return Error{"body has no parts"};
+  if (msg.parts.size() > limits.max_parts_per_body) {
+    return Error{"body has " + std::to_string(msg.parts.size()) +
+                 " parts, more than max_parts_per_body " +
+                 std::to_string(limits.max_parts_per_body)};
+  }
+  const bool from_topic = msg.pose_from_topic || !msg.pose_topic.empty();
+  if (!from_topic && msg.header.frame_id.empty()) {
+    return Error{"header.frame_id is empty: a body needs a TF frame unless pose_from_topic is set"};
+  }
+  world::BodySpec spec;
+  spec.id = msg.id;
+  spec.frame = msg.header.frame_id;
+  spec.group = msg.group;
+  spec.padding = msg.padding;
+  spec.pose_source = from_topic ? world::PoseSource::Topic : world::PoseSource::Tf;
+  spec.pose_topic = msg.pose_topic;
+  spec.origin = origin;
+  spec.parts.reserve(msg.parts.size());
+  for (std::size_t i = 0; i < msg.parts.size(); ++i) {
+    auto part = partFromMsg(msg.parts[i], msg.padding, limits, load_mesh);
+    if (!part) {
+      return Error{"part " + std::to_string(i) + " (" + shapeTypeName(msg.parts[i].type) +
+                   "): " + part.error()};
+    }
+    spec.parts.push_back(std::move(part).value());
+  }
+  return spec;
+}
+
+Expected<std::vector<PoseUpdate>> posesFromMsg(const collision_monitor::BodyPoses& msg) {
+  if (msg.ids.size() != msg.poses.size()) {
+    return Error{"ids and poses differ in length (" + std::to_string(msg.ids.size()) + " vs " +
+                 std::to_string(msg.poses.size()) + ")"};
+  }
+  if (!msg.twists.empty() && msg.twists.size() != msg.ids.size()) {
+    return Error{"twists must be empty or one per id (" + std::to_string(msg.twists.size()) +
+                 " twists for " + std::to_string(msg.ids.size()) + " ids)"};
+  }
+  std::vector<PoseUpdate> out;
+  out.reserve(msg.ids.size());
+  std::set<std::string> seen;
+  for (std::size_t i = 0; i < msg.ids.size(); ++i) {
+    const std::string& id = msg.ids[i];
+    if (id.empty()) return Error{"ids[" + std::to_string(i) + "] is empty"};
+    if (!seen.insert(id).second) return Error{"id '" + id + "' appears twice"};
+    auto pose = toTransform(msg.poses[i], ZeroQuaternion::Refuse);
+    if (!pose) return Error{"pose of '" + id + "': " + pose.error()};
+    PoseUpdate u{id, *pose, std::nullopt};
+    if (!msg.twists.empty()) {
+      const auto& t = msg.twists[i];
+      if (!finite(t.linear) || !finite(t.angular)) {
+        return Error{"twist of '" + id + "' is not finite"};
+      }
+      u.twist = world::Twist{toVec3(t.linear), toVec3(t.angular)};
+    }
+    out.push_back(std::move(u));
+  }
+  return out;
+}
+
+PoseUpdate transformUpdate(const PoseUpdate& update, const Transform3& frame_to_fixed) {
+  PoseUpdate out = update;
+  out.pose = frame_to_fixed * update.pose;
+  if (update.twist) {
+    out.twist = world::Twist{frame_to_fixed.R * update.twist->linear,
+                             frame_to_fixed.R * update.twist->angular};
+  }
+  return out;
+}
+
+Vec3 toVec3(const geometry_msgs::Point& p) {
+  return Vec3(p.x, p.y, p.z);
+}
+Vec3 toVec3(const geometry_msgs::Vector3& v) {
+  return Vec3(v.x, v.y, v.z);
+}
+
+geometry_msgs::Point toPointMsg(const Vec3& v) {
+  geometry_msgs::Point p;
+  p.x = v.x();
+  p.y = v.y();
+  p.z = v.z();
+  return p;
+}
+
+geometry_msgs::Vector3 toVector3Msg(const Vec3& v) {
+  geometry_msgs::Vector3 m;
+  m.x = v.x();
+  m.y = v.y();
+  m.z = v.z();
+  return m;
+}
+
+geometry_msgs::Pose toPoseMsg(const Transform3& t) {
+  geometry_msgs::Pose p;
+  p.position = toPointMsg(t.t);
+  const Eigen::Quaterniond q(t.R);
+  p.orientation.x = q.x();
+  p.orientation.y = q.y();
+  p.orientation.z = q.z();
+  p.orientation.w = q.w();
+  return p;
+}
+
+collision_monitor::PairState toMsg(const world::PairResult& pair, const Transform3& to_frame) {
+  collision_monitor::PairState m;
+  m.body_a = pair.body_a;
+  m.body_b = pair.body_b;
+  m.status = static_cast<std::uint8_t>(pair.status);
+  m.distance = pair.distance;
+  m.point_a = toPointMsg(to_frame * pair.point_a);
+  m.point_b = toPointMsg(to_frame * pair.point_b);
+  m.normal = toVector3Msg(to_frame.R * pair.normal);
+  m.time_to_collision = pair.time_to_collision;
+  return m;
+}
+
+collision_monitor::CollisionEvent toMsg(const world::Event& event, const std::string& fixed_frame,
+                                        double now) {
+  collision_monitor::CollisionEvent m;
+  m.header.frame_id = fixed_frame;
+  m.header.stamp.fromSec(event.stamp > 0.0 ? event.stamp : now);
+  m.type = static_cast<std::uint8_t>(event.type);
+  m.pair = toMsg(event.pair);
+  return m;
+}
+
+collision_monitor::CollisionState toMsg(const world::CycleResult& cycle,
+                                        const std::string& fixed_frame, double now) {
+  collision_monitor::CollisionState m;
+  m.header.frame_id = fixed_frame;
+  m.header.stamp.fromSec(cycle.stamp > 0.0 ? cycle.stamp : now);
+  m.in_collision = cycle.in_collision;
+  m.min_distance = cycle.min_distance;
+  m.pairs.reserve(cycle.pairs.size());
+  for (const auto& p : cycle.pairs)
+    m.pairs.push_back(toMsg(p));
+  m.stale_bodies = cycle.stale_bodies;
+  m.num_bodies = static_cast<std::uint32_t>(cycle.num_bodies);
+  m.num_pairs_checked = static_cast<std::uint32_t>(cycle.num_pairs_checked);
+  m.compute_time = cycle.compute_time;
+  return m;
+}
+
+}  // namespace ros_layer
+}  // namespace collision_monitor

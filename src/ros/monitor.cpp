@@ -1,0 +1,825 @@
+#include "collision_monitor/ros/monitor.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <exception>
+#include <functional>
+#include <limits>
+#include <sstream>
+
+#include <collision_monitor/CollisionEvent.h>
+#include <collision_monitor/CollisionState.h>
+#include <tf2/exceptions.h>
+#include <visualization_msgs/MarkerArray.h>
+#include <boost/function.hpp>
+
+#include "collision_monitor/core/backend.h"
+#include "collision_monitor/ros/params.h"
+#include "collision_monitor/ros/robot_model.h"
+
+#ifdef CM_HAVE_MARKERS
+#include "collision_monitor/ros/markers.h"
+#endif
+
+namespace collision_monitor {
+namespace ros_layer {
+
+#ifdef CM_HAVE_MARKERS
+class MarkerPublisher {
+ public:
+  MarkerBuilder builder;
+};
+#else
+class MarkerPublisher {};
+#endif
+
+namespace {
+
+using core::Transform3;
+
+std::pair<std::string, std::string> sortedPair(const std::string& a, const std::string& b) {
+  return a < b ? std::make_pair(a, b) : std::make_pair(b, a);
+}
+
+Transform3 toTransform3(const geometry_msgs::Transform& t) {
+  const Eigen::Quaterniond q(t.rotation.w, t.rotation.x, t.rotation.y, t.rotation.z);
+  return core::makeTransform(q, core::Vec3(t.translation.x, t.translation.y, t.translation.z));
+}
+
+std::string joined(const std::vector<std::string>& items, std::size_t max_items = 10) {
+  std::ostringstream os;
+  for (std::size_t i = 0; i < items.size() && i < max_items; ++i)
+    os << (i ? ", " : "") << items[i];
+  if (items.size() > max_items) os << ", ... (" << items.size() << " in all)";
+  return os.str();
+}
+
+}  // namespace
+
+Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name)
+    : nh_(nh), pnh_(pnh), name_(name) {
+  readParameters();
+  world_ = std::make_unique<world::WorldModel>(settings_);
+  mesh_cache_ = std::make_unique<MeshCache>(
+      [this] {
+        std::vector<std::string> roots;
+        XmlRpc::XmlRpcValue v;
+        if (pnh_.getParam("mesh_roots", v)) {
+          auto r = stringsFromXmlRpc(v);
+          if (r) {
+            roots = *r;
+          } else {
+            param_errors_.push_back("mesh_roots: " + r.error());
+          }
+        }
+        return roots;
+      }(),
+      limits_.max_vertices_per_part);
+  mesh_loader_ = [cache = mesh_cache_.get()](const std::string& uri, const core::Vec3& scale) {
+    return cache->load(uri, scale);
+  };
+
+  tf_buffer_ = std::make_shared<tf2_ros::Buffer>(ros::Duration(10.0));
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_, true);
+
+  loadRobot();
+  loadParameterBodies();
+  for (const auto& e : param_errors_)
+    ROS_ERROR_STREAM(name_ << ": invalid parameter " << e);
+
+  events_pub_ = pnh_.advertise<collision_monitor::CollisionEvent>("events", 100);
+  state_pub_ = pnh_.advertise<collision_monitor::CollisionState>("state", 10);
+  markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 1);
+#ifdef CM_HAVE_MARKERS
+  markers_ = std::make_unique<MarkerPublisher>();
+#endif
+  const auto hints = ros::TransportHints().tcpNoDelay();
+  bodies_sub_ = pnh_.subscribe("bodies", 1000, &Monitor::onBody, this, hints);
+  poses_sub_ = pnh_.subscribe("body_poses", 100, &Monitor::onBodyPoses, this, hints);
+  distance_srv_ = pnh_.advertiseService("get_distance", &Monitor::getDistance, this);
+  check_srv_ = pnh_.advertiseService("check_collision", &Monitor::checkCollision, this);
+  list_srv_ = pnh_.advertiseService("list_bodies", &Monitor::listBodies, this);
+  setupDiagnostics();
+
+  {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    ROS_INFO_STREAM(name_ << ": monitoring " << world_->size() << " bodies in frame '"
+                          << fixed_frame_ << "' at " << rate_ << " Hz with backend "
+                          << core::toString(settings_.backend));
+  }
+  loop_thread_ = std::thread([this] { loopThread(); });
+}
+
+Monitor::~Monitor() {
+  {
+    std::lock_guard<std::mutex> lock(loop_mutex_);
+    stop_ = true;
+  }
+  loop_cv_.notify_all();
+  if (loop_thread_.joinable()) loop_thread_.join();
+  bodies_sub_.shutdown();
+  poses_sub_.shutdown();
+  distance_srv_.shutdown();
+  check_srv_.shutdown();
+  list_srv_.shutdown();
+  std::lock_guard<std::mutex> lock(subs_mutex_);
+  for (auto& [id, sub] : pose_subs_)
+    sub.second.shutdown();
+}
+
+// ---------------------------------------------------------------------------------------------
+// start-up
+
+void Monitor::readParameters() {
+  const world::Settings defaults;
+  auto number = [this](const std::string& key, double fallback, auto valid, const char* rule) {
+    double v = fallback;
+    if (!pnh_.getParam(key, v)) {
+      XmlRpc::XmlRpcValue raw;
+      if (pnh_.getParam(key, raw)) {
+        param_errors_.push_back(key + ": not a number; using " + std::to_string(fallback));
+      }
+      return fallback;
+    }
+    if (!std::isfinite(v) || !valid(v)) {
+      param_errors_.push_back(key + " = " + std::to_string(v) + " (must be " + rule + "); using " +
+                              std::to_string(fallback));
+      return fallback;
+    }
+    return v;
+  };
+  auto positive = [](double v) { return v > 0.0; };
+  auto non_negative = [](double v) { return v >= 0.0; };
+  auto any = [](double) { return true; };
+
+  rate_ = number("rate", 50.0, positive, "> 0");
+  settings_.warning_distance = number("warning_distance", 0.05, any, "finite");
+  settings_.contact_distance = number("contact_distance", 0.0, any, "finite");
+  if (settings_.warning_distance < settings_.contact_distance) {
+    param_errors_.push_back("warning_distance < contact_distance; using warning_distance = " +
+                            std::to_string(settings_.contact_distance));
+    settings_.warning_distance = settings_.contact_distance;
+  }
+  settings_.hysteresis = number("hysteresis", 0.005, non_negative, ">= 0");
+  settings_.pose_timeout = number("pose_timeout", 0.5, positive, "> 0");
+  robot_padding_ = number("robot_padding", 0.0, non_negative, ">= 0");
+  min_check_interval_ = number("min_check_interval", 0.002, non_negative, ">= 0");
+  pnh_.param("check_on_pose", check_on_pose_, true);
+  pnh_.param("publish_markers", publish_markers_, true);
+  pnh_.param<std::string>("robot_description_param", robot_description_param_, "robot_description");
+
+  pnh_.param<std::string>("backend", backend_name_, "gjk");
+  if (auto b = core::parseBackend(backend_name_)) {
+    settings_.backend = *b;
+  } else {
+    param_errors_.push_back("backend = '" + backend_name_ + "' (must be gjk or libccd); using gjk");
+    settings_.backend = core::BackendType::Gjk;
+  }
+
+  auto count = [this](const std::string& key, std::size_t fallback) -> std::size_t {
+    int v = 0;
+    if (!pnh_.getParam(key, v)) return fallback;
+    if (v <= 0) {
+      param_errors_.push_back(key + " = " + std::to_string(v) + " (must be > 0); using " +
+                              std::to_string(fallback));
+      return fallback;
+    }
+    return static_cast<std::size_t>(v);
+  };
+  settings_.max_bodies = count("max_bodies", defaults.max_bodies);
+  settings_.max_vertices_per_part = count("max_vertices_per_part", defaults.max_vertices_per_part);
+  settings_.max_parts_per_body = count("max_parts_per_body", defaults.max_parts_per_body);
+  limits_.max_vertices_per_part = settings_.max_vertices_per_part;
+  limits_.max_parts_per_body = settings_.max_parts_per_body;
+}
+
+void Monitor::loadRobot() {
+  std::string root_link;
+  std::string key;
+  if (!nh_.searchParam(robot_description_param_, key)) key = robot_description_param_;
+  std::string urdf;
+  if (!nh_.getParam(key, urdf) || urdf.empty()) {
+    ROS_INFO_STREAM(name_ << ": no URDF on parameter '" << robot_description_param_
+                          << "': no robot bodies");
+  } else {
+    auto robot = bodiesFromUrdf(urdf, robot_padding_, limits_, mesh_loader_);
+    if (!robot) {
+      reject("URDF '" + key + "': " + robot.error(), true);
+    } else {
+      root_link = robot->root_link;
+      for (const auto& e : robot->errors)
+        reject("URDF link " + e, true);
+      for (const auto& [a, b] : robot->adjacent)
+        disablePair(a, b, "adjacent links");
+      std::size_t added = 0;
+      for (auto& spec : robot->bodies) {
+        const std::string id = spec.id;
+        const std::string err = addBody(std::move(spec));
+        if (err.empty()) {
+          ++added;
+        } else {
+          reject("URDF link '" + id + "' refused: " + err, true);
+        }
+      }
+      ROS_INFO_STREAM(name_ << ": robot '" << robot->robot_name << "': " << added
+                            << " links with collision geometry, " << robot->adjacent.size()
+                            << " adjacent pairs disabled");
+    }
+    std::string skey;
+    const std::string semantic = robot_description_param_ + "_semantic";
+    if (!nh_.searchParam(semantic, skey)) skey = semantic;
+    std::string srdf;
+    if (nh_.getParam(skey, srdf) && !srdf.empty()) {
+      auto pairs = disabledPairsFromSrdf(srdf);
+      if (!pairs) {
+        reject("SRDF '" + skey + "': " + pairs.error(), true);
+      } else {
+        for (const auto& [a, b] : *pairs)
+          disablePair(a, b, "SRDF <disable_collisions>");
+        ROS_INFO_STREAM(name_ << ": SRDF: " << pairs->size() << " pairs disabled");
+      }
+    }
+  }
+  pnh_.param<std::string>("fixed_frame", fixed_frame_, root_link.empty() ? "world" : root_link);
+  if (fixed_frame_.empty()) {
+    param_errors_.push_back("fixed_frame is empty; using world");
+    fixed_frame_ = "world";
+  }
+  if (!fixed_frame_.empty() && fixed_frame_[0] == '/') fixed_frame_.erase(0, 1);
+
+  XmlRpc::XmlRpcValue pairs;
+  if (pnh_.getParam("disabled_pairs", pairs)) {
+    auto p = pairsFromXmlRpc(pairs);
+    if (!p) {
+      param_errors_.push_back("disabled_pairs: " + p.error());
+    } else {
+      for (const auto& [a, b] : *p)
+        disablePair(a, b, "disabled_pairs parameter");
+    }
+  }
+}
+
+void Monitor::loadParameterBodies() {
+  XmlRpc::XmlRpcValue list;
+  if (!pnh_.getParam("bodies", list)) return;
+  if (list.getType() != XmlRpc::XmlRpcValue::TypeArray) {
+    reject("parameter ~bodies: expected a list of bodies", true);
+    return;
+  }
+  for (int i = 0; i < list.size(); ++i) {
+    const std::string where = "parameter ~bodies[" + std::to_string(i) + "]";
+    auto msg = bodyFromXmlRpc(list[i]);
+    if (!msg) {
+      reject(where + ": " + msg.error(), true);
+      continue;
+    }
+    auto spec = bodyFromMsg(*msg, world::BodyOrigin::Parameter, limits_, mesh_loader_);
+    if (!spec) {
+      reject(where + " body '" + msg->id + "' refused: " + spec.error(), true);
+      continue;
+    }
+    const std::string err = addBody(std::move(spec).value());
+    if (!err.empty()) reject(where + " body '" + msg->id + "' refused: " + err, true);
+  }
+}
+
+void Monitor::disablePair(const std::string& a, const std::string& b, const std::string& reason) {
+  std::lock_guard<std::mutex> lock(world_mutex_);
+  world_->disablePair(a, b);
+  disabled_reasons_.emplace(sortedPair(a, b), reason);  // the first reason wins
+}
+
+// ---------------------------------------------------------------------------------------------
+// inputs
+
+void Monitor::reject(const std::string& what, bool startup) {
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.rejected;
+    stats_.last_rejection = what;
+  }
+  if (startup) {
+    ROS_ERROR_STREAM(name_ << ": " << what);
+  } else {
+    ROS_ERROR_STREAM_THROTTLE(0.5, name_ << ": " << what);
+  }
+}
+
+std::string Monitor::addBody(world::BodySpec spec) {
+  const std::string id = spec.id;
+  const std::string topic = spec.pose_topic;
+  Tracked t;
+  t.from_tf = spec.pose_source == world::PoseSource::Tf;
+  t.frame = spec.frame;
+  if (!t.frame.empty() && t.frame[0] == '/') t.frame.erase(0, 1);
+  t.origin = spec.origin;
+  t.pose_topic = topic;
+  {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    std::string err = world_->addBody(std::move(spec));
+    if (!err.empty()) return err;
+    tracked_[id] = t;
+  }
+  updatePoseSubscription(id, topic);
+  trigger();
+  return {};
+}
+
+bool Monitor::removeBody(const std::string& id, std::string* why) {
+  {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    auto it = tracked_.find(id);
+    if (it == tracked_.end()) {
+      *why = "unknown body";
+      return false;
+    }
+    if (it->second.origin != world::BodyOrigin::Topic) {
+      *why = std::string("declared by the ") + world::toString(it->second.origin) +
+             "; only bodies added on ~bodies can be removed there";
+      return false;
+    }
+    world_->removeBody(id);
+    tracked_.erase(it);
+  }
+  updatePoseSubscription(id, "");
+  trigger();
+  return true;
+}
+
+void Monitor::updatePoseSubscription(const std::string& id, const std::string& topic) {
+  std::lock_guard<std::mutex> lock(subs_mutex_);
+  auto it = pose_subs_.find(id);
+  if (it != pose_subs_.end()) {
+    if (it->second.first == topic) return;  // same topic: keep the connection
+    it->second.second.shutdown();
+    pose_subs_.erase(it);
+  }
+  if (topic.empty()) return;
+  boost::function<void(const geometry_msgs::PoseStamped::ConstPtr&)> cb =
+      [this, id](const geometry_msgs::PoseStamped::ConstPtr& msg) { onPoseStamped(id, msg); };
+  ros::Subscriber sub = nh_.subscribe<geometry_msgs::PoseStamped>(
+      topic, 10, cb, ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
+  pose_subs_.emplace(id, std::make_pair(topic, sub));
+}
+
+std::optional<Transform3> Monitor::toFixed(const std::string& frame_in, const ros::Time& stamp,
+                                           std::string* why) const {
+  std::string frame = frame_in;
+  if (!frame.empty() && frame[0] == '/') frame.erase(0, 1);
+  if (frame == fixed_frame_) return Transform3::Identity();
+  try {
+    return toTransform3(
+        tf_buffer_->lookupTransform(fixed_frame_, frame, stamp, ros::Duration(0)).transform);
+  } catch (const tf2::ExtrapolationException&) {
+    // The pose may have arrived before the matching TF: give TF a moment (bounded).
+    try {
+      return toTransform3(
+          tf_buffer_->lookupTransform(fixed_frame_, frame, stamp, ros::Duration(0.05)).transform);
+    } catch (const tf2::TransformException& e) {
+      *why = e.what();
+    }
+  } catch (const tf2::TransformException& e) {
+    *why = e.what();
+  }
+  return std::nullopt;
+}
+
+void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, double stamp,
+                         const std::string& source) {
+  std::vector<std::string> unknown, attached;
+  {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    for (const auto& u : updates) {
+      auto it = tracked_.find(u.id);
+      if (it == tracked_.end()) {
+        unknown.push_back(u.id);
+      } else if (it->second.from_tf) {
+        attached.push_back(u.id + " (frame " + it->second.frame + ")");
+      } else {
+        world_->setPose(u.id, u.pose, stamp, u.twist);
+      }
+    }
+  }
+  if (!unknown.empty() || !attached.empty()) {
+    std::string what = source + ": poses ignored for";
+    if (!unknown.empty()) what += " unknown bodies: " + joined(unknown);
+    if (!attached.empty()) {
+      what += std::string(unknown.empty() ? "" : ";") +
+              " bodies attached to TF (not pose_from_topic): " + joined(attached);
+    }
+    reject(what);
+  }
+  if (unknown.size() + attached.size() < updates.size()) trigger();
+}
+
+void Monitor::onBody(const collision_monitor::Body::ConstPtr& msg) {
+  try {
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.bodies_msgs;
+    }
+    if (msg->operation == collision_monitor::Body::REMOVE) {
+      std::string why;
+      if (!removeBody(msg->id, &why)) reject("~bodies: cannot remove '" + msg->id + "': " + why);
+      return;
+    }
+    if (msg->operation != collision_monitor::Body::ADD) {
+      reject("~bodies: body '" + msg->id + "': unknown operation " +
+             std::to_string(msg->operation));
+      return;
+    }
+    auto spec = bodyFromMsg(*msg, world::BodyOrigin::Topic, limits_, mesh_loader_);
+    if (!spec) {
+      reject("~bodies: body '" + msg->id + "' refused: " + spec.error());
+      return;
+    }
+    const std::string err = addBody(std::move(spec).value());
+    if (!err.empty()) reject("~bodies: body '" + msg->id + "' refused: " + err);
+  } catch (const std::exception& e) {
+    reject("~bodies: body '" + msg->id + "': internal error: " + e.what());
+  }
+}
+
+void Monitor::onBodyPoses(const collision_monitor::BodyPoses::ConstPtr& msg) {
+  try {
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.poses_msgs;
+    }
+    auto updates = posesFromMsg(*msg);
+    if (!updates) {
+      reject("~body_poses refused: " + updates.error());
+      return;
+    }
+    if (msg->header.frame_id.empty()) {
+      reject("~body_poses refused: header.frame_id is empty");
+      return;
+    }
+    std::string why;
+    auto to_fixed = toFixed(msg->header.frame_id, msg->header.stamp, &why);
+    if (!to_fixed) {
+      reject("~body_poses refused: cannot resolve frame '" + msg->header.frame_id + "': " + why);
+      return;
+    }
+    for (auto& u : *updates)
+      u = transformUpdate(u, *to_fixed);
+    applyPoses(*updates, msg->header.stamp.toSec(), "~body_poses");
+  } catch (const std::exception& e) {
+    reject(std::string("~body_poses: internal error: ") + e.what());
+  }
+}
+
+void Monitor::onPoseStamped(const std::string& id,
+                            const geometry_msgs::PoseStamped::ConstPtr& msg) {
+  try {
+    std::string topic;
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.pose_topic_msgs;
+    }
+    auto pose = toTransform(msg->pose, ZeroQuaternion::Refuse);
+    if (!pose) {
+      reject("pose_topic of '" + id + "' refused: " + pose.error());
+      return;
+    }
+    if (msg->header.frame_id.empty()) {
+      reject("pose_topic of '" + id + "' refused: header.frame_id is empty");
+      return;
+    }
+    std::string why;
+    auto to_fixed = toFixed(msg->header.frame_id, msg->header.stamp, &why);
+    if (!to_fixed) {
+      reject("pose_topic of '" + id + "' refused: cannot resolve frame '" + msg->header.frame_id +
+             "': " + why);
+      return;
+    }
+    applyPoses({PoseUpdate{id, *to_fixed * *pose, std::nullopt}}, msg->header.stamp.toSec(),
+               "pose_topic of '" + id + "'");
+  } catch (const std::exception& e) {
+    reject("pose_topic of '" + id + "': internal error: " + e.what());
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// services
+
+std::string Monitor::whyNeverChecked(const std::string& a, const std::string& b) const {
+  if (world_->isPairDisabled(a, b)) {
+    auto it = disabled_reasons_.find(sortedPair(a, b));
+    return "the pair is disabled (" +
+           (it != disabled_reasons_.end() ? it->second : std::string("disabled")) + ")";
+  }
+  const world::BodySpec* ba = world_->body(a);
+  const world::BodySpec* bb = world_->body(b);
+  if (ba && bb && !ba->group.empty() && ba->group == bb->group) {
+    return "both bodies are in group '" + ba->group + "'";
+  }
+  return {};
+}
+
+bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
+                          collision_monitor::GetDistance::Response& res) {
+  try {
+    res.success = false;
+    const double now = ros::Time::now().toSec();
+    if (req.body_a.empty()) {
+      res.message = "body_a is empty";
+      return true;
+    }
+    std::optional<world::PairResult> result;
+    std::string why;
+    {
+      std::lock_guard<std::mutex> lock(world_mutex_);
+      if (!world_->hasBody(req.body_a)) {
+        why = "unknown body '" + req.body_a + "'";
+      } else if (req.body_b.empty()) {
+        result = world_->nearest(req.body_a, now, &why);
+      } else if (!world_->hasBody(req.body_b)) {
+        why = "unknown body '" + req.body_b + "'";
+      } else if (req.body_a == req.body_b) {
+        why = "body_a and body_b are the same body";
+      } else {
+        const std::string never = whyNeverChecked(req.body_a, req.body_b);
+        if (!never.empty()) {
+          why = "'" + req.body_a + "' and '" + req.body_b + "' are never checked: " + never;
+        } else {
+          result = world_->distance(req.body_a, req.body_b, now, &why);
+        }
+      }
+    }
+    if (!result) {
+      res.message = why.empty() ? "no result" : why;
+      return true;
+    }
+    Transform3 to_frame = Transform3::Identity();
+    if (!req.frame_id.empty() && req.frame_id != fixed_frame_ &&
+        req.frame_id != "/" + fixed_frame_) {
+      std::string frame = req.frame_id;
+      if (frame[0] == '/') frame.erase(0, 1);
+      try {
+        to_frame =
+            toTransform3(tf_buffer_->lookupTransform(frame, fixed_frame_, ros::Time(0)).transform);
+      } catch (const tf2::TransformException& e) {
+        res.message = "cannot express the result in frame '" + req.frame_id + "': " + e.what();
+        return true;
+      }
+    }
+    res.result = toMsg(*result, to_frame);
+    res.success = true;
+    res.message = req.body_b.empty() ? "nearest body: " + result->body_b : "";
+  } catch (const std::exception& e) {
+    res.success = false;
+    res.message = std::string("internal error: ") + e.what();
+  }
+  return true;
+}
+
+bool Monitor::checkCollision(collision_monitor::CheckCollision::Request& req,
+                             collision_monitor::CheckCollision::Response& res) {
+  try {
+    res.success = false;
+    const double now = ros::Time::now().toSec();
+    collision_monitor::Body body = req.body;
+    if (body.id.empty()) body.id = "check_collision";
+    body.operation = collision_monitor::Body::ADD;
+    body.pose_from_topic = false;
+    body.pose_topic.clear();
+    if (body.header.frame_id.empty()) body.header.frame_id = fixed_frame_;
+    if (!std::isfinite(req.margin)) {
+      res.message = "margin is not finite";
+      return true;
+    }
+    auto spec = bodyFromMsg(body, world::BodyOrigin::Topic, limits_, mesh_loader_);
+    if (!spec) {
+      res.message = "body '" + body.id + "' refused: " + spec.error();
+      return true;
+    }
+    auto pose = toTransform(req.pose, ZeroQuaternion::Identity);
+    if (!pose) {
+      res.message = "pose refused: " + pose.error();
+      return true;
+    }
+    std::string why;
+    auto to_fixed = toFixed(body.header.frame_id, body.header.stamp, &why);
+    if (!to_fixed) {
+      res.message = "cannot resolve frame '" + body.header.frame_id + "': " + why;
+      return true;
+    }
+    std::vector<world::PairResult> pairs;
+    {
+      std::lock_guard<std::mutex> lock(world_mutex_);
+      pairs = world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now);
+    }
+    std::stable_sort(pairs.begin(), pairs.end(),
+                     [](const auto& x, const auto& y) { return x.distance < y.distance; });
+    res.in_collision = false;
+    for (const auto& p : pairs) {
+      if (p.status == world::PairStatus::Collision || p.distance <= settings_.contact_distance) {
+        res.in_collision = true;
+      }
+      res.pairs.push_back(toMsg(p));
+    }
+    res.success = true;
+  } catch (const std::exception& e) {
+    res.success = false;
+    res.message = std::string("internal error: ") + e.what();
+  }
+  return true;
+}
+
+bool Monitor::listBodies(collision_monitor::ListBodies::Request& /*req*/,
+                         collision_monitor::ListBodies::Response& res) {
+  const double now = ros::Time::now().toSec();
+  std::vector<world::BodyInfo> infos;
+  {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    infos = world_->listBodies(now);
+  }
+  std::sort(infos.begin(), infos.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
+  for (const auto& b : infos) {
+    res.ids.push_back(b.id);
+    res.frames.push_back(b.frame);
+    res.groups.push_back(b.group);
+    res.stale.push_back(b.stale);
+  }
+  return true;
+}
+
+// ---------------------------------------------------------------------------------------------
+// the check loop
+
+void Monitor::trigger() {
+  if (!check_on_pose_) return;
+  {
+    std::lock_guard<std::mutex> lock(loop_mutex_);
+    triggered_ = true;
+  }
+  loop_cv_.notify_one();
+}
+
+void Monitor::loopThread() {
+  using Clock = std::chrono::steady_clock;
+  const auto period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate_));
+  const auto min_interval = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(min_check_interval_));
+  auto next = Clock::now();
+  auto last_start = Clock::now() - period;
+  std::unique_lock<std::mutex> lock(loop_mutex_);
+  while (!stop_) {
+    loop_cv_.wait_until(lock, next, [this] { return stop_ || triggered_; });
+    if (stop_) break;
+    // A burst of pose messages becomes one check: wait out the minimum interval, during which
+    // further triggers merge into this one.
+    const auto earliest = last_start + min_interval;
+    if (Clock::now() < earliest) {
+      loop_cv_.wait_until(lock, earliest, [this] { return stop_; });
+      if (stop_) break;
+    }
+    triggered_ = false;
+    last_start = Clock::now();
+    lock.unlock();
+    try {
+      runCycle();
+    } catch (const std::exception& e) {
+      ROS_ERROR_STREAM_THROTTLE(1.0, name_ << ": check cycle failed: " << e.what());
+    }
+    lock.lock();
+    next = last_start + period;
+  }
+}
+
+void Monitor::runCycle() {
+  const ros::Time stamp_now = ros::Time::now();
+  if (stamp_now.isZero()) return;  // simulated time not started yet
+  const double now = stamp_now.toSec();
+  if (last_now_ > 0.0 && now + 1.0 < last_now_) {
+    ROS_WARN_STREAM(name_ << ": time jumped backwards by " << last_now_ - now
+                          << " s: forgetting every pose and the TF buffer");
+    tf_buffer_->clear();
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    world_->clearPoses();
+  }
+  last_now_ = now;
+
+  // TF lookups outside the world lock: one per distinct frame.
+  std::vector<std::pair<std::string, std::string>> attached;  // id, frame
+  {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    for (const auto& [id, t] : tracked_) {
+      if (t.from_tf) attached.emplace_back(id, t.frame);
+    }
+  }
+  std::map<std::string, std::optional<std::pair<Transform3, double>>> frames;
+  for (const auto& [id, frame] : attached) {
+    if (frames.count(frame)) continue;
+    if (frame == fixed_frame_) {
+      frames[frame] = std::make_pair(Transform3::Identity(), 0.0);  // static
+      continue;
+    }
+    try {
+      const auto tf = tf_buffer_->lookupTransform(fixed_frame_, frame, ros::Time(0));
+      frames[frame] = std::make_pair(toTransform3(tf.transform), tf.header.stamp.toSec());
+    } catch (const tf2::TransformException&) {
+      frames[frame] = std::nullopt;
+    }
+  }
+
+  world::CycleResult cycle;
+  visualization_msgs::MarkerArray markers;
+  const bool want_markers =
+      publish_markers_ && markers_ != nullptr && markers_pub_.getNumSubscribers() > 0;
+  {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    for (const auto& [id, frame] : attached) {
+      auto it = tracked_.find(id);
+      if (it == tracked_.end() || !it->second.from_tf || it->second.frame != frame) continue;
+      const auto& f = frames[frame];
+      if (f) {
+        world_->setPose(id, f->first, f->second);
+      } else {
+        world_->markUnresolved(id);
+      }
+    }
+    cycle = world_->check(now);
+#ifdef CM_HAVE_MARKERS
+    if (want_markers) markers = markers_->builder.build(*world_, cycle, fixed_frame_);
+#endif
+  }
+
+  for (const auto& e : cycle.events)
+    events_pub_.publish(toMsg(e, fixed_frame_, now));
+  state_pub_.publish(toMsg(cycle, fixed_frame_, now));
+  if (want_markers && !markers.markers.empty()) markers_pub_.publish(markers);
+
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    ++stats_.cycles;
+    stats_.cycle_time_sum += cycle.compute_time;
+    stats_.cycle_time_max = std::max(stats_.cycle_time_max, cycle.compute_time);
+    stats_.stale = cycle.stale_bodies.size();
+    stats_.stale_ids = cycle.stale_bodies;
+    stats_.bodies = cycle.num_bodies;
+    stats_.pairs_checked = cycle.num_pairs_checked;
+  }
+  diagnostics_->update();
+}
+
+// ---------------------------------------------------------------------------------------------
+// diagnostics
+
+void Monitor::setupDiagnostics() {
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
+  diagnostics_->setHardwareID("none");
+  window_start_ = ros::WallTime::now();
+  diagnostics_->add("inputs", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
+    Stats now, before;
+    double dt = 1.0;
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      now = stats_;
+      before = stats_window_start_;
+      const ros::WallTime t = ros::WallTime::now();
+      dt = std::max(1e-3, (t - window_start_).toSec());
+      stats_window_start_ = stats_;
+      window_start_ = t;
+    }
+    const std::size_t rejected = now.rejected - before.rejected;
+    if (!param_errors_.empty()) {
+      s.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
+                "invalid parameters: " + joined(param_errors_));
+    } else if (rejected > 0) {
+      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu inputs rejected: %s", rejected,
+                 now.last_rejection.c_str());
+    } else if (now.stale > 0) {
+      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu stale bodies: %s", now.stale,
+                 joined(now.stale_ids).c_str());
+    } else {
+      s.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
+    }
+    s.add("backend", core::toString(settings_.backend));
+    s.add("fixed_frame", fixed_frame_);
+    s.add("bodies", now.bodies);
+    s.add("stale bodies", now.stale);
+    s.add("stale body ids", joined(now.stale_ids));
+    s.addf("~bodies rate (Hz)", "%.1f", (now.bodies_msgs - before.bodies_msgs) / dt);
+    s.addf("~body_poses rate (Hz)", "%.1f", (now.poses_msgs - before.poses_msgs) / dt);
+    s.addf("pose_topic rate (Hz)", "%.1f", (now.pose_topic_msgs - before.pose_topic_msgs) / dt);
+    s.add("rejected inputs (total)", now.rejected);
+    s.add("rejected inputs (since last report)", rejected);
+    s.add("last rejection", now.last_rejection);
+    const std::size_t cycles = now.cycles - before.cycles;
+    s.addf("check rate (Hz)", "%.1f", cycles / dt);
+    s.addf("target rate (Hz)", "%.1f", rate_);
+    s.addf("mean cycle time (ms)", "%.3f",
+           cycles ? 1e3 * (now.cycle_time_sum - before.cycle_time_sum) / cycles : 0.0);
+    s.addf("max cycle time (ms)", "%.3f", 1e3 * now.cycle_time_max);
+    s.add("pairs checked (last cycle)", now.pairs_checked);
+    for (const auto& e : param_errors_)
+      s.add("invalid parameter", e);
+  });
+}
+
+}  // namespace ros_layer
+}  // namespace collision_monitor

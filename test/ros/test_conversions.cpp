@@ -1,0 +1,448 @@
+// Plain gtests (no master) of the ROS layer's boundary: message -> world conversions and their
+// validation, BodyPoses, parameter (XmlRpc) parsing and mesh URI confinement.
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <limits>
+#include <string>
+
+#include <gtest/gtest.h>
+
+#include "collision_monitor/ros/conversions.h"
+#include "collision_monitor/ros/mesh_loader.h"
+#include "collision_monitor/ros/params.h"
+
+using namespace collision_monitor;
+using namespace collision_monitor::ros_layer;
+
+namespace {
+
+const double kNaN = std::numeric_limits<double>::quiet_NaN();
+const double kInf = std::numeric_limits<double>::infinity();
+
+collision_monitor::Shape shape(std::uint8_t type, std::vector<double> dims) {
+  collision_monitor::Shape s;
+  s.type = type;
+  s.dimensions = std::move(dims);
+  return s;
+}
+
+collision_monitor::Body body(const std::string& id, std::vector<collision_monitor::Shape> parts) {
+  collision_monitor::Body b;
+  b.id = id;
+  b.header.frame_id = "world";
+  b.operation = collision_monitor::Body::ADD;
+  b.parts = std::move(parts);
+  return b;
+}
+
+geometry_msgs::Pose pose(double x, double y, double z, double qx = 0, double qy = 0, double qz = 0,
+                         double qw = 1) {
+  geometry_msgs::Pose p;
+  p.position.x = x;
+  p.position.y = y;
+  p.position.z = z;
+  p.orientation.x = qx;
+  p.orientation.y = qy;
+  p.orientation.z = qz;
+  p.orientation.w = qw;
+  return p;
+}
+
+/// A mesh loader that must not be called.
+const MeshLoader kNoMeshes = [](const std::string&,
+                                const core::Vec3&) -> Expected<core::ConvexShape> {
+  ADD_FAILURE() << "mesh loader called";
+  return Error{"no meshes"};
+};
+
+bool contains(const std::string& s, const std::string& part) {
+  return s.find(part) != std::string::npos;
+}
+
+}  // namespace
+
+TEST(Transform, AcceptsUnitAndNearUnitQuaternions) {
+  auto t = toTransform(pose(1, 2, 3, 0, 0, std::sqrt(0.5), std::sqrt(0.5)));
+  ASSERT_TRUE(t) << t.error();
+  EXPECT_NEAR((t->R * core::Vec3::UnitX() - core::Vec3::UnitY()).norm(), 0.0, 1e-12);
+  EXPECT_EQ(t->t, core::Vec3(1, 2, 3));
+  // 0.707 twice: |q| = 0.99985, within tolerance, normalised.
+  auto n = toTransform(pose(0, 0, 0, 0, 0, 0.707, 0.707));
+  ASSERT_TRUE(n) << n.error();
+  EXPECT_TRUE(core::isValidRotation(n->R, 1e-12));
+}
+
+TEST(Transform, RefusesNonFiniteAndNonUnit) {
+  EXPECT_TRUE(contains(toTransform(pose(kNaN, 0, 0)).error(), "position"));
+  EXPECT_TRUE(contains(toTransform(pose(0, kInf, 0)).error(), "position"));
+  EXPECT_TRUE(contains(toTransform(pose(0, 0, 0, 0, 0, 0, kNaN)).error(), "orientation"));
+  EXPECT_TRUE(contains(toTransform(pose(0, 0, 0, 0, 0, 0, 2)).error(), "unit quaternion"));
+  EXPECT_TRUE(contains(toTransform(pose(0, 0, 0, 0, 0, 0, 0)).error(), "zero quaternion"));
+  auto id = toTransform(pose(1, 0, 0, 0, 0, 0, 0), ZeroQuaternion::Identity);
+  ASSERT_TRUE(id) << id.error();
+  EXPECT_EQ(id->R, core::Mat3::Identity());
+}
+
+TEST(ShapeType, Names) {
+  EXPECT_EQ(shapeTypeFromString("Sphere"), collision_monitor::Shape::SPHERE);
+  EXPECT_EQ(shapeTypeFromString("MESH"), collision_monitor::Shape::MESH);
+  EXPECT_EQ(shapeTypeFromString("2"), collision_monitor::Shape::BOX);
+  EXPECT_FALSE(shapeTypeFromString("torus"));
+  EXPECT_FALSE(shapeTypeFromString("9"));
+  EXPECT_FALSE(shapeTypeFromString("0"));
+  EXPECT_EQ(shapeTypeName(collision_monitor::Shape::CAPSULE), "capsule");
+}
+
+TEST(Shape, EveryPrimitiveConverts) {
+  const Limits limits;
+  using S = collision_monitor::Shape;
+  for (const auto& s :
+       {shape(S::SPHERE, {0.5}), shape(S::BOX, {1, 2, 3}), shape(S::CYLINDER, {1, 0.2}),
+        shape(S::CONE, {1, 0.2}), shape(S::CAPSULE, {1, 0.2}), shape(S::ELLIPSOID, {1, 2, 3}),
+        shape(S::BOX, {1, 1, 0})}) {
+    auto r = shapeFromMsg(s, limits, kNoMeshes);
+    EXPECT_TRUE(r) << shapeTypeName(s.type) << ": " << r.error();
+  }
+  auto sphere = shapeFromMsg(shape(S::SPHERE, {0.5}), limits, kNoMeshes);
+  ASSERT_TRUE(sphere);
+  EXPECT_NEAR(sphere->support(core::Vec3::UnitX()).x(), 0.5, 1e-12);
+  auto box = shapeFromMsg(shape(S::BOX, {1, 2, 3}), limits, kNoMeshes);
+  ASSERT_TRUE(box);
+  EXPECT_NEAR((box->support(core::Vec3(1, 1, 1)) - core::Vec3(0.5, 1, 1.5)).norm(), 0.0, 1e-12);
+}
+
+TEST(Shape, RefusesBadDimensions) {
+  const Limits limits;
+  using S = collision_monitor::Shape;
+  EXPECT_TRUE(
+      contains(shapeFromMsg(shape(S::SPHERE, {-1}), limits, kNoMeshes).error(), "negative"));
+  EXPECT_TRUE(contains(shapeFromMsg(shape(S::SPHERE, {}), limits, kNoMeshes).error(),
+                       "needs 1 dimensions"));
+  EXPECT_TRUE(contains(shapeFromMsg(shape(S::BOX, {1, 1}), limits, kNoMeshes).error(),
+                       "needs 3 dimensions"));
+  EXPECT_TRUE(contains(shapeFromMsg(shape(S::CYLINDER, {1, kNaN}), limits, kNoMeshes).error(),
+                       "not finite"));
+  EXPECT_TRUE(
+      contains(shapeFromMsg(shape(S::SPHERE, {0}), limits, kNoMeshes).error(), "degenerate"));
+  EXPECT_TRUE(
+      contains(shapeFromMsg(shape(S::BOX, {0, 0, 0}), limits, kNoMeshes).error(), "degenerate"));
+  EXPECT_TRUE(contains(shapeFromMsg(shape(0, {}), limits, kNoMeshes).error(), "unknown shape"));
+  EXPECT_TRUE(contains(shapeFromMsg(shape(42, {1}), limits, kNoMeshes).error(), "unknown shape"));
+  auto scaled = shape(S::SPHERE, {1});
+  scaled.scale.x = scaled.scale.y = scaled.scale.z = 2.0;
+  EXPECT_TRUE(contains(shapeFromMsg(scaled, limits, kNoMeshes).error(), "scale applies"));
+}
+
+TEST(Shape, Convex) {
+  Limits limits;
+  limits.max_vertices_per_part = 4;
+  collision_monitor::Shape s;
+  s.type = collision_monitor::Shape::CONVEX;
+  EXPECT_TRUE(contains(shapeFromMsg(s, limits, kNoMeshes).error(), "no vertices"));
+  for (auto [x, y, z] : {std::array<double, 3>{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}) {
+    geometry_msgs::Point p;
+    p.x = x;
+    p.y = y;
+    p.z = z;
+    s.vertices.push_back(p);
+  }
+  s.scale.x = 2;
+  s.scale.y = 2;
+  s.scale.z = 2;
+  auto ok = shapeFromMsg(s, limits, kNoMeshes);
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_NEAR(ok->support(core::Vec3::UnitX()).x(), 2.0, 1e-12);
+  s.vertices.push_back(s.vertices[1]);
+  EXPECT_TRUE(contains(shapeFromMsg(s, limits, kNoMeshes).error(), "max_vertices_per_part"));
+  s.vertices.resize(2);
+  s.vertices[1] = s.vertices[0];
+  EXPECT_TRUE(contains(shapeFromMsg(s, limits, kNoMeshes).error(), "degenerate"));
+  s.vertices[1].x = kNaN;
+  EXPECT_TRUE(contains(shapeFromMsg(s, limits, kNoMeshes).error(), "not finite"));
+  s.scale.y = 0;
+  EXPECT_TRUE(contains(shapeFromMsg(s, limits, kNoMeshes).error(), "scale"));
+}
+
+TEST(Shape, MeshGoesThroughTheLoader) {
+  collision_monitor::Shape s;
+  s.type = collision_monitor::Shape::MESH;
+  s.resource = "package://p/m.stl";
+  std::string seen;
+  core::Vec3 seen_scale;
+  MeshLoader loader = [&](const std::string& uri, const core::Vec3& scale) {
+    seen = uri;
+    seen_scale = scale;
+    return Expected<core::ConvexShape>(core::ConvexShape::box(core::Vec3(1, 1, 1)));
+  };
+  EXPECT_TRUE(shapeFromMsg(s, Limits(), loader));
+  EXPECT_EQ(seen, "package://p/m.stl");
+  EXPECT_EQ(seen_scale, core::Vec3(1, 1, 1));  // 0,0,0 means 1,1,1
+  MeshLoader failing = [](const std::string&, const core::Vec3&) -> Expected<core::ConvexShape> {
+    return Error{"outside mesh_roots"};
+  };
+  EXPECT_TRUE(contains(shapeFromMsg(s, Limits(), failing).error(), "outside mesh_roots"));
+  s.resource.clear();
+  EXPECT_TRUE(contains(shapeFromMsg(s, Limits(), loader).error(), "empty resource"));
+}
+
+TEST(Part, PoseAndPadding) {
+  auto s = shape(collision_monitor::Shape::SPHERE, {1});
+  s.pose.position.x = 2;  // zero quaternion: identity
+  auto part = partFromMsg(s, 0.1, Limits(), kNoMeshes);
+  ASSERT_TRUE(part) << part.error();
+  EXPECT_EQ(part->pose.t, core::Vec3(2, 0, 0));
+  EXPECT_NEAR(part->shape.support(core::Vec3::UnitX()).x(), 1.1, 1e-12);
+  s.pose.orientation.w = 3;
+  EXPECT_TRUE(contains(partFromMsg(s, 0, Limits(), kNoMeshes).error(), "pose"));
+}
+
+TEST(Body, Converts) {
+  auto msg = body("cup", {shape(collision_monitor::Shape::CYLINDER, {0.1, 0.04}),
+                          shape(collision_monitor::Shape::SPHERE, {0.02})});
+  msg.group = "g";
+  msg.padding = 0.01;
+  auto spec = bodyFromMsg(msg, world::BodyOrigin::Topic, Limits(), kNoMeshes);
+  ASSERT_TRUE(spec) << spec.error();
+  EXPECT_EQ(spec->id, "cup");
+  EXPECT_EQ(spec->frame, "world");
+  EXPECT_EQ(spec->group, "g");
+  EXPECT_EQ(spec->parts.size(), 2u);
+  EXPECT_EQ(spec->pose_source, world::PoseSource::Tf);
+  EXPECT_EQ(spec->origin, world::BodyOrigin::Topic);
+  EXPECT_DOUBLE_EQ(spec->padding, 0.01);
+
+  msg.pose_topic = "/cup_pose";
+  msg.header.frame_id.clear();
+  auto topic = bodyFromMsg(msg, world::BodyOrigin::Topic, Limits(), kNoMeshes);
+  ASSERT_TRUE(topic) << topic.error();
+  EXPECT_EQ(topic->pose_source, world::PoseSource::Topic);  // pose_topic implies topic-posed
+  EXPECT_EQ(topic->pose_topic, "/cup_pose");
+}
+
+TEST(Body, RefusesWithReasons) {
+  const auto sphere = shape(collision_monitor::Shape::SPHERE, {1});
+  auto err = [](const collision_monitor::Body& b, Limits limits = Limits()) {
+    auto r = bodyFromMsg(b, world::BodyOrigin::Topic, limits, kNoMeshes);
+    EXPECT_FALSE(r);
+    return r.error();
+  };
+  EXPECT_TRUE(contains(err(body("", {sphere})), "id is empty"));
+  EXPECT_TRUE(contains(err(body("a", {})), "no parts"));
+  auto padded = body("a", {sphere});
+  padded.padding = -0.1;
+  EXPECT_TRUE(contains(err(padded), "padding"));
+  padded.padding = kNaN;
+  EXPECT_TRUE(contains(err(padded), "padding"));
+  auto no_frame = body("a", {sphere});
+  no_frame.header.frame_id.clear();
+  EXPECT_TRUE(contains(err(no_frame), "frame_id is empty"));
+  auto bad_part = body("a", {sphere, shape(collision_monitor::Shape::SPHERE, {-1})});
+  const std::string e = err(bad_part);
+  EXPECT_TRUE(contains(e, "part 1 (sphere)")) << e;
+  EXPECT_TRUE(contains(e, "negative")) << e;
+  Limits few;
+  few.max_parts_per_body = 1;
+  EXPECT_TRUE(contains(err(body("a", {sphere, sphere}), few), "max_parts_per_body"));
+}
+
+TEST(BodyPoses, Validates) {
+  collision_monitor::BodyPoses msg;
+  msg.header.frame_id = "world";
+  msg.ids = {"a", "b"};
+  msg.poses = {pose(1, 0, 0), pose(0, 2, 0)};
+  auto ok = posesFromMsg(msg);
+  ASSERT_TRUE(ok) << ok.error();
+  ASSERT_EQ(ok->size(), 2u);
+  EXPECT_EQ((*ok)[1].pose.t, core::Vec3(0, 2, 0));
+  EXPECT_FALSE((*ok)[0].twist);
+
+  msg.twists.resize(1);
+  EXPECT_TRUE(contains(posesFromMsg(msg).error(), "twists"));
+  msg.twists.resize(2);
+  msg.twists[0].linear.x = 1.0;
+  auto tw = posesFromMsg(msg);
+  ASSERT_TRUE(tw);
+  ASSERT_TRUE((*tw)[0].twist);
+  EXPECT_EQ((*tw)[0].twist->linear, core::Vec3(1, 0, 0));
+
+  msg.poses.pop_back();
+  EXPECT_TRUE(contains(posesFromMsg(msg).error(), "differ in length"));
+  msg.poses = {pose(1, 0, 0), pose(kNaN, 0, 0)};
+  EXPECT_TRUE(contains(posesFromMsg(msg).error(), "pose of 'b'"));
+  msg.poses = {pose(1, 0, 0), pose(0, 0, 0, 0, 0, 0, 0)};
+  EXPECT_TRUE(contains(posesFromMsg(msg).error(), "zero quaternion"));
+  msg.poses = {pose(1, 0, 0), pose(0, 0, 0)};
+  msg.ids = {"a", "a"};
+  EXPECT_TRUE(contains(posesFromMsg(msg).error(), "twice"));
+}
+
+TEST(BodyPoses, TransformUpdate) {
+  PoseUpdate u{"a", core::makeTransform(Eigen::Quaterniond::Identity(), core::Vec3(1, 0, 0)),
+               world::Twist{core::Vec3(1, 0, 0), core::Vec3::Zero()}};
+  // frame -> fixed: rotate 90 degrees about z, then shift by (0, 0, 1).
+  const auto T = core::makeTransform(
+      Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, core::Vec3::UnitZ())), core::Vec3(0, 0, 1));
+  const PoseUpdate v = transformUpdate(u, T);
+  EXPECT_NEAR((v.pose.t - core::Vec3(0, 1, 1)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((v.twist->linear - core::Vec3(0, 1, 0)).norm(), 0.0, 1e-12);
+}
+
+TEST(Messages, PairStateInAnotherFrame) {
+  world::PairResult p;
+  p.body_a = "a";
+  p.body_b = "b";
+  p.status = world::PairStatus::Warning;
+  p.distance = 1.0;
+  p.point_a = core::Vec3(1, 0, 0);
+  p.point_b = core::Vec3(2, 0, 0);
+  p.normal = core::Vec3(1, 0, 0);
+  auto m = toMsg(p);
+  EXPECT_EQ(m.status, collision_monitor::PairState::WARNING);
+  EXPECT_DOUBLE_EQ(m.point_b.x, 2.0);
+  const auto shift = core::makeTransform(Eigen::Quaterniond::Identity(), core::Vec3(0, 0, 5));
+  auto s = toMsg(p, shift);
+  EXPECT_DOUBLE_EQ(s.point_a.z, 5.0);
+  EXPECT_DOUBLE_EQ(s.normal.z, 0.0);  // directions rotate, not translate
+
+  world::Event e{world::EventType::UnknownBegin, p, 0.0};
+  auto em = toMsg(e, "world", 42.0);
+  EXPECT_EQ(em.type, collision_monitor::CollisionEvent::UNKNOWN_BEGIN);
+  EXPECT_EQ(em.header.frame_id, "world");
+  EXPECT_DOUBLE_EQ(em.header.stamp.toSec(), 42.0);  // static poses: stamped now
+}
+
+// --- parameters ----------------------------------------------------------------------------
+
+namespace {
+XmlRpc::XmlRpcValue list3(double x, double y, double z) {
+  XmlRpc::XmlRpcValue v;
+  v[0] = x;
+  v[1] = y;
+  v[2] = z;
+  return v;
+}
+}  // namespace
+
+TEST(Params, BodyFromYaml) {
+  XmlRpc::XmlRpcValue b;
+  b["id"] = "table";
+  b["frame_id"] = "world";
+  b["padding"] = 0.01;
+  XmlRpc::XmlRpcValue part;
+  part["type"] = "box";
+  part["dimensions"] = list3(1.2, 0.8, 0.05);
+  part["pose"]["position"] = list3(0, 0, 0.7);
+  b["parts"][0] = part;
+  XmlRpc::XmlRpcValue mesh;
+  mesh["type"] = 8;
+  mesh["resource"] = "package://x/y.stl";
+  mesh["scale"] = list3(2, 2, 2);
+  b["parts"][1] = mesh;
+  auto msg = bodyFromXmlRpc(b);
+  ASSERT_TRUE(msg) << msg.error();
+  EXPECT_EQ(msg->id, "table");
+  EXPECT_EQ(msg->header.frame_id, "world");
+  ASSERT_EQ(msg->parts.size(), 2u);
+  EXPECT_EQ(msg->parts[0].type, collision_monitor::Shape::BOX);
+  EXPECT_DOUBLE_EQ(msg->parts[0].pose.position.z, 0.7);
+  EXPECT_DOUBLE_EQ(msg->parts[0].pose.orientation.w, 1.0);
+  EXPECT_EQ(msg->parts[1].type, collision_monitor::Shape::MESH);
+  EXPECT_DOUBLE_EQ(msg->parts[1].scale.y, 2.0);
+
+  XmlRpc::XmlRpcValue typo = b;
+  typo["parts"][0]["dimension"] = list3(1, 1, 1);
+  EXPECT_TRUE(contains(bodyFromXmlRpc(typo).error(), "unknown field 'dimension'"));
+  XmlRpc::XmlRpcValue bad_type = b;
+  bad_type["parts"][0]["type"] = "torus";
+  EXPECT_TRUE(contains(bodyFromXmlRpc(bad_type).error(), "unknown shape type 'torus'"));
+  XmlRpc::XmlRpcValue no_id = b;
+  no_id["id"] = 3;
+  EXPECT_TRUE(contains(bodyFromXmlRpc(no_id).error(), "id"));
+}
+
+TEST(Params, PairsAndStrings) {
+  XmlRpc::XmlRpcValue pairs;
+  pairs[0][0] = "a";
+  pairs[0][1] = "b";
+  auto p = pairsFromXmlRpc(pairs);
+  ASSERT_TRUE(p) << p.error();
+  ASSERT_EQ(p->size(), 1u);
+  EXPECT_EQ((*p)[0].second, "b");
+  pairs[1][0] = "c";
+  EXPECT_FALSE(pairsFromXmlRpc(pairs));
+  XmlRpc::XmlRpcValue one("/meshes");
+  auto s = stringsFromXmlRpc(one);
+  ASSERT_TRUE(s);
+  EXPECT_EQ(s->at(0), "/meshes");
+}
+
+// --- mesh URIs ------------------------------------------------------------------------------
+
+class MeshUris : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    char tmpl[] = "/tmp/cm_mesh_uris_XXXXXX";
+    ASSERT_NE(::mkdtemp(tmpl), nullptr);
+    dir_ = tmpl;
+    ::mkdir((dir_ + "/root").c_str(), 0755);
+    ::mkdir((dir_ + "/pkg").c_str(), 0755);
+    ::mkdir((dir_ + "/outside").c_str(), 0755);
+    std::ofstream(dir_ + "/root/ok.stl") << "solid x\nendsolid x\n";
+    std::ofstream(dir_ + "/pkg/p.stl") << "solid x\nendsolid x\n";
+    std::ofstream(dir_ + "/outside/secret.stl") << "solid x\nendsolid x\n";
+    ASSERT_EQ(::symlink((dir_ + "/outside/secret.stl").c_str(), (dir_ + "/root/link.stl").c_str()),
+              0);
+    roots_ = {dir_ + "/root"};
+    resolver_ = [this](const std::string& pkg) { return pkg == "pkg" ? dir_ + "/pkg" : ""; };
+  }
+  void TearDown() override { std::system(("rm -rf " + dir_).c_str()); }
+  std::string dir_;
+  std::vector<std::string> roots_;
+  PackageResolver resolver_;
+};
+
+TEST_F(MeshUris, InsideRootsAndPackages) {
+  auto a = resolveMeshUri("file://" + dir_ + "/root/ok.stl", roots_, resolver_);
+  ASSERT_TRUE(a) << a.error();
+  EXPECT_TRUE(contains(*a, "/root/ok.stl"));
+  auto b = resolveMeshUri("package://pkg/p.stl", roots_, resolver_);
+  ASSERT_TRUE(b) << b.error();
+}
+
+TEST_F(MeshUris, RefusesEscapes) {
+  EXPECT_TRUE(contains(resolveMeshUri("file:///etc/passwd", roots_, resolver_).error(),
+                       "outside mesh_roots"));
+  EXPECT_TRUE(
+      contains(resolveMeshUri("file:///etc/passwd", {}, resolver_).error(), "none configured"));
+  EXPECT_TRUE(contains(
+      resolveMeshUri("file://" + dir_ + "/root/../outside/secret.stl", roots_, resolver_).error(),
+      "outside mesh_roots"));
+  EXPECT_TRUE(
+      contains(resolveMeshUri("file://" + dir_ + "/root/link.stl", roots_, resolver_).error(),
+               "outside mesh_roots"));
+  EXPECT_TRUE(contains(
+      resolveMeshUri("package://pkg/../outside/secret.stl", roots_, resolver_).error(), "outside"));
+  EXPECT_TRUE(contains(resolveMeshUri("package://nope/x.stl", roots_, resolver_).error(),
+                       "unknown package"));
+  EXPECT_TRUE(contains(resolveMeshUri("http://example.com/x.stl", roots_, resolver_).error(),
+                       "unsupported"));
+  EXPECT_TRUE(contains(resolveMeshUri("/etc/passwd", roots_, resolver_).error(), "unsupported"));
+  EXPECT_TRUE(
+      contains(resolveMeshUri("file://" + dir_ + "/root/missing.stl", roots_, resolver_).error(),
+               "cannot resolve"));
+  EXPECT_TRUE(contains(resolveMeshUri("file://" + dir_ + "/root", {dir_}, resolver_).error(),
+                       "not a regular file"));
+  // A root that is a prefix of another directory's name does not cover it.
+  EXPECT_FALSE(resolveMeshUri("file://" + dir_ + "/rootless.stl", {dir_ + "/root"}, resolver_));
+}
+
+TEST_F(MeshUris, UnreadableMeshIsRefused) {
+  std::ofstream(dir_ + "/root/garbage.stl") << "this is not a mesh";
+  MeshCache cache(roots_, 1000, resolver_);
+  auto r = cache.load("file://" + dir_ + "/root/garbage.stl", core::Vec3(1, 1, 1));
+  EXPECT_FALSE(r);
+}
