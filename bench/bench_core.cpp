@@ -175,8 +175,11 @@ bool checkPool(Bench& bench, std::string* summary) {
   std::map<std::string, int> overlap_count;
   int in_band = 0, disagreements = 0, failed_to_converge = 0;
   double max_diff_ours_fcl = 0.0, max_diff_bullet_fcl = 0.0, max_diff_warm_cold = 0.0;
-  double max_diff_depth_ours_ccd = 0.0;
-  std::string worst_ours_fcl, worst_bullet_fcl;  // where the largest differences occur
+  double max_depth_ours_ccd = 0.0, max_depth_ours_fcl = 0.0, max_depth_ours_bullet = 0.0;
+  int fcl_throws = 0;
+  std::string worst_depth_fcl;
+  std::string worst_ours_fcl, worst_bullet_fcl,
+      worst_ours_bullet;  // where the largest differences occur
   double max_diff_ours_bullet = 0.0;
   int over_ours_fcl = 0, over_ours_bullet = 0;  // pairs differing by more than kReportDiff
   bool ok = true;
@@ -209,18 +212,38 @@ bool checkPool(Bench& bench, std::string* summary) {
       v.add("ours_intersect", ours_int);
       v.add("ours_distance", ours_d.status != core::Status::Separated);
       v.add("ours_signed", ours_sd.distance <= 0.0);
-      nearZero(ours_d.distance);
+      if (ours_d.status == core::Status::Separated) nearZero(ours_d.distance);
       nearZero(ours_sd.distance);
       cold_distance[static_cast<size_t>(p) * steps + k] = ours_d.distance;
 
       v.add("libccd_gjk", ccdGjkIntersect(bench.ccd, a, pa, b, pb));
       v.add("libccd_mpr", ccdMprIntersect(bench.ccd, a, pa, b, pb));
+      // libccd's GJK+EPA depth is informational only: libccd 2.x's EPA returns depths far too
+      // small on these pools (see docs/benchmarks.md), so it takes no part in the band.
       const double ccd_depth = ccdGjkDepth(bench.ccd, a, pa, b, pb);
-      if (ccd_depth >= 0.0) {
-        nearZero(ccd_depth);
-        if (ours_sd.distance < 0.0)
-          max_diff_depth_ours_ccd =
-              std::max(max_diff_depth_ours_ccd, std::abs(-ours_sd.distance - ccd_depth));
+      if (ccd_depth >= 0.0 && ours_sd.distance < 0.0)
+        max_depth_ours_ccd = std::max(max_depth_ours_ccd, std::abs(-ours_sd.distance - ccd_depth));
+      if (ours_sd.distance < 0.0) {
+#ifdef CM_BENCH_HAVE_FCL
+        try {
+          const double f = bench.fcl->signedDistance(p, k);
+          nearZero(f);
+          if (std::abs(f - ours_sd.distance) > max_depth_ours_fcl) {
+            max_depth_ours_fcl = std::abs(f - ours_sd.distance);
+            worst_depth_fcl = describe(p, k, ours_sd.distance, f);
+          }
+        } catch (const std::exception& e) {
+          ++fcl_throws;
+        }
+#endif
+#ifdef CM_BENCH_HAVE_BULLET
+        const BulletResult bt_sd = bench.bullet->query(p, k, true);
+        if (bt_sd.has_result) {
+          nearZero(bt_sd.distance);
+          max_depth_ours_bullet =
+              std::max(max_depth_ours_bullet, std::abs(bt_sd.distance - ours_sd.distance));
+        }
+#endif
       }
 #ifdef CM_BENCH_HAVE_FCL
       v.add("fcl_intersect", bench.fcl->intersect(p, k));
@@ -247,7 +270,11 @@ bool checkPool(Bench& bench, std::string* summary) {
       if (bt.has_result) nearZero(bt.distance);
       if (bt.has_result && bt.distance > 0.0 && ours_d.status == core::Status::Separated) {
         const double diff = std::abs(bt.distance - ours_d.distance);
-        max_diff_ours_bullet = std::max(max_diff_ours_bullet, diff);
+        if (diff > max_diff_ours_bullet) {
+          max_diff_ours_bullet = diff;
+          worst_ours_bullet =
+              describe(p, k, ours_d.distance, -1.0) + " bullet=" + std::to_string(bt.distance);
+        }
         if (diff > kReportDiff) ++over_ours_bullet;
       }
 #ifdef CM_BENCH_HAVE_FCL
@@ -308,12 +335,16 @@ bool checkPool(Bench& bench, std::string* summary) {
     os << " " << kv.first << "=" << 100.0 * kv.second / total << "%";
   os << "; in tolerance band " << in_band << "/" << static_cast<int>(total)
      << "; disagreements outside band " << disagreements << "; ours FailedToConverge "
-     << failed_to_converge << "; max |ours-fcl| distance " << max_diff_ours_fcl << " m"
-     << worst_ours_fcl << "; max |bullet-fcl| " << max_diff_bullet_fcl << " m" << worst_bullet_fcl
-     << "; max |ours-bullet| " << max_diff_ours_bullet << " m; pairs with |ours-fcl| > "
-     << kReportDiff << " m: " << over_ours_fcl << ", |ours-bullet| > " << kReportDiff
+     << failed_to_converge << "\n    distance: max |ours-fcl| " << max_diff_ours_fcl << " m"
+     << worst_ours_fcl << "; max |ours-bullet| " << max_diff_ours_bullet << " m"
+     << worst_ours_bullet << "; max |bullet-fcl| " << max_diff_bullet_fcl << " m"
+     << worst_bullet_fcl << "\n    distance: pairs with |ours-fcl| > " << kReportDiff
+     << " m: " << over_ours_fcl << ", with |ours-bullet| > " << kReportDiff
      << " m: " << over_ours_bullet << "; max |warm-cold| ours " << max_diff_warm_cold
-     << " m; max |depth ours - libccd EPA| " << max_diff_depth_ours_ccd << " m";
+     << " m\n    signed distance on overlap: max |ours-fcl| " << max_depth_ours_fcl << " m"
+     << worst_depth_fcl << " (fcl threw " << fcl_throws << "x); max |ours-bullet EPA| "
+     << max_depth_ours_bullet << " m; max |ours-libccd GJK+EPA depth| " << max_depth_ours_ccd
+     << " m";
   *summary = os.str();
   std::fprintf(stderr, "check %s\n", summary->c_str());
   if (bench.overlapping.empty()) {
