@@ -92,8 +92,10 @@ void SweepAndPrune::update(const std::vector<int>& slots, const std::vector<core
   if (resorted_) std::sort(proxies_.begin(), proxies_.end(), by_lo);
 
   boxes_.resize(proxies_.size());
+  max_width_ = 0.0;
   for (std::size_t i = 0; i < proxies_.size(); ++i) {
     boxes_[i] = boxes[proxies_[i].slot].inflated(half);
+    max_width_ = std::max(max_width_, proxies_[i].hi - proxies_[i].lo);
   }
 }
 

@@ -15,7 +15,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <sstream>
+#include <tuple>
 #include <unordered_map>
 #include <unordered_set>
 #include <utility>
@@ -93,6 +95,8 @@ struct BodyState {
   std::vector<double> part_radii;      ///< bounding radius about the part origin, m
   bool fresh = false;                  ///< fresh at the last check()
   bool fresh_prev = false;             ///< fresh at the check() before (and existed)
+  bool was_active = false;             ///< in the broad phase of the last check()
+  std::uint64_t swept_version = 0;     ///< version in the broad phase of the last check()
 
   void place() {
     const std::size_t n = spec.parts.size();
@@ -145,10 +149,18 @@ struct WorldModel::Impl {
   std::size_t count = 0;
   std::vector<Event> pending;  ///< END events of removed bodies' pairs, for the next check()
 
+  std::vector<int> rank;  ///< by slot: position of the id in id order (for sorting outputs)
+  bool ranks_dirty = true;
+
   // Scratch, reused across cycles.
   std::vector<int> active;
   std::vector<int> stale;
-  std::vector<std::uint64_t> candidates;
+  std::vector<char> moved;                     ///< by slot: box changed or newly active
+  std::vector<std::uint64_t> candidates;       ///< this cycle's broad-phase pairs (orderedKey)
+  std::vector<std::uint64_t> next_candidates;  ///< built from the previous cycle's
+  std::vector<std::uint64_t> pair_keys;        ///< rankKey per output pair
+  std::vector<std::uint64_t> event_keys;       ///< rankKey per output event
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> order;
   struct PartPair {
     double lower_bound;
     int i;
@@ -170,6 +182,39 @@ struct WorldModel::Impl {
     const int id = static_cast<int>(group_ids.size()) + 1;
     group_ids.emplace(group, id);
     return id;
+  }
+
+  void refreshRanks() {
+    if (!ranks_dirty) return;
+    std::vector<int> slots;
+    slots.reserve(count);
+    for (int i = 0; i < static_cast<int>(bodies.size()); ++i) {
+      if (bodies[i].used) slots.push_back(i);
+    }
+    std::sort(slots.begin(), slots.end(),
+              [&](int x, int y) { return bodies[x].spec.id < bodies[y].spec.id; });
+    rank.assign(bodies.size(), 0);
+    for (std::size_t k = 0; k < slots.size(); ++k)
+      rank[slots[k]] = static_cast<int>(k);
+    ranks_dirty = false;
+  }
+  /// Sort key of a pair in id order: (lower rank, higher rank).
+  std::uint64_t rankKey(int i, int j) const { return orderedKey(rank[i], rank[j]); }
+
+  /// Sorts `items` by `keys` (stable), reusing `order` as scratch.
+  template <class T>
+  void sortByKeys(std::vector<T>* items, const std::vector<std::uint64_t>& keys) {
+    if (items->size() < 2) return;
+    order.clear();
+    for (std::size_t k = 0; k < items->size(); ++k) {
+      order.emplace_back(keys[k], static_cast<std::uint32_t>(k));
+    }
+    std::sort(order.begin(), order.end());
+    std::vector<T> sorted;
+    sorted.reserve(items->size());
+    for (const auto& o : order)
+      sorted.push_back(std::move((*items)[o.second]));
+    items->swap(sorted);
   }
 
   bool isDisabled(const std::string& a, const std::string& b) const {
@@ -264,11 +309,14 @@ struct WorldModel::Impl {
   }
 
   static void emit(PairStatus from, PairStatus to, const PairResult& r, double stamp,
-                   std::vector<Event>* events) {
+                   std::vector<Event>* events, std::vector<std::uint64_t>* keys = nullptr,
+                   std::uint64_t key = 0) {
     EventType types[2];
     const int n = transitionEvents(from, to, types);
-    for (int k = 0; k < n; ++k)
+    for (int k = 0; k < n; ++k) {
       events->push_back(Event{types[k], r, stamp});
+      if (keys) keys->push_back(key);
+    }
   }
 
   std::string whyStale(int slot, double now) const {
@@ -379,6 +427,7 @@ std::string WorldModel::addBody(BodySpec spec) {
   m.boxes[slot] = b.box;
   m.slot_of.emplace(b.spec.id, slot);
   ++m.count;
+  m.ranks_dirty = true;
   auto dis = m.disabled.find(b.spec.id);
   if (dis != m.disabled.end()) {
     for (const std::string& other : dis->second) {
@@ -426,6 +475,7 @@ bool WorldModel::removeBody(const std::string& id) {
   m.slot_of.erase(it);
   m.free_slots.push_back(slot);
   --m.count;
+  m.ranks_dirty = true;
   return true;
 }
 
@@ -528,22 +578,47 @@ CycleResult WorldModel::check(double now) {
   }
   res.stamp = std::isfinite(oldest) ? oldest : now;
 
-  // Pending END events of removed bodies.
-  for (Event& e : m.pending) {
-    e.stamp = now;
-    res.events.push_back(std::move(e));
-  }
-  m.pending.clear();
+  m.refreshRanks();
+  m.pair_keys.clear();
+  m.event_keys.clear();
 
-  // 2. Broad phase.
+  // 2. Broad phase. Pairs between bodies whose boxes did not change since the last cycle are
+  // kept from it; only moved (or newly fresh) bodies are swept against the rest, unless many
+  // moved, then the whole sweep is cheaper.
   const double reach = clearCutoffAny(s);
   m.sap.update(m.active, m.boxes, reach);
-  m.candidates.clear();
-  m.sap.forEachPair([&](int i, int j) {
+  m.moved.assign(m.bodies.size(), 0);
+  std::size_t num_moved = 0;
+  for (int slot : m.active) {
+    const BodyState& b = m.bodies[slot];
+    if (!b.was_active || b.swept_version != b.version) {
+      m.moved[slot] = 1;
+      ++num_moved;
+    }
+  }
+  m.next_candidates.clear();
+  const auto consider = [&](int i, int j) {
     if (!m.allowed(i, j)) return;
     if (m.boxes[i].distance(m.boxes[j]) > reach) return;
-    m.candidates.push_back(orderedKey(i, j));
-  });
+    m.next_candidates.push_back(orderedKey(i, j));
+  };
+  if (num_moved * 4 > m.active.size()) {
+    m.sap.forEachPair(consider);
+  } else {
+    for (std::uint64_t key : m.candidates) {
+      const int i = keyLo(key);
+      const int j = keyHi(key);
+      if (!m.bodies[i].fresh || !m.bodies[j].fresh || m.moved[i] || m.moved[j]) continue;
+      if (!m.allowed(i, j)) continue;
+      m.next_candidates.push_back(key);
+    }
+    if (num_moved > 0) m.sap.forEachPairWith(m.moved, consider);
+  }
+  m.candidates.swap(m.next_candidates);
+  for (BodyState& b : m.bodies) {
+    b.was_active = b.used && b.fresh;
+    b.swept_version = b.version;
+  }
   res.num_broad_phase_pairs = m.candidates.size();
 
   // 3. Narrow phase, hysteresis, events.
@@ -575,8 +650,14 @@ CycleResult WorldModel::check(double now) {
     if (e.result.exact && d < res.min_distance) res.min_distance = d;
     if (next != e.status || next != PairStatus::Clear) {
       const PairResult r = m.makeResult(a, b, next, e.result);
-      if (next != e.status) Impl::emit(e.status, next, r, m.pairStamp(a, b, now), &res.events);
-      if (next != PairStatus::Clear) res.pairs.push_back(r);
+      const std::uint64_t rk = m.rankKey(a, b);
+      if (next != e.status) {
+        Impl::emit(e.status, next, r, m.pairStamp(a, b, now), &res.events, &m.event_keys, rk);
+      }
+      if (next != PairStatus::Clear) {
+        res.pairs.push_back(r);
+        m.pair_keys.push_back(rk);
+      }
       if (next == PairStatus::Collision) res.in_collision = true;
       e.status = next;
     }
@@ -590,22 +671,24 @@ CycleResult WorldModel::check(double now) {
       if (!O.used || !m.allowed(sl, o)) continue;
       if (!O.fresh && o < sl) continue;  // both stale: visited from o
       const std::uint64_t key = orderedKey(sl, o);
+      const std::uint64_t rk = m.rankKey(sl, o);
       auto it = m.pairs.find(key);
-      const PairResult r = m.unknownResult(sl, o);
+      PairResult r = m.unknownResult(sl, o);
       if (it != m.pairs.end()) {
         PairEntry& e = it->second;
         e.last_seen = cycle;
         if (e.status != PairStatus::Unknown) {
-          Impl::emit(e.status, PairStatus::Unknown, r, now, &res.events);
+          Impl::emit(e.status, PairStatus::Unknown, r, now, &res.events, &m.event_keys, rk);
           e.status = PairStatus::Unknown;
         }
       } else if (m.bodies[sl].fresh_prev && O.fresh_prev) {
-        Impl::emit(PairStatus::Clear, PairStatus::Unknown, r, now, &res.events);
+        Impl::emit(PairStatus::Clear, PairStatus::Unknown, r, now, &res.events, &m.event_keys, rk);
         PairEntry& e = m.pairs[key];
         e.status = PairStatus::Unknown;
         e.last_seen = cycle;
       }
-      res.pairs.push_back(r);
+      res.pairs.push_back(std::move(r));
+      m.pair_keys.push_back(rk);
     }
   }
 
@@ -613,14 +696,16 @@ CycleResult WorldModel::check(double now) {
   for (auto it = m.pairs.begin(); it != m.pairs.end();) {
     PairEntry& e = it->second;
     if (e.last_seen != cycle) {
+      const int a = keyLo(it->first);
+      const int b = keyHi(it->first);
       if (e.status != PairStatus::Clear) {
         PairResult r;
-        r.body_a = m.bodies[keyLo(it->first)].spec.id;
-        r.body_b = m.bodies[keyHi(it->first)].spec.id;
+        r.body_a = m.bodies[a].spec.id;
+        r.body_b = m.bodies[b].spec.id;
         if (r.body_b < r.body_a) std::swap(r.body_a, r.body_b);
         r.status = PairStatus::Clear;
-        Impl::emit(e.status, PairStatus::Clear, r,
-                   m.pairStamp(keyLo(it->first), keyHi(it->first), now), &res.events);
+        Impl::emit(e.status, PairStatus::Clear, r, m.pairStamp(a, b, now), &res.events,
+                   &m.event_keys, m.rankKey(a, b));
         e.status = PairStatus::Clear;
       }
       if (cycle - e.last_seen > kForgetAfterCycles) {
@@ -636,13 +721,20 @@ CycleResult WorldModel::check(double now) {
   for (BodyState& b : m.bodies)
     b.fresh_prev = b.used && b.fresh;
 
-  // Deterministic order: pairs and events by (body_a, body_b); a pair's END before its BEGIN.
-  const auto by_ids = [](const PairResult& x, const PairResult& y) {
-    return x.body_a != y.body_a ? x.body_a < y.body_a : x.body_b < y.body_b;
-  };
-  std::sort(res.pairs.begin(), res.pairs.end(), by_ids);
-  std::stable_sort(res.events.begin(), res.events.end(),
-                   [&](const Event& x, const Event& y) { return by_ids(x.pair, y.pair); });
+  // Deterministic order: pairs and events by (body_a, body_b) in id order, a pair's END before
+  // its BEGIN; END events of removed bodies first.
+  m.sortByKeys(&res.pairs, m.pair_keys);
+  m.sortByKeys(&res.events, m.event_keys);
+  if (!m.pending.empty()) {
+    std::stable_sort(m.pending.begin(), m.pending.end(), [](const Event& x, const Event& y) {
+      return std::tie(x.pair.body_a, x.pair.body_b) < std::tie(y.pair.body_a, y.pair.body_b);
+    });
+    for (Event& e : m.pending)
+      e.stamp = now;
+    res.events.insert(res.events.begin(), std::make_move_iterator(m.pending.begin()),
+                      std::make_move_iterator(m.pending.end()));
+    m.pending.clear();
+  }
   std::sort(res.stale_bodies.begin(), res.stale_bodies.end());
 
   res.compute_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

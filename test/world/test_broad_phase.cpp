@@ -109,6 +109,42 @@ TEST(SweepAndPrune, MatchesBruteForceAcrossUpdates) {
   EXPECT_GE(resorts, 2);  // first update and the teleport
 }
 
+TEST(SweepAndPrune, PairsWithMovedBoxesMatchBruteForce) {
+  // forEachPairWith(moved) reports exactly the pairs of forEachPair() that involve a moved box,
+  // each once; with one wide box (a "floor") that reaches far back on the sweep axis.
+  std::mt19937 g(3);
+  std::vector<Aabb> boxes(400);
+  for (Aabb& b : boxes)
+    b = randomBox(g, Vec3(8, 3, 2));
+  boxes[17] = Aabb{Vec3(-1, -1, -0.1), Vec3(9, 4, 0.0)};
+  std::vector<int> slots;
+  for (int i = 0; i < 400; ++i)
+    slots.push_back(i);
+  SweepAndPrune sap;
+  sap.update(slots, boxes, 0.05);
+  const PairSet all = sweep(sap);
+  for (int trial = 0; trial < 5; ++trial) {
+    std::vector<char> moved(trial == 4 ? 20 : 400, 0);  // a short vector: the rest unmoved
+    for (int k = 0; k < 25; ++k)
+      moved[g() % moved.size()] = 1;
+    if (trial == 0) moved[17] = 1;
+    const auto is_moved = [&](int slot) {
+      return static_cast<std::size_t>(slot) < moved.size() && moved[slot] != 0;
+    };
+    PairSet expected;
+    for (const auto& p : all) {
+      if (is_moved(p.first) || is_moved(p.second)) expected.insert(p);
+    }
+    PairSet got;
+    sap.forEachPairWith(moved, [&](int i, int j) {
+      const bool inserted = got.emplace(std::min(i, j), std::max(i, j)).second;
+      EXPECT_TRUE(inserted) << "pair reported twice: " << i << ", " << j;
+    });
+    EXPECT_EQ(got, expected) << "trial " << trial;
+    EXPECT_GT(expected.size(), 10u);
+  }
+}
+
 TEST(SweepAndPrune, PicksTheAxisOfLargestSpreadAndStaysCorrect) {
   std::mt19937 g(7);
   std::vector<Aabb> boxes(300);

@@ -43,6 +43,40 @@ class SweepAndPrune {
     }
   }
 
+  /// Like forEachPair(), but only the pairs with at least one slot flagged in `moved` (indexed by
+  /// slot; slots beyond its end count as not moved). Cost O(n + sum over moved boxes of the
+  /// boxes near them on the sweep axis): the caller keeps the pairs between unmoved boxes from
+  /// the previous cycle, so a scene where few bodies move costs ~O(n) for the re-sort plus a
+  /// little per moved body.
+  template <class Visit>
+  void forEachPairWith(const std::vector<char>& moved, Visit&& visit) const {
+    const std::size_t n = proxies_.size();
+    const auto is_moved = [&](int slot) {
+      return static_cast<std::size_t>(slot) < moved.size() && moved[slot] != 0;
+    };
+    for (std::size_t p = 0; p < n; ++p) {
+      const Proxy& m = proxies_[p];
+      if (!is_moved(m.slot)) continue;
+      const core::Aabb& bm = boxes_[p];
+      const auto others_overlap = [&](const core::Aabb& b) {
+        return bm.min[a1_] <= b.max[a1_] && b.min[a1_] <= bm.max[a1_] &&
+               bm.min[a2_] <= b.max[a2_] && b.min[a2_] <= bm.max[a2_];
+      };
+      // Forward: every box starting inside m's interval (moved or not; each pair once, from
+      // the earlier of the two).
+      for (std::size_t j = p + 1; j < n && proxies_[j].lo <= m.hi; ++j) {
+        if (others_overlap(boxes_[j])) visit(m.slot, proxies_[j].slot);
+      }
+      // Backward: boxes starting before m that reach into it; a box cannot reach further than
+      // the widest one. Moved ones report the pair from their own forward scan.
+      for (std::size_t i = p; i-- > 0;) {
+        const Proxy& q = proxies_[i];
+        if (q.lo < m.lo - max_width_) break;
+        if (q.hi >= m.lo && !is_moved(q.slot) && others_overlap(boxes_[i])) visit(q.slot, m.slot);
+      }
+    }
+  }
+
   /// The sweep axis (0 = x, 1 = y, 2 = z).
   int axis() const { return axis_; }
   /// Number of boxes in the last update.
@@ -62,6 +96,7 @@ class SweepAndPrune {
   std::vector<core::Aabb> boxes_;  ///< inflated boxes, parallel to proxies_
   std::vector<char> member_;       ///< by slot: part of the current update
   std::vector<char> present_;      ///< by slot: already in proxies_ (scratch)
+  double max_width_ = 0.0;         ///< widest inflated interval on the sweep axis, m
   int axis_ = 0;
   int a1_ = 1;
   int a2_ = 2;
