@@ -6,8 +6,17 @@
 ///     outside a thin band; GJK is the one whose terminal simplex matches its penetration query.
 ///   - penetration: ccdGJKPenetration (GJK + EPA). ccdMPRPenetration is not a minimum-depth
 ///     query (it refines the portal along the centre-to-centre ray), so its depth overestimates
-///     the exact one by up to tens of percent on boxes; EPA's depth error is set by
-///     epa_tolerance.
+///     the exact one by up to ~50 % of the size on boxes; EPA at epa_tolerance 1e-10 has depth
+///     errors <= 3e-11 of the size on boxes and <= 2.2e-6 on random hulls (its second stopping
+///     test compares a squared distance with the tolerance).
+///   - known libccd 2.1 weakness, measured and not worked around: on shapes with a radius
+///     (spheres, capsules) its GJK+EPA can end on a "touching contact" and report depth 0 for a
+///     deep overlap, or stop EPA on a wrong face (depth errors up to ~80 % of the size on
+///     sphere pairs, ~5 % on capsule pairs). Verdicts stay right. Use the "gjk" backend for
+///     depths on such shapes.
+///   - witness points: libccd's `pos` is a median of EPA polytope vertices, not a contact point;
+///     point_a/point_b = pos +- depth/2 * normal are only indicative (off the surfaces by up to
+///     ~0.4 of the size, measured).
 #include "collision_monitor/core/ccd_backend.h"
 
 #include <ccd/ccd.h>
@@ -68,6 +77,8 @@ void centre(const void* obj, ccd_vec3_t* c) {
   toCcd(static_cast<const CcdBody*>(obj)->centre, c);
 }
 
+/// First GJK direction: centre of A to centre of B. (Measured: tilting it away from that line
+/// made ccdGJKIntersect miss 5 of 2,000 overlapping sphere pairs; along it, none.)
 void firstDir(const void* o1, const void* o2, ccd_vec3_t* dir) {
   const Vec3 d = static_cast<const CcdBody*>(o2)->centre - static_cast<const CcdBody*>(o1)->centre;
   toCcd(d.squaredNorm() > 0.0 ? d : Vec3::UnitX(), dir);
