@@ -1,6 +1,7 @@
 #include "collision_monitor/ros/markers.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -64,6 +65,34 @@ geometry_msgs::Pose identityPose() {
   geometry_msgs::Pose pose;
   pose.orientation.w = 1.0;
   return pose;
+}
+
+/// Per-face light factors of a TRIANGLE_LIST, in [0.55, 1]: Lambert-like shading by a fixed
+/// light direction in the marker's frame, wrapped so that faces turned away stay visible.
+std::vector<float> shadeFaces(const Marker& m) {
+  std::vector<float> shade;
+  if (m.type != Marker::TRIANGLE_LIST) return shade;
+  const Vec3 light = Vec3(0.35, 0.25, 0.9).normalized();
+  shade.reserve(m.points.size() / 3);
+  auto v = [&m](std::size_t i) { return Vec3(m.points[i].x, m.points[i].y, m.points[i].z); };
+  for (std::size_t i = 0; i + 2 < m.points.size(); i += 3) {
+    const Vec3 n = (v(i + 1) - v(i)).cross(v(i + 2) - v(i));
+    const double len = n.norm();
+    const double c = len > 0.0 ? n.dot(light) / len : 0.0;
+    shade.push_back(static_cast<float>(0.55 + 0.45 * (0.5 + 0.5 * c)));
+  }
+  return shade;
+}
+
+/// Face colours: `color` (its alpha goes on the marker) times each face's shade.
+void applyShade(const std::vector<float>& shade, const std_msgs::ColorRGBA& color, Marker* m) {
+  m->colors.resize(shade.size());
+  for (std::size_t i = 0; i < shade.size(); ++i) {
+    m->colors[i].r = color.r * shade[i];
+    m->colors[i].g = color.g * shade[i];
+    m->colors[i].b = color.b * shade[i];
+    m->colors[i].a = 1.0f;
+  }
 }
 
 /// Severity for "worst status" of a body: collision > warning > unknown > clear.
@@ -241,6 +270,7 @@ void MarkerBuilder::reset() {
   ids_.clear();
   geometry_.clear();
   first_ = true;
+  last_build_ = -1.0;
 }
 
 int MarkerBuilder::markerId(const std::string& ns, const std::string& key) {
@@ -277,6 +307,7 @@ const MarkerBuilder::BodyGeometry& MarkerBuilder::geometryOf(const world::BodySp
     // given in the part frame itself.
     if (const auto* point = std::get_if<core::PointShape<3>>(&shape.core())) pg.offset = point->p;
     solidMarker(shape, own_radius, options_.tessellation, &pg.solid);
+    pg.solid_shade = shadeFaces(pg.solid);
     if (padding > 0.0 && shape.radius() > 0.0) {
       pg.has_shell = true;
       pg.shell.action = Marker::ADD;
@@ -286,6 +317,7 @@ const MarkerBuilder::BodyGeometry& MarkerBuilder::geometryOf(const world::BodySp
         pg.shell.scale.x = pg.shell.scale.y = pg.shell.scale.z = 2.0 * shape.radius();
       } else {
         tessellate(shape, shape.radius(), options_.tessellation, &pg.shell);
+        pg.shell_shade = shadeFaces(pg.shell);
       }
     }
   }
@@ -298,6 +330,13 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
                                                      const world::CycleResult& cycle,
                                                      const std::string& fixed_frame) {
   visualization_msgs::MarkerArray out;
+  const double now =
+      std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+  if (options_.max_rate > 0.0 && last_build_ >= 0.0 &&
+      now - last_build_ < 1.0 / options_.max_rate) {
+    return out;  // too soon: nothing to publish this cycle
+  }
+  last_build_ = now;
   std_msgs::Header header;
   header.frame_id = fixed_frame;
   if (std::isfinite(cycle.stamp) && cycle.stamp > 0.0) header.stamp = ros::Time(cycle.stamp);
@@ -364,6 +403,7 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
       m.id = markerId(kBodies, key);
       m.color = color;
       m.pose = pose;
+      if (!pg.solid_shade.empty()) applyShade(pg.solid_shade, color, &m);
       emit(std::move(m), key);
       if (pg.has_shell) {
         Marker s = pg.shell;
@@ -372,6 +412,7 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
         s.id = markerId(kPadding, key);
         s.color = shell_color;
         s.pose = pose;
+        if (!pg.shell_shade.empty()) applyShade(pg.shell_shade, shell_color, &s);
         emit(std::move(s), key);
       }
     }

@@ -13,6 +13,7 @@ using cm::core::ConvexShape;
 using cm::core::Transform3;
 using cm::core::Vec3;
 using cm::ros_layer::MarkerBuilder;
+using cm::ros_layer::MarkerOptions;
 using cm::world::PairResult;
 using cm::world::PairStatus;
 using visualization_msgs::Marker;
@@ -65,6 +66,13 @@ std::vector<const Marker*> find(const MarkerArray& a, const std::string& ns, int
     if (m.ns == ns && m.action == action) out.push_back(&m);
   }
   return out;
+}
+
+/// Options without the rate limit: every build() produces markers.
+MarkerOptions everyCycle() {
+  MarkerOptions o;
+  o.max_rate = 0.0;
+  return o;
 }
 
 bool isGreen(const std_msgs::ColorRGBA& c) {
@@ -133,7 +141,7 @@ TEST(MarkerBuilder, BodiesColouredByWorstPairStatus) {
   cycle.pairs.push_back(pair("d", "e", PairStatus::Unknown, 0.0));
   cycle.stale_bodies.push_back("e");
 
-  MarkerBuilder builder;
+  MarkerBuilder builder(everyCycle());
   const MarkerArray out = builder.build(world, cycle, kFrame);
   const auto bodies = bodyMarkers(out, ids);
   ASSERT_EQ(bodies.size(), ids.size());
@@ -175,12 +183,19 @@ TEST(MarkerBuilder, CubeHullIsTwelveTriangles) {
   spec.parts.push_back(cm::world::Part{ConvexShape::convexHull(corners), Transform3::Identity()});
   addBody(world, spec, at(0.0, 0.0, 0.0));
 
-  MarkerBuilder builder;
+  MarkerBuilder builder(everyCycle());
   const MarkerArray out = builder.build(world, cm::world::CycleResult(), kFrame);
   const auto bodies = find(out, "bodies", Marker::ADD);
   ASSERT_EQ(bodies.size(), 1u);
   EXPECT_EQ(bodies[0]->type, Marker::TRIANGLE_LIST);
   EXPECT_EQ(bodies[0]->points.size(), 36u);
+  // One shaded colour per face (rviz draws uncoloured triangle lists unlit), all green here.
+  ASSERT_EQ(bodies[0]->colors.size(), 12u);
+  for (const auto& c : bodies[0]->colors) {
+    EXPECT_GT(c.g, 1.5f * c.r);
+    EXPECT_LE(c.g, bodies[0]->color.g + 1e-6f);
+    EXPECT_GE(c.g, 0.5f * bodies[0]->color.g);
+  }
   for (const auto& p : bodies[0]->points) {
     EXPECT_NEAR(std::abs(p.x), 0.1, 1e-12);
     EXPECT_NEAR(std::abs(p.y), 0.1, 1e-12);
@@ -200,7 +215,7 @@ TEST(MarkerBuilder, PrimitivesAndTessellations) {
     spec.parts.push_back(cm::world::Part{s, at(0.0, 0.0, 0.5)});
   }
   addBody(world, spec, at(1.0, 0.0, 0.0));
-  MarkerBuilder builder;
+  MarkerBuilder builder(everyCycle());
   const MarkerArray out = builder.build(world, cm::world::CycleResult(), kFrame);
   const auto bodies = find(out, "bodies", Marker::ADD);
   ASSERT_EQ(bodies.size(), 5u);
@@ -229,7 +244,7 @@ TEST(MarkerBuilder, PrimitivesAndTessellations) {
 TEST(MarkerBuilder, PaddingShell) {
   cm::world::WorldModel world;
   addBody(world, boxBody("padded", 0.02), at(0.0, 0.0, 0.0));
-  MarkerBuilder builder;
+  MarkerBuilder builder(everyCycle());
   const MarkerArray out = builder.build(world, cm::world::CycleResult(), kFrame);
   const auto solid = find(out, "bodies", Marker::ADD);
   const auto shell = find(out, "padding", Marker::ADD);
@@ -254,7 +269,7 @@ TEST(MarkerBuilder, WitnessLabelAndNormal) {
   cycle.stamp = 3.0;
   cycle.pairs.push_back(pair("a", "b", PairStatus::Warning, 0.0234));
   cycle.pairs.push_back(pair("b", "c", PairStatus::Collision, -0.004));
-  MarkerBuilder builder;
+  MarkerBuilder builder(everyCycle());
   const MarkerArray out = builder.build(world, cycle, kFrame);
 
   const auto lines = find(out, "witness", Marker::ADD);
@@ -294,7 +309,7 @@ TEST(MarkerBuilder, DeletesRemovedBodiesAndClearedPairs) {
   cycle.stamp = 1.0;
   cycle.pairs.push_back(pair("a", "b", PairStatus::Collision, -0.01));
   cycle.pairs.push_back(pair("a", "c", PairStatus::Warning, 0.03));
-  MarkerBuilder builder;
+  MarkerBuilder builder(everyCycle());
 
   const MarkerArray first = builder.build(world, cycle, kFrame);
   ASSERT_FALSE(first.markers.empty());
@@ -340,7 +355,7 @@ TEST(MarkerBuilder, DeletesRemovedBodiesAndClearedPairs) {
 TEST(MarkerBuilder, ReplacedBodyGetsNewGeometry) {
   cm::world::WorldModel world;
   addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
-  MarkerBuilder builder;
+  MarkerBuilder builder(everyCycle());
   const MarkerArray before = builder.build(world, cm::world::CycleResult(), kFrame);
   ASSERT_EQ(find(before, "bodies", Marker::ADD).size(), 1u);
   EXPECT_EQ(find(before, "bodies", Marker::ADD)[0]->type, Marker::CUBE);
@@ -359,7 +374,25 @@ TEST(MarkerBuilder, ReplacedBodyGetsNewGeometry) {
 TEST(MarkerBuilder, BodyWithoutPoseIsNotDrawn) {
   cm::world::WorldModel world;
   ASSERT_EQ(world.addBody(boxBody("nopose")), "");
-  MarkerBuilder builder;
+  MarkerBuilder builder(everyCycle());
   const MarkerArray out = builder.build(world, cm::world::CycleResult(), kFrame);
   EXPECT_TRUE(find(out, "bodies", Marker::ADD).empty());
+}
+
+TEST(MarkerBuilder, RateLimited) {
+  cm::world::WorldModel world;
+  addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
+  MarkerOptions options;
+  options.max_rate = 0.5;  // at most one array every 2 s
+  MarkerBuilder builder(options);
+  EXPECT_FALSE(builder.build(world, cm::world::CycleResult(), kFrame).markers.empty());
+  // Called again at once: nothing to publish, and what is shown is unchanged.
+  ASSERT_TRUE(world.removeBody("a"));
+  EXPECT_TRUE(builder.build(world, cm::world::CycleResult(), kFrame).markers.empty());
+  EXPECT_EQ(builder.numShown(), 1u);
+  // After reset() the limit starts over, with a DELETEALL that also clears the removed body.
+  builder.reset();
+  const MarkerArray after = builder.build(world, cm::world::CycleResult(), kFrame);
+  ASSERT_EQ(after.markers.size(), 1u);
+  EXPECT_EQ(after.markers[0].action, Marker::DELETEALL);
 }

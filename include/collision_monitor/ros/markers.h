@@ -15,7 +15,14 @@
 ///               penetration depth (at least MarkerOptions::min_arrow_length, so it stays visible).
 /// Every marker is in the fixed frame and stamped with the cycle's stamp. Geometry (hull
 /// triangles, tessellations) is computed once per body shape and reused while the shape is
-/// unchanged; each cycle only poses and colours are refreshed.
+/// unchanged; each cycle only poses and colours are refreshed. Triangle lists carry one colour
+/// per face (the status colour shaded by a fixed light in the part frame): rviz draws uncoloured
+/// triangle lists unlit and dark, so facets would be indistinguishable.
+///
+/// rviz re-creates every marker it receives, which costs far more than building them: build()
+/// returns an empty array (callers skip publishing it) when called less than 1 / max_rate
+/// seconds (wall clock) after its last non-empty result. Deletions are never lost: they are
+/// computed against what was last published.
 #pragma once
 
 #include <map>
@@ -39,7 +46,8 @@ struct MarkerOptions {
   double line_width = 0.004;       ///< witness segment width
   double text_height = 0.03;       ///< label height
   double min_arrow_length = 0.03;  ///< normals shorter than this are drawn this long
-  int tessellation = 16;           ///< directions per half turn for tessellated shapes (>= 4)
+  int tessellation = 12;           ///< directions per half turn for tessellated shapes (>= 4)
+  double max_rate = 15.0;          ///< Hz: at most this many non-empty build()s per second; 0: all
 };
 
 class MarkerBuilder {
@@ -71,8 +79,10 @@ class MarkerBuilder {
   struct PartGeometry {
     visualization_msgs::Marker solid;
     core::Vec3 offset = core::Vec3::Zero();  ///< marker origin in the part frame (sphere centre)
+    std::vector<float> solid_shade;          ///< per face of a TRIANGLE_LIST: light factor
     bool has_shell = false;
     visualization_msgs::Marker shell;
+    std::vector<float> shell_shade;
   };
   /// Cached geometry of one body, valid while its parts' shapes and padding are unchanged.
   struct BodyGeometry {
@@ -89,6 +99,7 @@ class MarkerBuilder {
   std::map<std::pair<std::string, std::string>, int> ids_;  ///< (ns, key) -> marker id
   int next_id_ = 0;
   bool first_ = true;
+  double last_build_ = -1.0;  ///< steady clock (s) of the last non-empty build()
   /// (namespace, id) -> key of every marker currently shown, to delete what disappears.
   std::map<std::pair<std::string, int>, std::string> shown_;
 };
