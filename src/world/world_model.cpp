@@ -672,7 +672,10 @@ CycleResult WorldModel::check(double now) {
       if (!O.fresh && o < sl) continue;  // both stale: visited from o
       const std::uint64_t key = orderedKey(sl, o);
       const std::uint64_t rk = m.rankKey(sl, o);
-      auto it = m.pairs.find(key);
+      const bool listed = res.num_unknown_pairs++ < s.max_unknown_pairs;
+      auto it = m.pairs.empty() ? m.pairs.end() : m.pairs.find(key);
+      const bool known_before = m.bodies[sl].fresh_prev && O.fresh_prev;
+      if (it == m.pairs.end() && !known_before && !listed) continue;  // nothing to say
       PairResult r = m.unknownResult(sl, o);
       if (it != m.pairs.end()) {
         PairEntry& e = it->second;
@@ -681,14 +684,16 @@ CycleResult WorldModel::check(double now) {
           Impl::emit(e.status, PairStatus::Unknown, r, now, &res.events, &m.event_keys, rk);
           e.status = PairStatus::Unknown;
         }
-      } else if (m.bodies[sl].fresh_prev && O.fresh_prev) {
+      } else if (known_before) {
         Impl::emit(PairStatus::Clear, PairStatus::Unknown, r, now, &res.events, &m.event_keys, rk);
         PairEntry& e = m.pairs[key];
         e.status = PairStatus::Unknown;
         e.last_seen = cycle;
       }
-      res.pairs.push_back(std::move(r));
-      m.pair_keys.push_back(rk);
+      if (listed) {
+        res.pairs.push_back(std::move(r));
+        m.pair_keys.push_back(rk);
+      }
     }
   }
 

@@ -103,6 +103,11 @@ struct Settings {
   std::size_t max_bodies = 10000;
   std::size_t max_vertices_per_part = 100000;
   std::size_t max_parts_per_body = 1000;
+  /// At most this many UNKNOWN pairs are listed in CycleResult::pairs (those of the stale bodies
+  /// added first); the rest are counted in CycleResult::num_unknown_pairs and implied by
+  /// stale_bodies. Unlimited by default, as the contract asks; 1,000 bodies without poses are
+  /// ~500k pairs (~0.8 s and ~100 MB per cycle), so a node may want to set a cap.
+  std::size_t max_unknown_pairs = std::numeric_limits<std::size_t>::max();
 };
 
 /// Everything one check cycle produced.
@@ -121,7 +126,8 @@ struct CycleResult {
   /// neither body moved since (num_pairs_cached).
   std::size_t num_broad_phase_pairs = 0;
   std::size_t num_pairs_cached = 0;
-  std::size_t num_part_checks = 0;  ///< convex part-pair GJK runs (<= parts_a * parts_b per pair)
+  std::size_t num_unknown_pairs = 0;  ///< every UNKNOWN pair, listed or not
+  std::size_t num_part_checks = 0;    ///< convex part-pair GJK runs (<= parts_a * parts_b per pair)
 };
 
 struct BodyInfo {
