@@ -60,9 +60,9 @@ class Obstacles(object):
         self.poses_pub = rospy.Publisher(self.monitor + "/body_poses", BodyPoses, queue_size=10)
         self.sphere_pub = rospy.Publisher(scene.SPHERE_POSE_TOPIC, PoseStamped, queue_size=10)
         self.tf = tf2_ros.TransformBroadcaster()
-        s = scene.TF_BOX_SIZE
         self.bodies = {
-            "tf_box": body("tf_box", scene.TF_OBSTACLE_FRAME, [shape(Shape.BOX, (s, s, s))]),
+            "tf_box": body("tf_box", scene.TF_OBSTACLE_FRAME,
+                           [shape(Shape.BOX, scene.TF_BOX_SIZE)]),
             "topic_sphere": body("topic_sphere", self.frame,
                                  [shape(Shape.SPHERE, (scene.SPHERE_RADIUS,))],
                                  pose_from_topic=True, pose_topic=scene.SPHERE_POSE_TOPIC),
@@ -76,6 +76,7 @@ class Obstacles(object):
                           [shape(Shape.BOX, (c, c, c), scene.CRATE_POSITION)])
         self.crate_shown = False
         self.connections = 0
+        self.poses_from = None  # time the first bodies went out; poses start a little later
 
     def send_all(self):
         for b in self.bodies.values():
@@ -89,6 +90,8 @@ class Obstacles(object):
         n = self.bodies_pub.get_num_connections()
         if n > self.connections:
             self.send_all()
+            if self.poses_from is None:
+                self.poses_from = t + 0.5
         self.connections = n
 
         want_crate = scene.crate_present(t)
@@ -113,6 +116,11 @@ class Obstacles(object):
         tf.transform.translation.x, tf.transform.translation.y, tf.transform.translation.z = x, y, z
         tf.transform.rotation.w = 1.0
         self.tf.sendTransform(tf)
+
+        # Poses of bodies the monitor does not know yet would be rejected (and logged): the
+        # bodies and the poses travel on different connections, so give the bodies a head start.
+        if self.poses_from is None or t < self.poses_from:
+            return
 
         sp = PoseStamped()
         sp.header.stamp = now

@@ -77,7 +77,12 @@ class Summary(object):
             e["counts"][ev.type] = e["counts"].get(ev.type, 0) + 1
             if ev.pair.status != PairState.UNKNOWN and not math.isinf(ev.pair.distance):
                 e["min"] = min(e["min"], ev.pair.distance)
-            dist = "" if ev.pair.status == PairState.UNKNOWN else "%9s mm" % mm(ev.pair.distance)
+            if ev.pair.status == PairState.UNKNOWN:
+                dist = ""
+            elif math.isinf(ev.pair.distance):
+                dist = "%12s" % "apart"
+            else:
+                dist = "%9s mm" % mm(ev.pair.distance)
             print("[%7.2f s] %-16s %-32s %s" % (
                 t, name, "%s <-> %s" % (ev.pair.body_a, ev.pair.body_b), dist))
             sys.stdout.flush()

@@ -41,16 +41,32 @@ def artefact_dir():
     return d
 
 
-def pixels(png):
-    """(width, height, raw RGB bytes) of an image, through ImageMagick."""
-    size = subprocess.check_output(["identify", "-format", "%w %h", png]).decode().split()
-    raw = subprocess.check_output(["convert", png, "-depth", "8", "rgb:-"])
-    return int(size[0]), int(size[1]), raw
+def read_ppm(path):
+    """(width, height, raw RGB bytes) of a binary PPM (P6, maxval 255) as `import` writes it."""
+    with open(path, "rb") as f:
+        data = f.read()
+    fields = []
+    pos = 0
+    while len(fields) < 4:
+        while data[pos:pos + 1].isspace():
+            pos += 1
+        if data[pos:pos + 1] == b"#":
+            pos = data.index(b"\n", pos) + 1
+            continue
+        end = pos
+        while not data[end:end + 1].isspace():
+            end += 1
+        fields.append(data[pos:end])
+        pos = end
+    if fields[0] != b"P6" or fields[3] != b"255":
+        raise ValueError("unexpected PPM header %r" % fields)
+    w, h = int(fields[1]), int(fields[2])
+    return w, h, data[pos + 1:pos + 1 + 3 * w * h]
 
 
-def count_colours(png):
+def count_colours(ppm):
     """Red, green and distinct-colour counts in the 3D view of a screenshot."""
-    w, h, raw = pixels(png)
+    w, h, raw = read_ppm(ppm)
     red = green = 0
     colours = set()
     for y in range(0, h):
@@ -144,9 +160,17 @@ class DemoScreenshot(unittest.TestCase):
         return False
 
     def shoot(self, name):
+        """Grabs the screen as PPM (fast: no compression while the moment lasts)."""
         path = os.path.join(artefact_dir(), name)
-        subprocess.check_call(["import", "-display", self.display, "-window", "root", path])
+        subprocess.check_call(["import", "-display", self.display, "-window", "root", "-depth", "8", path])
         return path
+
+    def keep_png(self, ppm):
+        """The artefact: the screenshot as PNG beside it (the PPM is removed)."""
+        png = ppm[:-len(".ppm")] + ".png"
+        subprocess.check_call(["convert", ppm, png])
+        os.remove(ppm)
+        return png
 
     def shot_while(self, condition, hold, name, deadline):
         """Takes a screenshot once `condition` (a callable on the state, under the lock) has held
@@ -172,17 +196,19 @@ class DemoScreenshot(unittest.TestCase):
             time.sleep(0.2)
         time.sleep(4.0)  # first frames under llvmpipe
 
-        clear = self.shot_while(lambda: self.clear_since, 0.8, "demo_screenshot_clear.png",
+        clear = self.shot_while(lambda: self.clear_since, 0.8, "demo_screenshot_clear.ppm",
                                 deadline)
         red, green, colours = count_colours(clear)
+        clear = self.keep_png(clear)
         rospy.loginfo("clear screenshot %s: red %d, green %d, colours %d", clear, red, green,
                       colours)
         self.assertGreater(colours, 20, "rviz did not render (flat 3D view)")
         self.assertGreater(green, 2000, "no green bodies while clear")
         self.assertLess(red, 50, "red pixels while nothing collides")
 
-        hit = self.shot_while(lambda: self.collision_since, 0.4, "demo_screenshot.png", deadline)
+        hit = self.shot_while(lambda: self.collision_since, 0.3, "demo_screenshot.ppm", deadline)
         red, green, colours = count_colours(hit)
+        hit = self.keep_png(hit)
         rospy.loginfo("collision screenshot %s: red %d, green %d, colours %d", hit, red, green,
                       colours)
         self.assertGreater(red, 300, "no red while %s collide" % (demo_scene.COLLISION_PAIR,))
