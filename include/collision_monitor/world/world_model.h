@@ -197,6 +197,9 @@ class WorldModel {
   std::optional<PairResult> nearest(const std::string& a, double now, std::string* why) const;
   /// A hypothetical body at `pose` (body frame -> fixed frame) against every body with a fresh
   /// pose (respecting its group); returns all within `margin`, sorted by distance.
+  /// Also every body in COLLISION whatever the margin; a body with the same id as `body` and the
+  /// disabled pairs of that id are skipped. Status from the thresholds without hysteresis.
+  /// Empty when checkSpec(body) refuses it or the pose is not rigid.
   std::vector<PairResult> checkHypothetical(const BodySpec& body, const Transform3& pose,
                                             double margin, double now) const;
 
