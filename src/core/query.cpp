@@ -169,6 +169,9 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   if (g.status != GjkStatus::Intersecting) {
     const Vec3 n = -g.v / g.distance;  // g.distance > abs_tolerance >= 0 here
     finish(f, o, g.distance, g.point_a, g.point_b, n, g.status == GjkStatus::MaxIterations, r);
+    // distance() reports 0 for overlapping shapes (query.h), even when the depth came for free
+    // (separated cores, overlapping radii).
+    if (!want_depth && r.status == Status::Penetrating) r.distance = 0.0;
     return r;
   }
   if (!want_depth) {

@@ -18,6 +18,7 @@
 /// floor, see GjkSettings), a duplicate support point, no progress, or the iteration bound.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -164,7 +165,7 @@ struct Closest {
   std::array<int, D + 1> idx{};
   std::array<double, D + 1> lambda{};
   int n = 0;
-  Vec<D> v;
+  Vec<D> v = Vec<D>::Zero();
   double dist2 = std::numeric_limits<double>::infinity();
 };
 
@@ -400,14 +401,14 @@ Vec<D> solveSimplex(Simplex<D>& s, bool force_generic = false) {
   } else {
     c = detail::generic<D>(w, all, s.size);
   }
-  // Compact: the kept vertices in increasing index order (c.idx is increasing by construction).
-  Simplex<D> out;
-  out.size = c.n;
-  for (int k = 0; k < c.n; ++k) {
-    out.v[k] = s.v[c.idx[k]];
-    out.bary[k] = c.lambda[k];
+  // Compact in place: the kept indices are increasing (every branch above lists vertices in
+  // increasing order), so c.idx[k] >= k and nothing is overwritten before it is read.
+  const int n = std::min(c.n, D + 1);
+  for (int k = 0; k < n; ++k) {
+    if (c.idx[k] != k) s.v[k] = s.v[c.idx[k]];
+    s.bary[k] = c.lambda[k];
   }
-  s = out;
+  s.size = n;
   return c.v;
 }
 

@@ -1,0 +1,327 @@
+// gjkDistance / gjkIntersect / EPA in 2D (footprints), 3D sub-algorithms, and 4D/5D: exact answers
+// by hand, plus the optimality condition of the simplex sub-algorithms on random simplices.
+#include <cmath>
+#include <memory>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "collision_monitor/core/epa.h"
+#include "collision_monitor/core/gjk.h"
+#include "collision_monitor/core/shapes.h"
+
+namespace cm = collision_monitor::core;
+using cm::Vec;
+
+namespace {
+
+template <int D>
+cm::Transform<D> shift(const Vec<D>& t) {
+  cm::Transform<D> T;
+  T.t = t;
+  return T;
+}
+cm::Transform<2> rot2(double angle, const cm::Vec2& t) {
+  cm::Transform<2> T;
+  T.R = Eigen::Rotation2Dd(angle).toRotationMatrix();
+  T.t = t;
+  return T;
+}
+template <int D>
+void expectVecNear(const Vec<D>& a, const Vec<D>& b, double tol) {
+  for (int i = 0; i < D; ++i)
+    EXPECT_NEAR(a[i], b[i], tol) << "i = " << i << " got " << a.transpose() << " want "
+                                 << b.transpose();
+}
+cm::GjkSettings settings(double size) {
+  cm::GjkSettings s;
+  s.abs_tolerance = s.rel_tolerance * size;
+  return s;
+}
+cm::EpaSettings epaSettings(double size) {
+  cm::EpaSettings s;
+  s.abs_tolerance = s.rel_tolerance * size;
+  return s;
+}
+template <int D>
+cm::Simplex<D> simplexOf(const std::vector<Vec<D>>& pts) {
+  cm::Simplex<D> s;
+  s.size = static_cast<int>(pts.size());
+  for (int i = 0; i < s.size; ++i) {
+    s.v[i].w = pts[i];
+    s.v[i].a = pts[i];
+    s.v[i].b = Vec<D>::Zero();
+  }
+  return s;
+}
+
+using Box2 = cm::BoxShape<2>;
+using Pt2 = cm::PointShape<2>;
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// 2D footprints
+// ---------------------------------------------------------------------------------------------
+
+TEST(Gjk2D, SquaresFaceFace) {
+  // Square half 1 (x <= 1) and half 0.5 at (3, 0.2) (x >= 2.5): 1.5.
+  const Box2 a{cm::Vec2(1, 1)};
+  const Box2 b{cm::Vec2(0.5, 0.5)};
+  const cm::MinkowskiDifference<2, Box2, Box2> md(a, b, shift<2>(cm::Vec2(3, 0.2)));
+  const auto r = cm::gjkDistance(md, settings(5));
+  EXPECT_EQ(r.status, cm::GjkStatus::Separated);
+  EXPECT_NEAR(r.distance, 1.5, 1e-12);
+  EXPECT_NEAR(r.point_a.x(), 1.0, 1e-12);
+  EXPECT_NEAR(r.point_b.x(), 2.5, 1e-12);
+  EXPECT_NEAR(r.point_a.y(), r.point_b.y(), 1e-12);
+  expectVecNear<2>(r.v, r.point_a - r.point_b, 1e-12);
+}
+
+TEST(Gjk2D, RotatedSquareVertex) {
+  // Square half 0.5 turned 45 deg at (3, 0): leftmost vertex (3 - sqrt2/2, 0); A's face x = 1.
+  const Box2 a{cm::Vec2(1, 1)};
+  const Box2 b{cm::Vec2(0.5, 0.5)};
+  const cm::MinkowskiDifference<2, Box2, Box2> md(a, b, rot2(M_PI / 4, cm::Vec2(3, 0)));
+  const auto r = cm::gjkDistance(md, settings(5));
+  EXPECT_NEAR(r.distance, 2.0 - std::sqrt(2.0) / 2, 1e-12);
+  expectVecNear<2>(r.point_a, cm::Vec2(1, 0), 1e-12);
+  expectVecNear<2>(r.point_b, cm::Vec2(3 - std::sqrt(2.0) / 2, 0), 1e-12);
+}
+
+TEST(Gjk2D, PolygonToPoint) {
+  // Triangle (0,0), (2,0), (0,2) and the point (2, 2): sqrt2 to the hypotenuse, foot (1, 1).
+  const cm::Polytope<2> tri({cm::Vec2(0, 0), cm::Vec2(2, 0), cm::Vec2(0, 2)});
+  const cm::PolytopeSupport<2> a{&tri};
+  const Pt2 p{cm::Vec2(2, 2)};
+  const cm::MinkowskiDifference<2, cm::PolytopeSupport<2>, Pt2> md(a, p,
+                                                                   shift<2>(cm::Vec2::Zero()));
+  const auto r = cm::gjkDistance(md, settings(5));
+  EXPECT_NEAR(r.distance, std::sqrt(2.0), 1e-12);
+  expectVecNear<2>(r.point_a, cm::Vec2(1, 1), 1e-12);
+}
+
+TEST(Gjk2D, IntersectWithMargins) {
+  const Box2 a{cm::Vec2(1, 1)};
+  const Box2 b{cm::Vec2(0.5, 0.5)};
+  const cm::MinkowskiDifference<2, Box2, Box2> apart(a, b, shift<2>(cm::Vec2(3, 0.2)));  // 1.5
+  EXPECT_FALSE(cm::gjkIntersect(apart, 0.0, settings(5)));
+  EXPECT_FALSE(cm::gjkIntersect(apart, 1.4, settings(5)));
+  EXPECT_TRUE(cm::gjkIntersect(apart, 1.6, settings(5)));
+  const cm::MinkowskiDifference<2, Box2, Box2> overlap(a, b, shift<2>(cm::Vec2(1.2, -0.3)));
+  int iterations = -1;
+  EXPECT_TRUE(cm::gjkIntersect(overlap, 0.0, settings(5), nullptr, &iterations));
+  EXPECT_GE(iterations, 0);
+  EXPECT_EQ(cm::gjkDistance(overlap, settings(5)).status, cm::GjkStatus::Intersecting);
+}
+
+TEST(Epa2D, SquaresDepthNormalWitness) {
+  // Squares half 1, B at (1.5, 0.2): overlaps 0.5 (x), 1.8 (y): depth 0.5 along +x.
+  const Box2 a{cm::Vec2(1, 1)};
+  const cm::MinkowskiDifference<2, Box2, Box2> md(a, a, shift<2>(cm::Vec2(1.5, 0.2)));
+  const auto g = cm::gjkDistance(md, settings(5));
+  ASSERT_EQ(g.status, cm::GjkStatus::Intersecting);
+  const auto e = cm::epaPenetration(md, g.simplex, epaSettings(5));
+  EXPECT_EQ(e.status, cm::EpaStatus::Converged);
+  EXPECT_NEAR(e.depth, 0.5, 1e-12);
+  expectVecNear<2>(e.normal, cm::Vec2(1, 0), 1e-12);
+  EXPECT_NEAR(e.point_a.x(), 1.0, 1e-12);
+  EXPECT_NEAR(e.point_b.x(), 0.5, 1e-12);
+}
+
+TEST(Epa2D, TriangleInSquare) {
+  // Square half 2 (x <= 2); triangle (0,0), (1,0), (0,1) at (1.5, -0.5): spans x in [1.5, 2.5]:
+  // exits +x by 0.5 (others: 4.5 (-x), 2.5 (+y), 3.5 (-y)).
+  const Box2 sq{cm::Vec2(2, 2)};
+  const cm::Polytope<2> tri({cm::Vec2(0, 0), cm::Vec2(1, 0), cm::Vec2(0, 1)});
+  const cm::PolytopeSupport<2> t{&tri};
+  const cm::MinkowskiDifference<2, Box2, cm::PolytopeSupport<2>> md(sq, t,
+                                                                    shift<2>(cm::Vec2(1.5, -0.5)));
+  const auto g = cm::gjkDistance(md, settings(6));
+  ASSERT_EQ(g.status, cm::GjkStatus::Intersecting);
+  const auto e = cm::epaPenetration(md, g.simplex, epaSettings(6));
+  EXPECT_NEAR(e.depth, 0.5, 1e-12);
+  expectVecNear<2>(e.normal, cm::Vec2(1, 0), 1e-12);
+}
+
+TEST(Epa2D, CollinearSegmentsAreFlat) {
+  // Two overlapping segments on the x axis: A - B is a segment through the origin: flat, depth 0,
+  // normal +-y (a defined answer, not a degenerate polygon).
+  const cm::SegmentShape<2> a{cm::Vec2(-1, 0), cm::Vec2(1, 0)};
+  const cm::SegmentShape<2> b{cm::Vec2(0, 0), cm::Vec2(0.5, 0)};
+  const cm::MinkowskiDifference<2, cm::SegmentShape<2>, cm::SegmentShape<2>> md(
+      a, b, shift<2>(cm::Vec2(0.2, 0)));
+  const auto g = cm::gjkDistance(md, settings(3));
+  ASSERT_EQ(g.status, cm::GjkStatus::Intersecting);
+  const auto e = cm::epaPenetration(md, g.simplex, epaSettings(3));
+  EXPECT_EQ(e.status, cm::EpaStatus::Flat);
+  EXPECT_EQ(e.flat_dimension, 1);
+  EXPECT_EQ(e.depth, 0.0);
+  EXPECT_NEAR(std::abs(e.normal.y()), 1.0, 1e-15);
+}
+
+TEST(Epa2D, CrossingSegmentsFormASquare) {
+  // Segment along x and one along y, crossing at their midpoints: A - B is the square
+  // [-1, 1]^2: depth 1.
+  const cm::SegmentShape<2> a{cm::Vec2(-1, 0), cm::Vec2(1, 0)};
+  const cm::SegmentShape<2> b{cm::Vec2(0, -1), cm::Vec2(0, 1)};
+  const cm::MinkowskiDifference<2, cm::SegmentShape<2>, cm::SegmentShape<2>> md(
+      a, b, shift<2>(cm::Vec2::Zero()));
+  const auto g = cm::gjkDistance(md, settings(3));
+  ASSERT_EQ(g.status, cm::GjkStatus::Intersecting);
+  const auto e = cm::epaPenetration(md, g.simplex, epaSettings(3));
+  EXPECT_EQ(e.status, cm::EpaStatus::Converged);
+  EXPECT_NEAR(e.depth, 1.0, 1e-12);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Higher dimensions
+// ---------------------------------------------------------------------------------------------
+
+TEST(GjkHighD, HypercubeToPoints4D) {
+  using Box4 = cm::BoxShape<4>;
+  using Pt4 = cm::PointShape<4>;
+  const Box4 cube{Vec<4>::Ones()};
+  {
+    // Only x is outside: 3 - 1.
+    const Pt4 p{Vec<4>(3, 0.5, 0.2, -0.1)};
+    const cm::MinkowskiDifference<4, Box4, Pt4> md(cube, p, shift<4>(Vec<4>::Zero()));
+    const auto r = cm::gjkDistance(md, settings(6));
+    EXPECT_EQ(r.status, cm::GjkStatus::Separated);
+    EXPECT_NEAR(r.distance, 2.0, 1e-12);
+    expectVecNear<4>(r.point_a, Vec<4>(1, 0.5, 0.2, -0.1), 1e-12);
+  }
+  {
+    // Corner (1,1,1,1) to (2,2,2,2): |(1,1,1,1)| = 2.
+    const Pt4 p{Vec<4>::Constant(2)};
+    const cm::MinkowskiDifference<4, Box4, Pt4> md(cube, p, shift<4>(Vec<4>::Zero()));
+    const auto r = cm::gjkDistance(md, settings(6));
+    EXPECT_NEAR(r.distance, 2.0, 1e-12);
+    expectVecNear<4>(r.point_a, Vec<4>::Ones(), 1e-12);
+  }
+}
+
+TEST(GjkHighD, HypercubesAndHypersphere4D) {
+  using Box4 = cm::BoxShape<4>;
+  const Box4 a{Vec<4>::Ones()};
+  const Box4 b{Vec<4>::Constant(0.5)};
+  // Gaps 1.5 in x and y: 1.5 sqrt2.
+  const cm::MinkowskiDifference<4, Box4, Box4> apart(a, b, shift<4>(Vec<4>(3, 3, 0, 0)));
+  EXPECT_NEAR(cm::gjkDistance(apart, settings(7)).distance, 1.5 * std::sqrt(2.0), 1e-12);
+  EXPECT_FALSE(cm::gjkIntersect(apart, 0.0, settings(7)));
+  EXPECT_TRUE(cm::gjkIntersect(apart, 2.2, settings(7)));  // margin > 2.1213
+  // Overlapping hypercubes: the 5-vertex simplex must enclose the origin.
+  const cm::MinkowskiDifference<4, Box4, Box4> overlap(a, b, shift<4>(Vec<4>(1, 0.5, 0, -0.2)));
+  EXPECT_TRUE(cm::gjkIntersect(overlap, 0.0, settings(4)));
+  EXPECT_EQ(cm::gjkDistance(overlap, settings(4)).status, cm::GjkStatus::Intersecting);
+  // Unit hypersphere to the point (3, 4, 0, 0): 5 - 1; foot (0.6, 0.8, 0, 0).
+  const cm::EllipsoidShape<4> ball{Vec<4>::Ones()};
+  const cm::PointShape<4> p{Vec<4>(3, 4, 0, 0)};
+  const cm::MinkowskiDifference<4, cm::EllipsoidShape<4>, cm::PointShape<4>> md(
+      ball, p, shift<4>(Vec<4>::Zero()));
+  const auto r = cm::gjkDistance(md, settings(6));
+  EXPECT_NEAR(r.distance, 4.0, 1e-10);
+  expectVecNear<4>(r.point_a, Vec<4>(0.6, 0.8, 0, 0), 1e-5);
+}
+
+TEST(GjkHighD, HypercubeToPoint5D) {
+  using Box5 = cm::BoxShape<5>;
+  const Box5 cube{Vec<5>::Ones()};
+  const cm::PointShape<5> p{Vec<5>::Constant(2)};
+  const cm::MinkowskiDifference<5, Box5, cm::PointShape<5>> md(cube, p, shift<5>(Vec<5>::Zero()));
+  const auto r = cm::gjkDistance(md, settings(7));
+  EXPECT_NEAR(r.distance, std::sqrt(5.0), 1e-12);
+  expectVecNear<5>(r.point_a, Vec<5>::Ones(), 1e-12);
+  // A point inside the 5-cube: intersecting.
+  const cm::PointShape<5> q{Vec<5>(0.1, -0.2, 0.3, -0.4, 0.5)};
+  const cm::MinkowskiDifference<5, Box5, cm::PointShape<5>> in(cube, q, shift<5>(Vec<5>::Zero()));
+  EXPECT_TRUE(cm::gjkIntersect(in, 0.0, settings(4)));
+  EXPECT_EQ(cm::gjkDistance(in, settings(4)).status, cm::GjkStatus::Intersecting);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Simplex sub-algorithms
+// ---------------------------------------------------------------------------------------------
+
+namespace {
+
+/// Both sub-algorithms on `pts`: closest point and number of kept vertices must match `want`.
+void expectClosest(const std::vector<cm::Vec3>& pts, const cm::Vec3& want, int want_size) {
+  for (const bool generic : {false, true}) {
+    cm::Simplex<3> s = simplexOf<3>(pts);
+    const cm::Vec3 v = cm::solveSimplex<3>(s, generic);
+    expectVecNear<3>(v, want, 1e-14);
+    EXPECT_EQ(s.size, want_size) << (generic ? "generic" : "signed volumes");
+    expectVecNear<3>(s.closest(), want, 1e-14);
+  }
+}
+
+}  // namespace
+
+TEST(SimplexSolver, ExactCases) {
+  const double third = 1.0 / 3.0;
+  expectClosest({cm::Vec3(1, 0, 0), cm::Vec3(0, 1, 0), cm::Vec3(0, 0, 1)},
+                cm::Vec3(third, third, third), 3);
+  // Regular tetrahedron around the origin.
+  expectClosest({cm::Vec3(1, 1, 1), cm::Vec3(-1, -1, 1), cm::Vec3(-1, 1, -1), cm::Vec3(1, -1, -1)},
+                cm::Vec3::Zero(), 4);
+  // Segment whose line passes the origin beyond its end: the nearer end.
+  expectClosest({cm::Vec3(2, 0, 0), cm::Vec3(1, 0, 0)}, cm::Vec3(1, 0, 0), 1);
+  // Tetrahedron with the origin below its face z = 1 ... (0,0,1) inside that face.
+  expectClosest({cm::Vec3(-1, -1, 1), cm::Vec3(1, -1, 1), cm::Vec3(0, 1, 1), cm::Vec3(0, 0, 3)},
+                cm::Vec3(0, 0, 1), 3);
+}
+
+TEST(SimplexSolver, DegenerateSimplicesNeverNaN) {
+  // Regression: a flat tetrahedron (all in z = 1) has volume 0; the closest point is found on a
+  // face, (0, 0, 1) inside the triangle (-1,-1,1), (1,-1,1), (0,1,1).
+  expectClosest({cm::Vec3(-1, -1, 1), cm::Vec3(1, -1, 1), cm::Vec3(0, 1, 1), cm::Vec3(0, 0.5, 1)},
+                cm::Vec3(0, 0, 1), 3);
+  // Collinear triangle: the middle of the line x = 1.
+  expectClosest({cm::Vec3(1, -1, 0), cm::Vec3(1, 0.5, 0), cm::Vec3(1, 1, 0)}, cm::Vec3(1, 0, 0), 2);
+  // All vertices equal.
+  expectClosest({cm::Vec3(1, 2, 3), cm::Vec3(1, 2, 3), cm::Vec3(1, 2, 3), cm::Vec3(1, 2, 3)},
+                cm::Vec3(1, 2, 3), 1);
+  // Duplicate pair in a triangle.
+  expectClosest({cm::Vec3(1, 0, 0), cm::Vec3(1, 0, 0), cm::Vec3(0, 1, 0)}, cm::Vec3(0.5, 0.5, 0),
+                2);
+}
+
+TEST(SimplexSolver, RandomSimplicesAreOptimal) {
+  // v is the closest point of conv(w_i) iff v is in the hull and v.w_i >= |v|^2 for all i (the
+  // hull lies beyond the plane through v normal to v). Checked for both sub-algorithms on random
+  // triangles and tetrahedra (fixed seed), including ones enclosing the origin.
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  int enclosing = 0;
+  for (int trial = 0; trial < 2000; ++trial) {
+    const int n = 3 + trial % 2;
+    std::vector<cm::Vec3> pts;
+    const cm::Vec3 offset = (trial % 3 == 0) ? cm::Vec3::Zero() : cm::Vec3(u(rng), u(rng), u(rng));
+    for (int i = 0; i < n; ++i)
+      pts.push_back(cm::Vec3(u(rng), u(rng), u(rng)) + offset);
+    cm::Vec3 v_sv;
+    for (const bool generic : {false, true}) {
+      cm::Simplex<3> s = simplexOf<3>(pts);
+      const cm::Vec3 v = cm::solveSimplex<3>(s, generic);
+      double sum = 0.0;
+      for (int i = 0; i < s.size; ++i) {
+        EXPECT_GT(s.bary[i], 0.0);
+        sum += s.bary[i];
+      }
+      EXPECT_NEAR(sum, 1.0, 1e-12);
+      for (const cm::Vec3& w : pts)
+        EXPECT_GE(v.dot(w) - v.squaredNorm(), -1e-12);
+      if (!generic) {
+        v_sv = v;
+        enclosing += s.size == 4;
+      } else {
+        expectVecNear<3>(v, v_sv, 1e-12);
+      }
+    }
+  }
+  // The sample must be meaningful: some tetrahedra enclose the origin, most do not.
+  EXPECT_GT(enclosing, 20);
+  EXPECT_LT(enclosing, 900);
+}

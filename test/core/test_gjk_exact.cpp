@@ -1,0 +1,528 @@
+// Exact answers for intersect / distance / signedDistance, worked out by hand (the comment beside
+// each expected value shows the arithmetic). Nothing here is a recorded output of the code.
+#include <cmath>
+#include <memory>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "collision_monitor/core/query.h"
+
+namespace cm = collision_monitor::core;
+using cm::ContactResult;
+using cm::ConvexShape;
+using cm::Status;
+using cm::Transform3;
+using cm::Vec3;
+
+namespace {
+
+constexpr double kTol = 1e-12;
+const double kSqrt2 = std::sqrt(2.0);
+const double kSqrt3 = std::sqrt(3.0);
+
+Transform3 at(double x, double y, double z) {
+  Transform3 T;
+  T.t = Vec3(x, y, z);
+  return T;
+}
+Transform3 rotAt(double angle, const Vec3& axis, const Vec3& t) {
+  Transform3 T;
+  T.R = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
+  T.t = t;
+  return T;
+}
+void expectVecNear(const Vec3& a, const Vec3& b, double tol) {
+  EXPECT_NEAR(a.x(), b.x(), tol) << "got (" << a.transpose() << ") want (" << b.transpose() << ")";
+  EXPECT_NEAR(a.y(), b.y(), tol) << "got (" << a.transpose() << ") want (" << b.transpose() << ")";
+  EXPECT_NEAR(a.z(), b.z(), tol) << "got (" << a.transpose() << ") want (" << b.transpose() << ")";
+}
+/// Invariants every result must satisfy: unit normal, finite fields, witness points consistent
+/// with the signed distance along the normal.
+void expectConsistent(const ContactResult& r, double tol) {
+  ASSERT_TRUE(std::isfinite(r.distance));
+  ASSERT_TRUE(r.point_a.allFinite() && r.point_b.allFinite() && r.normal.allFinite());
+  EXPECT_NEAR(r.normal.norm(), 1.0, 1e-12);
+  // point_b - point_a = distance * normal (for separation and for penetration).
+  expectVecNear(r.point_b - r.point_a, r.distance * r.normal, tol);
+}
+
+const ConvexShape kUnitCube = ConvexShape::box(Vec3(1.0, 1.0, 1.0));
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Spheres
+// ---------------------------------------------------------------------------------------------
+
+TEST(ExactSphere, SeparatedDistanceWitnessNormal) {
+  // Centres 5 apart (3-4-5), radii 1 and 0.5: 5 - 1.5 = 3.5.
+  const ConvexShape a = ConvexShape::sphere(1.0);
+  const ConvexShape b = ConvexShape::sphere(0.5);
+  for (const bool signed_query : {false, true}) {
+    const ContactResult r = signed_query ? cm::signedDistance(a, at(0, 0, 0), b, at(3, 4, 0))
+                                         : cm::distance(a, at(0, 0, 0), b, at(3, 4, 0));
+    EXPECT_EQ(r.status, Status::Separated);
+    EXPECT_NEAR(r.distance, 3.5, kTol);
+    expectVecNear(r.normal, Vec3(0.6, 0.8, 0.0), kTol);
+    expectVecNear(r.point_a, Vec3(0.6, 0.8, 0.0), kTol);
+    expectVecNear(r.point_b, Vec3(3.0 - 0.3, 4.0 - 0.4, 0.0), kTol);
+    expectConsistent(r, kTol);
+  }
+  EXPECT_FALSE(cm::intersect(a, at(0, 0, 0), b, at(3, 4, 0)));
+}
+
+TEST(ExactSphere, OverlapDepthAndNormal) {
+  // Radii 1 + 1, centres 1.2 apart on x: depth 0.8 along +x.
+  const ConvexShape s = ConvexShape::sphere(1.0);
+  const ContactResult r = cm::signedDistance(s, at(0, 0, 0), s, at(1.2, 0, 0));
+  EXPECT_EQ(r.status, Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.8, kTol);
+  EXPECT_NEAR(r.depth(), 0.8, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), kTol);
+  expectVecNear(r.point_a, Vec3(1.0, 0, 0), kTol);  // deepest point of A inside B
+  expectVecNear(r.point_b, Vec3(0.2, 0, 0), kTol);  // deepest point of B inside A
+  expectConsistent(r, kTol);
+  EXPECT_TRUE(cm::intersect(s, at(0, 0, 0), s, at(1.2, 0, 0)));
+  const ContactResult d = cm::distance(s, at(0, 0, 0), s, at(1.2, 0, 0));
+  EXPECT_EQ(d.status, Status::Penetrating);
+  EXPECT_EQ(d.distance, 0.0);
+}
+
+TEST(ExactSphere, ConcentricSpheresHaveFullDepthAndADefinedNormal) {
+  // Regression: A - B of two point cores at the same place is the single point 0; the normal must
+  // still be a unit vector (was the 0/0 direction of v). Depth = 1 + 0.5.
+  const ConvexShape r1 = ConvexShape::sphere(1.0);
+  const ConvexShape r2 = ConvexShape::sphere(0.5);
+  const ContactResult r = cm::signedDistance(r1, at(7, 8, 9), r2, at(7, 8, 9));
+  EXPECT_EQ(r.status, Status::Penetrating);
+  EXPECT_NEAR(r.distance, -1.5, kTol);
+  expectConsistent(r, kTol);
+}
+
+TEST(ExactSphere, TouchingIsTouching) {
+  // Radii 1 + 1 with centres exactly 2 apart: distance 0.
+  const ConvexShape s = ConvexShape::sphere(1.0);
+  const ContactResult r = cm::signedDistance(s, at(0, 0, 0), s, at(0, 2, 0));
+  EXPECT_EQ(r.status, Status::Touching);
+  EXPECT_NEAR(r.distance, 0.0, kTol);
+  expectVecNear(r.normal, Vec3::UnitY(), kTol);
+  EXPECT_TRUE(cm::intersect(s, at(0, 0, 0), s, at(0, 2, 0)));
+}
+
+TEST(ExactSphere, NestedSphere) {
+  // r 2 around r 0.5 whose centre is 0.5 off: it must move 2 - 0.5 + 0.5 = 2 along +x.
+  const ContactResult r = cm::signedDistance(ConvexShape::sphere(2.0), at(0, 0, 0),
+                                             ConvexShape::sphere(0.5), at(0.5, 0, 0));
+  EXPECT_NEAR(r.distance, -2.0, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), kTol);
+  expectConsistent(r, kTol);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Boxes
+// ---------------------------------------------------------------------------------------------
+
+TEST(ExactBox, FaceFace) {
+  // Unit cube (x <= 0.5) and a 2-cube at x = 3 (x >= 2): gap 1.5 along +x.
+  const ConvexShape b2 = ConvexShape::box(Vec3(2, 2, 2));
+  const ContactResult r = cm::signedDistance(kUnitCube, at(0, 0, 0), b2, at(3, 0.2, 0.1));
+  EXPECT_EQ(r.status, Status::Separated);
+  EXPECT_NEAR(r.distance, 1.5, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), kTol);
+  EXPECT_NEAR(r.point_a.x(), 0.5, kTol);
+  EXPECT_NEAR(r.point_b.x(), 2.0, kTol);
+  // Witnesses on the overlap of the faces: y, z in [-0.5, 0.5] (A) and equal on both.
+  EXPECT_LE(std::abs(r.point_a.y()), 0.5 + kTol);
+  EXPECT_LE(std::abs(r.point_a.z()), 0.5 + kTol);
+  expectConsistent(r, kTol);
+}
+
+TEST(ExactBox, EdgeEdge) {
+  // A turned 45 deg about y: its +x extreme is the edge x = sqrt2/2 parallel to y. B turned 45
+  // deg about z at x = 3: its -x extreme is the edge x = 3 - sqrt2/2 parallel to z. Both edges
+  // cross the x axis: distance 3 - sqrt2, witnesses on the x axis.
+  const ContactResult r =
+      cm::signedDistance(kUnitCube, rotAt(M_PI / 4, Vec3::UnitY(), Vec3::Zero()), kUnitCube,
+                         rotAt(M_PI / 4, Vec3::UnitZ(), Vec3(3, 0, 0)));
+  EXPECT_NEAR(r.distance, 3.0 - kSqrt2, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), kTol);
+  expectVecNear(r.point_a, Vec3(kSqrt2 / 2, 0, 0), kTol);
+  expectVecNear(r.point_b, Vec3(3.0 - kSqrt2 / 2, 0, 0), kTol);
+}
+
+TEST(ExactBox, VertexFace) {
+  // B's body diagonal (1,1,1)/sqrt3 turned to -x: its vertex at 2 - sqrt3/2 faces A's face x=0.5.
+  Transform3 pb;
+  pb.R = Eigen::Quaterniond::FromTwoVectors(Vec3(1, 1, 1), Vec3(-1, 0, 0)).toRotationMatrix();
+  pb.t = Vec3(2, 0, 0);
+  const ContactResult r = cm::signedDistance(kUnitCube, at(0, 0, 0), kUnitCube, pb);
+  EXPECT_NEAR(r.distance, 2.0 - kSqrt3 / 2 - 0.5, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), kTol);
+  expectVecNear(r.point_a, Vec3(0.5, 0, 0), kTol);
+  expectVecNear(r.point_b, Vec3(2.0 - kSqrt3 / 2, 0, 0), kTol);
+}
+
+TEST(ExactBox, PenetrationDepthAndNormal) {
+  // Unit cubes, B at (0.8, 0.1, 0.05): overlaps 0.2 (x), 0.9 (y), 0.95 (z): depth 0.2 along +x.
+  const ContactResult r = cm::signedDistance(kUnitCube, at(0, 0, 0), kUnitCube, at(0.8, 0.1, 0.05));
+  EXPECT_EQ(r.status, Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.2, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), kTol);
+  EXPECT_NEAR(r.point_a.x(), 0.5, kTol);  // A's face inside B
+  EXPECT_NEAR(r.point_b.x(), 0.3, kTol);  // B's face inside A
+  expectConsistent(r, kTol);
+  EXPECT_TRUE(cm::intersect(kUnitCube, at(0, 0, 0), kUnitCube, at(0.8, 0.1, 0.05)));
+}
+
+TEST(ExactBox, IdenticalCubesHaveDepthOne) {
+  // Two unit cubes at the same pose: any face direction separates them after a move of 1.
+  const Transform3 p = rotAt(0.3, Vec3(1, 2, 3), Vec3(4, 5, 6));
+  const ContactResult r = cm::signedDistance(kUnitCube, p, kUnitCube, p);
+  EXPECT_EQ(r.status, Status::Penetrating);
+  EXPECT_NEAR(r.distance, -1.0, kTol);
+  // The normal is one of the cube's face normals: in the body frame a signed unit axis.
+  const Vec3 nb = p.R.transpose() * r.normal;
+  EXPECT_NEAR(nb.cwiseAbs().maxCoeff(), 1.0, kTol);
+  expectConsistent(r, kTol);
+}
+
+TEST(ExactBox, NestedBox) {
+  // Unit cube (x in [0, 1]) inside a 4-cube (x in [-2, 2]): cheapest exit +x by 2 (vs 3, 2.5).
+  const ContactResult r =
+      cm::signedDistance(ConvexShape::box(Vec3(4, 4, 4)), at(0, 0, 0), kUnitCube, at(0.5, 0, 0));
+  EXPECT_NEAR(r.distance, -2.0, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), kTol);
+  expectConsistent(r, kTol);
+}
+
+TEST(ExactBox, TouchingFacesAreTouching) {
+  // Unit cubes with centres 1 apart share the face x = 0.5.
+  const ContactResult r = cm::signedDistance(kUnitCube, at(0, 0, 0), kUnitCube, at(1, 0.3, -0.2));
+  EXPECT_EQ(r.status, Status::Touching);
+  EXPECT_NEAR(r.distance, 0.0, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), 1e-9);
+  EXPECT_TRUE(cm::intersect(kUnitCube, at(0, 0, 0), kUnitCube, at(1, 0.3, -0.2)));
+  EXPECT_EQ(cm::distance(kUnitCube, at(0, 0, 0), kUnitCube, at(1, 0.3, -0.2)).status,
+            Status::Touching);
+}
+
+TEST(ExactBox, NearlyParallelFaces) {
+  // 2-cubes, B turned eps = 1e-6 about y at x = 2.5: B's lowest x is 2.5 - (cos eps + sin eps);
+  // A's face is x = 1.
+  const double eps = 1e-6;
+  const ConvexShape b2 = ConvexShape::box(Vec3(2, 2, 2));
+  const ContactResult r =
+      cm::signedDistance(b2, at(0, 0, 0), b2, rotAt(eps, Vec3::UnitY(), Vec3(2.5, 0, 0)));
+  EXPECT_NEAR(r.distance, 2.5 - (std::cos(eps) + std::sin(eps)) - 1.0, kTol);
+  EXPECT_NEAR(r.normal.x(), 1.0, 1e-9);
+  // ... and overlapping by about 0.25 (B at x = 1.75): depth 1 - (1.75 - cos eps - sin eps).
+  const ContactResult p =
+      cm::signedDistance(b2, at(0, 0, 0), b2, rotAt(eps, Vec3::UnitY(), Vec3(1.75, 0, 0)));
+  // B's tilted face gives a candidate depth only ~9e-13 larger, with a normal eps away: both are
+  // within tolerance, so the normal is checked to eps.
+  EXPECT_NEAR(p.distance, 1.75 - (std::cos(eps) + std::sin(eps)) - 1.0, 1e-11);
+  EXPECT_NEAR(p.normal.x(), 1.0, 1e-11);
+  EXPECT_NEAR(p.normal.z(), 0.0, 2 * eps);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Capsules and sphere/box
+// ---------------------------------------------------------------------------------------------
+
+TEST(ExactCapsule, Parallel) {
+  // Axes (z) 2 apart, radii 0.5 + 0.25: 1.25; witnesses at equal z within the overlap [-0.5, 1].
+  const ContactResult r = cm::signedDistance(ConvexShape::capsule(2, 0.5), at(0, 0, 0),
+                                             ConvexShape::capsule(2, 0.25), at(2, 0, 0.5));
+  EXPECT_NEAR(r.distance, 1.25, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), kTol);
+  EXPECT_NEAR(r.point_a.x(), 0.5, kTol);
+  EXPECT_NEAR(r.point_b.x(), 1.75, kTol);
+  EXPECT_NEAR(r.point_a.z(), r.point_b.z(), kTol);
+  EXPECT_GE(r.point_a.z(), -0.5 - kTol);
+  EXPECT_LE(r.point_a.z(), 1.0 + kTol);
+}
+
+TEST(ExactCapsule, Crossing) {
+  // A along z, B along y (90 deg about x) at x = 1.5: axes cross at distance 1.5; 1.5 - 0.75.
+  const ContactResult r =
+      cm::signedDistance(ConvexShape::capsule(2, 0.5), at(0, 0, 0), ConvexShape::capsule(2, 0.25),
+                         rotAt(M_PI / 2, Vec3::UnitX(), Vec3(1.5, 0, 0)));
+  EXPECT_NEAR(r.distance, 0.75, kTol);
+  expectVecNear(r.point_a, Vec3(0.5, 0, 0), kTol);
+  expectVecNear(r.point_b, Vec3(1.25, 0, 0), kTol);
+}
+
+TEST(ExactCapsule, Skew) {
+  // A: z in [-1, 1]; B along y through (1, ., 3): closest are A's end (0,0,1) and (1,0,3),
+  // sqrt(1 + 4) apart; minus radii 0.75.
+  const ContactResult r =
+      cm::signedDistance(ConvexShape::capsule(2, 0.5), at(0, 0, 0), ConvexShape::capsule(2, 0.25),
+                         rotAt(M_PI / 2, Vec3::UnitX(), Vec3(1, 0, 3)));
+  const Vec3 n = Vec3(1, 0, 2) / std::sqrt(5.0);
+  EXPECT_NEAR(r.distance, std::sqrt(5.0) - 0.75, kTol);
+  expectVecNear(r.normal, n, kTol);
+  expectVecNear(r.point_a, Vec3(0, 0, 1) + 0.5 * n, kTol);
+  expectVecNear(r.point_b, Vec3(1, 0, 3) - 0.25 * n, kTol);
+}
+
+TEST(ExactCapsule, CrossingCoresGiveDepthRadiusSumExactly) {
+  // Regression: the cores' A - B is a flat square through the origin (EPA on the cores has depth
+  // 0); the depth must be exactly rA + rB = 0.75 with the square's normal (+-x).
+  const ContactResult r =
+      cm::signedDistance(ConvexShape::capsule(2, 0.5), at(0, 0, 0), ConvexShape::capsule(2, 0.25),
+                         rotAt(M_PI / 2, Vec3::UnitX(), Vec3(0, 0, 0)));
+  EXPECT_EQ(r.status, Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.75, kTol);
+  EXPECT_NEAR(std::abs(r.normal.x()), 1.0, kTol);
+  expectConsistent(r, kTol);
+}
+
+TEST(ExactCapsule, SphereOnCapsuleAxis) {
+  // Regression: A - B of segment and point is a segment through the origin (1-D): depth rA + rB
+  // = 0.75 along some direction perpendicular to the axis (z), never NaN.
+  const ContactResult r = cm::signedDistance(ConvexShape::capsule(2, 0.5), at(0, 0, 0),
+                                             ConvexShape::sphere(0.25), at(0, 0, 0.3));
+  EXPECT_NEAR(r.distance, -0.75, kTol);
+  EXPECT_NEAR(r.normal.z(), 0.0, kTol);
+  expectConsistent(r, kTol);
+}
+
+TEST(ExactSphereBox, EdgeAndCorner) {
+  // 2-cube, sphere r 0.5 at (2, 2, 0): nearest is the edge point (1, 1, 0), sqrt2 away.
+  const ConvexShape box = ConvexShape::box(Vec3(2, 2, 2));
+  const ConvexShape s = ConvexShape::sphere(0.5);
+  ContactResult r = cm::signedDistance(box, at(0, 0, 0), s, at(2, 2, 0));
+  const Vec3 n = Vec3(1, 1, 0) / kSqrt2;
+  EXPECT_NEAR(r.distance, kSqrt2 - 0.5, kTol);
+  expectVecNear(r.normal, n, kTol);
+  expectVecNear(r.point_a, Vec3(1, 1, 0), kTol);
+  expectVecNear(r.point_b, Vec3(2, 2, 0) - 0.5 * n, kTol);
+  // Corner (1, 1, 1) to (2, 3, 4): (1, 2, 3), sqrt14.
+  r = cm::signedDistance(box, at(0, 0, 0), s, at(2, 3, 4));
+  EXPECT_NEAR(r.distance, std::sqrt(14.0) - 0.5, kTol);
+  expectVecNear(r.point_a, Vec3(1, 1, 1), kTol);
+  // Sphere centre inside the box, 0.3 under the face z = 1: depth 0.3 + 0.5 along +z.
+  r = cm::signedDistance(box, at(0, 0, 0), s, at(0.2, -0.1, 0.7));
+  EXPECT_NEAR(r.distance, -0.8, kTol);
+  expectVecNear(r.normal, Vec3::UnitZ(), kTol);
+  expectConsistent(r, kTol);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Points inside shapes
+// ---------------------------------------------------------------------------------------------
+
+TEST(ExactPoint, PointInsideBoxBothOrders) {
+  // Point (0.1, 0.2, 0.3) in a 2-cube: nearest face z = 1 at 0.7.
+  const ConvexShape box = ConvexShape::box(Vec3(2, 2, 2));
+  const ConvexShape p = ConvexShape::point(Vec3(0.1, 0.2, 0.3));
+  ContactResult r = cm::signedDistance(box, at(0, 0, 0), p, at(0, 0, 0));
+  EXPECT_NEAR(r.distance, -0.7, kTol);
+  expectVecNear(r.normal, Vec3::UnitZ(), kTol);  // B (the point) leaves through +z
+  expectVecNear(r.point_b, Vec3(0.1, 0.2, 0.3), kTol);
+  r = cm::signedDistance(p, at(0, 0, 0), box, at(0, 0, 0));
+  EXPECT_NEAR(r.distance, -0.7, kTol);
+  expectVecNear(r.normal, -Vec3::UnitZ(), kTol);  // the box moves -z to free the point
+}
+
+TEST(ExactPoint, PointInsideSphereAndCylinder) {
+  // Point 0.3 from the centre of a unit sphere: depth 0.7 along +x.
+  ContactResult r = cm::signedDistance(ConvexShape::sphere(1.0), at(0, 0, 0),
+                                       ConvexShape::point(Vec3::Zero()), at(0.3, 0, 0));
+  EXPECT_NEAR(r.distance, -0.7, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), kTol);
+  // Cylinder h 2 r 1, point at (0.5, 0, 0.2): side at 0.5 (vs caps 0.8, 1.2).
+  r = cm::signedDistance(ConvexShape::cylinder(2.0, 1.0), at(0, 0, 0),
+                         ConvexShape::point(Vec3(0.5, 0, 0.2)), at(0, 0, 0));
+  EXPECT_EQ(r.status, Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.5, 1e-9);
+  // On a curved side a depth error e tilts the normal by ~sqrt(2 e / r): 1e-12 -> ~1.4e-6.
+  expectVecNear(r.normal, Vec3::UnitX(), 1e-5);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Curved shapes against box faces
+// ---------------------------------------------------------------------------------------------
+
+TEST(ExactCurved, CylinderAgainstBoxFace) {
+  const ConvexShape cyl = ConvexShape::cylinder(2.0, 0.5);  // half height 1
+  const ConvexShape box = ConvexShape::box(Vec3(2, 2, 2));
+  // Upright: rim at x = 0.5, box face at x = 2 - 1: 0.5.
+  EXPECT_NEAR(cm::signedDistance(cyl, at(0, 0, 0), box, at(2, 0, 0)).distance, 0.5, kTol);
+  // Tilted 30 deg about y: x extent 1 * sin30 + 0.5 * cos30; face at x = 3 - 1.
+  const ContactResult r =
+      cm::signedDistance(cyl, rotAt(M_PI / 6, Vec3::UnitY(), Vec3::Zero()), box, at(3, 0, 0));
+  EXPECT_NEAR(r.distance, 2.0 - (0.5 + 0.5 * kSqrt3 / 2), kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), 1e-9);
+  // Overlapping the box face x = 0.3 by 0.2 (other exits cost >= 1.3).
+  const ContactResult p = cm::signedDistance(cyl, at(0, 0, 0), box, at(1.3, 0, 0));
+  EXPECT_EQ(p.status, Status::Penetrating);
+  EXPECT_NEAR(p.distance, -0.2, 1e-9);
+  expectVecNear(p.normal, Vec3::UnitX(), 1e-5);  // curved side: see PointInsideSphereAndCylinder
+}
+
+TEST(ExactCurved, ConeApexBaseAndRimAgainstBoxFaces) {
+  const ConvexShape cone = ConvexShape::cone(2.0, 1.0);  // apex z = 1, base z = -1, radius 1
+  const ConvexShape box = ConvexShape::box(Vec3(2, 2, 2));
+  // Apex to the face z = 2.5 - 1.
+  EXPECT_NEAR(cm::signedDistance(cone, at(0, 0, 0), box, at(0, 0, 2.5)).distance, 0.5, kTol);
+  // Base to the face z = -2.5 + 1.
+  EXPECT_NEAR(cm::signedDistance(cone, at(0, 0, 0), box, at(0, 0, -2.5)).distance, 0.5, kTol);
+  // Rim (x = 1) to the face x = 3 - 1.
+  EXPECT_NEAR(cm::signedDistance(cone, at(0, 0, 0), box, at(3, 0, 0)).distance, 1.0, kTol);
+}
+
+TEST(ExactCurved, EllipsoidAgainstBoxFace) {
+  const ConvexShape e = ConvexShape::ellipsoid(Vec3(1, 2, 3));
+  const ConvexShape box = ConvexShape::box(Vec3(2, 2, 2));
+  // Semi-axis 2 along y, face y = 4 - 1: 1.
+  EXPECT_NEAR(cm::signedDistance(e, at(0, 0, 0), box, at(0, 4, 0)).distance, 1.0, kTol);
+  // Turned 30 deg about x: extent along world y is h(R^T e_y) = sqrt((2 cos30)^2 + (3 sin30)^2)
+  // = sqrt(5.25).
+  const ContactResult r =
+      cm::signedDistance(e, rotAt(M_PI / 6, Vec3::UnitX(), Vec3::Zero()), box, at(0, 4, 0));
+  EXPECT_NEAR(r.distance, 3.0 - std::sqrt(5.25), 1e-10);
+  expectVecNear(r.normal, Vec3::UnitY(), 1e-5);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Degenerate shapes
+// ---------------------------------------------------------------------------------------------
+
+TEST(ExactDegenerate, ZeroSizeBox) {
+  const ConvexShape zero = ConvexShape::box(Vec3::Zero());
+  // A point-like box 1.5 from the unit cube's face.
+  EXPECT_NEAR(cm::signedDistance(kUnitCube, at(0, 0, 0), zero, at(2, 0, 0)).distance, 1.5, kTol);
+  // Inside, 0.3 from the face x = 0.5.
+  const ContactResult r = cm::signedDistance(kUnitCube, at(0, 0, 0), zero, at(0.2, 0.1, 0));
+  EXPECT_NEAR(r.distance, -0.3, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), kTol);
+  // Two zero-size boxes at the same place: touching, distance 0, unit normal.
+  const ContactResult t = cm::signedDistance(zero, at(1, 2, 3), zero, at(1, 2, 3));
+  EXPECT_EQ(t.status, Status::Touching);
+  EXPECT_EQ(t.distance, 0.0);
+  expectConsistent(t, kTol);
+}
+
+TEST(ExactDegenerate, FlatPolytopes) {
+  // A 2x2 square in z = 0 (no adjacency needed).
+  const auto square = std::make_shared<cm::Polytope<3>>(
+      std::vector<Vec3>{Vec3(-1, -1, 0), Vec3(1, -1, 0), Vec3(1, 1, 0), Vec3(-1, 1, 0)});
+  const ConvexShape sq = ConvexShape::polytope(square);
+  // A point 1 above the square's interior.
+  ContactResult r =
+      cm::signedDistance(sq, at(0, 0, 0), ConvexShape::point(Vec3(0.2, 0.3, 1)), at(0, 0, 0));
+  EXPECT_NEAR(r.distance, 1.0, kTol);
+  expectVecNear(r.normal, Vec3::UnitZ(), kTol);
+  // Two coplanar overlapping squares: A - B is flat through the origin: touching, normal +-z.
+  r = cm::signedDistance(sq, at(0, 0, 0), sq, at(0.5, 0, 0));
+  EXPECT_EQ(r.status, Status::Touching);
+  EXPECT_NEAR(r.distance, 0.0, kTol);
+  EXPECT_NEAR(std::abs(r.normal.z()), 1.0, kTol);
+  // Regression: padded by 0.1 each the depth is exactly the padding sum 0.2.
+  r = cm::signedDistance(sq.padded(0.1), at(0, 0, 0), sq.padded(0.1), at(0.5, 0, 0));
+  EXPECT_EQ(r.status, Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.2, kTol);
+  EXPECT_NEAR(std::abs(r.normal.z()), 1.0, kTol);
+  expectConsistent(r, kTol);
+  // Squares in crossing planes: B turned 90 deg about y lies in x = 0.5 (y, z in [-1, 1]).
+  // A - B = [-1.5, 0.5] x [-2, 2] x [-1, 1], a box around the origin: depth 0.5 along +x.
+  r = cm::signedDistance(sq, at(0, 0, 0), sq, rotAt(M_PI / 2, Vec3::UnitY(), Vec3(0.5, 0, 0)));
+  EXPECT_NEAR(r.distance, -0.5, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), kTol);
+}
+
+TEST(ExactDegenerate, CoincidentPointsAndSinglePoint) {
+  // Three coincident vertices: a one-point polytope at p = (0.1, 0.2, 0.3) inside a unit sphere.
+  const Vec3 p(0.1, 0.2, 0.3);
+  const ConvexShape pts =
+      ConvexShape::polytope(std::make_shared<cm::Polytope<3>>(std::vector<Vec3>{p, p, p}));
+  ContactResult r = cm::signedDistance(ConvexShape::sphere(1.0), at(0, 0, 0), pts, at(0, 0, 0));
+  EXPECT_NEAR(r.distance, std::sqrt(0.14) - 1.0, kTol);
+  expectVecNear(r.normal, p / std::sqrt(0.14), kTol);
+  // Two single points.
+  r = cm::signedDistance(ConvexShape::point(Vec3(1, 2, 3)), at(0, 0, 0),
+                         ConvexShape::point(Vec3(4, 6, 3)), at(0, 0, 0));
+  EXPECT_NEAR(r.distance, 5.0, kTol);
+  expectVecNear(r.normal, Vec3(0.6, 0.8, 0), kTol);
+  // The same point twice: touching.
+  r = cm::signedDistance(ConvexShape::point(Vec3(1, 2, 3)), at(0, 0, 0),
+                         ConvexShape::point(Vec3(1, 2, 3)), at(0, 0, 0));
+  EXPECT_EQ(r.status, Status::Touching);
+  EXPECT_EQ(r.distance, 0.0);
+  expectConsistent(r, kTol);
+}
+
+TEST(ExactDegenerate, CrossingSegmentsTouch) {
+  // Segments along x and y through the origin intersect with zero depth.
+  const ContactResult r =
+      cm::signedDistance(ConvexShape::segment(Vec3(-1, 0, 0), Vec3(1, 0, 0)), at(0, 0, 0),
+                         ConvexShape::segment(Vec3(0, -1, 0), Vec3(0, 1, 0)), at(0, 0, 0));
+  EXPECT_EQ(r.status, Status::Touching);
+  EXPECT_NEAR(r.distance, 0.0, kTol);
+  EXPECT_NEAR(std::abs(r.normal.z()), 1.0, kTol);
+  EXPECT_TRUE(cm::intersect(ConvexShape::segment(Vec3(-1, 0, 0), Vec3(1, 0, 0)), at(0, 0, 0),
+                            ConvexShape::segment(Vec3(0, -1, 0), Vec3(0, 1, 0)), at(0, 0, 0)));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Scale and frames
+// ---------------------------------------------------------------------------------------------
+
+TEST(ExactScale, LargeCoordinatesAndARotatedCommonFrame) {
+  // The face-face and penetration cases moved 1 km away and turned: same distances, normals and
+  // witnesses carried by the common transform.
+  const Transform3 T = rotAt(0.7, Vec3(1, 2, 3), Vec3(1e3, -2e3, 5e2));
+  const ConvexShape b2 = ConvexShape::box(Vec3(2, 2, 2));
+  ContactResult r = cm::signedDistance(kUnitCube, T * at(0, 0, 0), b2, T * at(3, 0.2, 0.1));
+  EXPECT_NEAR(r.distance, 1.5, 1e-10);
+  expectVecNear(r.normal, T.R * Vec3::UnitX(), 1e-10);
+  EXPECT_NEAR((T.inverse() * r.point_a).x(), 0.5, 1e-10);
+  r = cm::signedDistance(kUnitCube, T * at(0, 0, 0), kUnitCube, T * at(0.8, 0.1, 0.05));
+  EXPECT_NEAR(r.distance, -0.2, 1e-10);
+  expectVecNear(r.normal, T.R * Vec3::UnitX(), 1e-10);
+  EXPECT_NEAR((T.inverse() * r.point_a).x(), 0.5, 1e-10);
+  EXPECT_NEAR((T.inverse() * r.point_b).x(), 0.3, 1e-10);
+  // Spheres 1 km out: exact separation.
+  r = cm::signedDistance(ConvexShape::sphere(1.0), T * at(0, 0, 0), ConvexShape::sphere(0.5),
+                         T * at(3, 4, 0));
+  EXPECT_NEAR(r.distance, 3.5, 1e-10);
+}
+
+TEST(ExactScale, MillimetreSphereAgainstTenMetreBox) {
+  // Box 10 m (face x = 5), sphere r = 1 mm centred 2 mm off the face: 1 mm gap.
+  const ConvexShape box = ConvexShape::box(Vec3(10, 10, 10));
+  const ConvexShape s = ConvexShape::sphere(0.001);
+  ContactResult r = cm::signedDistance(box, at(0, 0, 0), s, at(5.002, 1, 2));
+  EXPECT_EQ(r.status, Status::Separated);
+  EXPECT_NEAR(r.distance, 0.001, 1e-11);
+  expectVecNear(r.normal, Vec3::UnitX(), 1e-9);
+  // Centre 0.5 mm inside: depth 0.5 mm + 1 mm.
+  r = cm::signedDistance(box, at(0, 0, 0), s, at(5.0 - 0.0005, 1, 2));
+  EXPECT_EQ(r.status, Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.0015, 1e-11);
+  expectVecNear(r.normal, Vec3::UnitX(), 1e-9);
+  // And the other way round.
+  r = cm::signedDistance(s, at(5.002, 1, 2), box, at(0, 0, 0));
+  EXPECT_NEAR(r.distance, 0.001, 1e-11);
+  expectVecNear(r.normal, -Vec3::UnitX(), 1e-9);
+}
+
+TEST(ExactQuery, IntersectAgreesWithSignedDistanceOnAGrid) {
+  // A box and a capsule walked across each other on a grid: intersect() is true exactly when the
+  // hand-computed distance is <= 0. Capsule (axis z, length 1, r 0.25) beside a unit cube face:
+  // distance = x - 0.5 - 0.25 for |y|, |z| small enough that the face is nearest.
+  for (int i = 0; i <= 20; ++i) {
+    const double x = 0.5 + 0.05 * i;  // 0.5 .. 1.5
+    const double expected = x - 0.75;
+    const bool hit =
+        cm::intersect(kUnitCube, at(0, 0, 0), ConvexShape::capsule(1, 0.25), at(x, 0.1, 0.0));
+    const ContactResult r =
+        cm::signedDistance(kUnitCube, at(0, 0, 0), ConvexShape::capsule(1, 0.25), at(x, 0.1, 0.0));
+    EXPECT_NEAR(r.distance, expected, kTol) << "x = " << x;
+    if (std::abs(expected) > 1e-9) {
+      EXPECT_EQ(hit, expected < 0.0) << "x = " << x;
+    }
+  }
+}

@@ -1,0 +1,229 @@
+// ConvexShape factories, validation messages, support mappings, AABBs and bounding radii.
+// Expected values are worked out by hand from the shape definitions.
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "collision_monitor/core/convex_shape.h"
+#include "collision_monitor/core/gjk.h"
+#include "collision_monitor/core/shapes.h"
+
+namespace cm = collision_monitor::core;
+using cm::ConvexShape;
+using cm::Vec3;
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// Runs `make`, expects std::invalid_argument whose message contains every string in `parts`.
+template <class F>
+void expectRejected(F make, const std::vector<std::string>& parts) {
+  try {
+    make();
+    ADD_FAILURE() << "no exception; expected one mentioning " << parts.front();
+  } catch (const std::invalid_argument& e) {
+    const std::string msg = e.what();
+    for (const std::string& p : parts)
+      EXPECT_NE(msg.find(p), std::string::npos) << "message '" << msg << "' lacks '" << p << "'";
+  }
+}
+
+void expectVecNear(const Vec3& a, const Vec3& b, double tol) {
+  EXPECT_NEAR(a.x(), b.x(), tol);
+  EXPECT_NEAR(a.y(), b.y(), tol);
+  EXPECT_NEAR(a.z(), b.z(), tol);
+}
+
+}  // namespace
+
+TEST(ShapeValidation, RejectsNegativeSizesNamingShapeAndValue) {
+  expectRejected([] { ConvexShape::sphere(-1.0); }, {"sphere", "radius", "-1"});
+  expectRejected([] { ConvexShape::box(Vec3(1.0, -2.5, 3.0)); }, {"box", "sides.y", "-2.5"});
+  expectRejected([] { ConvexShape::capsule(-0.5, 1.0); }, {"capsule", "length", "-0.5"});
+  expectRejected([] { ConvexShape::capsule(1.0, -3.0); }, {"capsule", "radius", "-3"});
+  expectRejected([] { ConvexShape::cylinder(-1.0, 1.0); }, {"cylinder", "height", "-1"});
+  expectRejected([] { ConvexShape::cone(1.0, -0.25); }, {"cone", "radius", "-0.25"});
+  expectRejected([] { ConvexShape::ellipsoid(Vec3(1.0, 1.0, -4.0)); },
+                 {"ellipsoid", "semi_axes.z", "-4"});
+  expectRejected([] { ConvexShape::box(Vec3(1.0, 1.0, 1.0)).padded(-0.1); },
+                 {"padded", "padding", "-0.1"});
+}
+
+TEST(ShapeValidation, RejectsNaNAndInf) {
+  expectRejected([] { ConvexShape::sphere(kNaN); }, {"sphere", "radius", "nan"});
+  expectRejected([] { ConvexShape::sphere(kInf); }, {"sphere", "radius", "inf"});
+  expectRejected([] { ConvexShape::box(Vec3(kNaN, 1.0, 1.0)); }, {"box", "sides.x", "nan"});
+  expectRejected([] { ConvexShape::cylinder(1.0, kInf); }, {"cylinder", "radius", "inf"});
+  expectRejected([] { ConvexShape::cone(-kInf, 1.0); }, {"cone", "height", "-inf"});
+  expectRejected([] { ConvexShape::point(Vec3(0.0, kNaN, 0.0)); }, {"point", "p.y", "nan"});
+  expectRejected([] { ConvexShape::segment(Vec3::Zero(), Vec3(0.0, 0.0, kInf)); },
+                 {"segment", "b.z", "inf"});
+  expectRejected([] { ConvexShape::sphere(1.0).padded(kNaN); }, {"padded", "padding", "nan"});
+  expectRejected(
+      [] {
+        ConvexShape::polytope(std::make_shared<cm::Polytope<3>>(
+            std::vector<Vec3>{Vec3::Zero(), Vec3(1.0, kNaN, 0.0)}));
+      },
+      {"polytope", "vertices[1].y", "nan"});
+  expectRejected(
+      [] {
+        ConvexShape::convexHull({Vec3::Zero(), Vec3(kInf, 0.0, 0.0)});
+      },
+      {"convexHull", "points[1].x", "inf"});
+}
+
+TEST(ShapeValidation, RejectsEmptyAndNullPolytopes) {
+  expectRejected([] { ConvexShape::polytope(nullptr); }, {"polytope", "null"});
+  expectRejected([] { ConvexShape::polytope(std::make_shared<cm::Polytope<3>>()); },
+                 {"polytope", "no vertices"});
+  expectRejected([] { ConvexShape::convexHull({}); }, {"convexHull", "no points"});
+}
+
+TEST(ShapeValidation, ZeroSizesAreValidDegenerateShapes) {
+  EXPECT_NO_THROW(ConvexShape::sphere(0.0));
+  EXPECT_NO_THROW(ConvexShape::box(Vec3::Zero()));
+  EXPECT_NO_THROW(ConvexShape::capsule(0.0, 0.0));
+  EXPECT_NO_THROW(ConvexShape::cylinder(0.0, 0.0));
+  EXPECT_NO_THROW(ConvexShape::cone(0.0, 0.0));
+  EXPECT_NO_THROW(ConvexShape::ellipsoid(Vec3::Zero()));
+  EXPECT_NO_THROW(ConvexShape::sphere(1.0).padded(0.0));
+  const ConvexShape zero_box = ConvexShape::box(Vec3::Zero());
+  expectVecNear(zero_box.support(Vec3(1.0, -2.0, 3.0)), Vec3::Zero(), 0.0);
+  EXPECT_EQ(zero_box.boundingRadius(), 0.0);
+}
+
+TEST(ShapeSupport, FullShapeAddsRadiusAlongDirection) {
+  const ConvexShape s = ConvexShape::sphere(2.0);
+  expectVecNear(s.support(Vec3(0.0, 3.0, 4.0)), Vec3(0.0, 1.2, 1.6), 1e-15);
+  expectVecNear(s.coreSupport(Vec3(0.0, 3.0, 4.0)), Vec3::Zero(), 0.0);
+  // Zero direction: a defined point (the core's), never NaN.
+  expectVecNear(s.support(Vec3::Zero()), Vec3::Zero(), 0.0);
+
+  const ConvexShape c = ConvexShape::capsule(2.0, 0.5);
+  expectVecNear(c.coreSupport(Vec3(1.0, 0.0, 1.0)), Vec3(0.0, 0.0, 1.0), 0.0);
+  const double h = 0.5 / std::sqrt(2.0);
+  expectVecNear(c.support(Vec3(1.0, 0.0, -1.0)), Vec3(h, 0.0, -1.0 - h), 1e-15);
+
+  const ConvexShape b = ConvexShape::box(Vec3(2.0, 4.0, 6.0));
+  expectVecNear(b.support(Vec3(-1.0, 2.0, -3.0)), Vec3(-1.0, 2.0, -3.0), 0.0);
+
+  const ConvexShape cyl = ConvexShape::cylinder(2.0, 3.0);
+  expectVecNear(cyl.support(Vec3(3.0, 4.0, -1.0)), Vec3(1.8, 2.4, -1.0), 1e-15);
+
+  const ConvexShape cone = ConvexShape::cone(2.0, 1.0);  // apex z=+1, base z=-1 radius 1
+  expectVecNear(cone.support(Vec3(0.0, 0.0, 1.0)), Vec3(0.0, 0.0, 1.0), 0.0);
+  expectVecNear(cone.support(Vec3(1.0, 0.0, -0.1)), Vec3(1.0, 0.0, -1.0), 0.0);
+
+  const ConvexShape e = ConvexShape::ellipsoid(Vec3(1.0, 2.0, 3.0));
+  // S^2 d / |S d| for d = (0, 1, 1): S d = (0, 2, 3), |S d| = sqrt(13).
+  expectVecNear(e.support(Vec3(0.0, 1.0, 1.0)), Vec3(0.0, 4.0, 9.0) / std::sqrt(13.0), 1e-15);
+
+  const ConvexShape seg = ConvexShape::segment(Vec3(1.0, 2.0, 3.0), Vec3(-1.0, 0.0, 5.0));
+  expectVecNear(seg.support(Vec3(-1.0, 0.0, 0.0)), Vec3(-1.0, 0.0, 5.0), 0.0);
+  expectVecNear(seg.support(Vec3(0.0, 1.0, 0.0)), Vec3(1.0, 2.0, 3.0), 0.0);
+
+  const ConvexShape p = ConvexShape::point(Vec3(4.0, 5.0, 6.0)).padded(1.0);
+  expectVecNear(p.support(Vec3(0.0, 0.0, -2.0)), Vec3(4.0, 5.0, 5.0), 0.0);
+  EXPECT_EQ(p.radius(), 1.0);
+}
+
+TEST(ShapeSupport, PolytopeLinearScanAndHillClimbAgree) {
+  // 40 points on a helix-like curve on the unit sphere: with adjacency from qhull the support
+  // hill-climbs; without it, a linear scan. Both must find the same maximising vertex.
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 40; ++i) {
+    const double z = -1.0 + (2.0 * i + 1.0) / 40.0;
+    const double r = std::sqrt(1.0 - z * z);
+    const double phi = 2.399963229728653 * i;  // golden angle
+    pts.emplace_back(r * std::cos(phi), r * std::sin(phi), z);
+  }
+  const ConvexShape hull = ConvexShape::convexHull(pts);
+  const ConvexShape scan = ConvexShape::polytope(std::make_shared<cm::Polytope<3>>(pts));
+  EXPECT_EQ(scan.describe(), "polytope(40)");
+  for (int k = 0; k < 50; ++k) {
+    const Vec3 d(std::cos(0.7 * k), std::sin(1.3 * k), std::cos(2.1 * k + 0.4));
+    double best = -1e300;
+    for (const Vec3& p : pts)
+      best = std::max(best, p.dot(d));
+    EXPECT_DOUBLE_EQ(hull.support(d).dot(d), best);
+    EXPECT_DOUBLE_EQ(scan.support(d).dot(d), best);
+  }
+}
+
+TEST(ShapeAabb, ExactBoxesOfRotatedShapes) {
+  // Unit cube rotated 45 degrees about z at (10, 0, 0): x, y half extents sqrt(2)/2, z 1/2.
+  cm::Transform3 pose = cm::makeTransform(
+      Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 4, Vec3::UnitZ())), Vec3(10.0, 0.0, 0.0));
+  const cm::Aabb box = ConvexShape::box(Vec3(1.0, 1.0, 1.0)).aabb(pose);
+  const double h = std::sqrt(2.0) / 2.0;
+  expectVecNear(box.min, Vec3(10.0 - h, -h, -0.5), 1e-15);
+  expectVecNear(box.max, Vec3(10.0 + h, h, 0.5), 1e-15);
+
+  // Capsule (length 2, radius 0.5) lying along x (rotated 90 degrees about y), at (1, 2, 3).
+  pose = cm::makeTransform(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Vec3::UnitY())),
+                           Vec3(1.0, 2.0, 3.0));
+  const cm::Aabb cap = ConvexShape::capsule(2.0, 0.5).aabb(pose);
+  expectVecNear(cap.min, Vec3(1.0 - 1.5, 1.5, 2.5), 1e-15);
+  expectVecNear(cap.max, Vec3(1.0 + 1.5, 2.5, 3.5), 1e-15);
+
+  // Cylinder (h 2, r 1) tilted 30 degrees about y: x extent = sin30 * 1 + cos30 * 1.
+  pose = cm::makeTransform(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 6, Vec3::UnitY())),
+                           Vec3::Zero());
+  const cm::Aabb cyl = ConvexShape::cylinder(2.0, 1.0).aabb(pose);
+  EXPECT_NEAR(cyl.max.x(), 0.5 + std::sqrt(3.0) / 2.0, 1e-15);
+  EXPECT_NEAR(cyl.min.x(), -(0.5 + std::sqrt(3.0) / 2.0), 1e-15);
+  EXPECT_NEAR(cyl.max.y(), 1.0, 1e-15);
+  EXPECT_NEAR(cyl.max.z(), std::sqrt(3.0) / 2.0 + 0.5, 1e-15);
+
+  // Padded sphere: centre +- (radius + padding).
+  const cm::Aabb sph = ConvexShape::sphere(1.0).padded(0.25).aabb(cm::Transform3::Identity());
+  expectVecNear(sph.min, Vec3::Constant(-1.25), 0.0);
+  expectVecNear(sph.max, Vec3::Constant(1.25), 0.0);
+}
+
+TEST(ShapeBoundingRadius, ContainsTheFullShape) {
+  EXPECT_DOUBLE_EQ(ConvexShape::sphere(2.0).boundingRadius(), 2.0);
+  EXPECT_DOUBLE_EQ(ConvexShape::box(Vec3(2.0, 4.0, 4.0)).boundingRadius(), 3.0);
+  EXPECT_DOUBLE_EQ(ConvexShape::capsule(2.0, 0.5).boundingRadius(), 1.5);
+  EXPECT_DOUBLE_EQ(ConvexShape::cylinder(6.0, 4.0).boundingRadius(), 5.0);
+  EXPECT_DOUBLE_EQ(ConvexShape::cone(6.0, 4.0).boundingRadius(), 5.0);
+  EXPECT_DOUBLE_EQ(ConvexShape::ellipsoid(Vec3(1.0, 3.0, 2.0)).boundingRadius(), 3.0);
+  EXPECT_DOUBLE_EQ(ConvexShape::point(Vec3(3.0, 4.0, 0.0)).padded(1.0).boundingRadius(), 6.0);
+}
+
+TEST(ShapeDescribe, NamesTheCore) {
+  EXPECT_EQ(ConvexShape::sphere(1.0).describe(), "sphere");
+  EXPECT_EQ(ConvexShape::box(Vec3::Ones()).describe(), "box");
+  EXPECT_EQ(ConvexShape::capsule(1.0, 1.0).describe(), "capsule");
+  EXPECT_EQ(ConvexShape::cylinder(1.0, 1.0).describe(), "cylinder");
+  EXPECT_EQ(ConvexShape::cone(1.0, 1.0).describe(), "cone");
+  EXPECT_EQ(ConvexShape::ellipsoid(Vec3::Ones()).describe(), "ellipsoid");
+  EXPECT_EQ(ConvexShape::point(Vec3::Zero()).describe(), "point");
+  EXPECT_EQ(ConvexShape::segment(Vec3::Zero(), Vec3::Ones()).describe(), "segment");
+}
+
+TEST(SupportAdapters, TransformedSumPadded) {
+  const cm::BoxShape<3> box{Vec3(1.0, 2.0, 3.0)};
+  cm::Transform3 T;
+  T.R = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitZ()).toRotationMatrix();  // x -> y, y -> -x
+  T.t = Vec3(10.0, 0.0, 0.0);
+  const cm::Transformed<3, cm::BoxShape<3>> placed(box, T);
+  // World direction +x is body -y: body support (., -2, .) -> world x = 10 + 2.
+  EXPECT_NEAR(placed.support(Vec3(1.0, 0.0, 0.0)).x(), 12.0, 1e-15);
+  EXPECT_NEAR(placed.support(Vec3(0.0, 1.0, 0.0)).y(), 1.0, 1e-15);
+
+  const cm::SegmentShape<3> seg{Vec3::Zero(), Vec3(0.0, 0.0, 5.0)};
+  const cm::MinkowskiSum<3, cm::BoxShape<3>, cm::SegmentShape<3>> sum(box, seg);
+  expectVecNear(sum.support(Vec3(1.0, 1.0, 1.0)), Vec3(1.0, 2.0, 8.0), 0.0);
+
+  const cm::Padded<3, cm::BoxShape<3>> pad(box, 2.0);
+  expectVecNear(pad.support(Vec3(0.0, 0.0, -7.0)), Vec3(1.0, 2.0, -5.0), 0.0);
+  expectVecNear(pad.support(Vec3::Zero()), Vec3(1.0, 2.0, 3.0), 0.0);  // defined, no NaN
+}
