@@ -54,6 +54,14 @@ install(DIRECTORY launch config DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
 
 if(CATKIN_ENABLE_TESTING)
   find_package(rostest REQUIRED)
+  # Real robot descriptions (example-robot-data): $CM_ROBOT_DATA at configure time, else
+  # ../shared/data. Given to the tests as CM_ROBOT_DATA: CTest runs them through catkin's env
+  # script, which resets ROS_PACKAGE_PATH (the launch files put it back for their nodes).
+  if(DEFINED ENV{CM_ROBOT_DATA} AND NOT "$ENV{CM_ROBOT_DATA}" STREQUAL "")
+    get_filename_component(CM_ROBOT_DATA_DIR "$ENV{CM_ROBOT_DATA}" ABSOLUTE)
+  else()
+    get_filename_component(CM_ROBOT_DATA_DIR "${CMAKE_CURRENT_SOURCE_DIR}/../shared/data" ABSOLUTE)
+  endif()
 
   # Plain gtests, no master: conversions, validation, URDF/SRDF, parameters, mesh URIs.
   cm_add_gtest(test_ros_conversions
@@ -63,12 +71,16 @@ if(CATKIN_ENABLE_TESTING)
     target_include_directories(test_ros_conversions SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
     target_compile_definitions(test_ros_conversions PRIVATE
       CM_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}"
-      CM_ROBOT_DATA="${CMAKE_CURRENT_SOURCE_DIR}/../shared/data")
+      CM_ROBOT_DATA="${CM_ROBOT_DATA_DIR}")
   endif()
 
   # rostests over a real roscore (python test nodes in test/ros, run with /usr/bin/python3).
   file(GLOB CM_ROSTESTS RELATIVE ${CMAKE_CURRENT_SOURCE_DIR} test/ros/*.test)
   foreach(t ${CM_ROSTESTS})
-    add_rostest(${t} DEPENDENCIES collision_monitor_node collision_monitor_ros)
+    add_rostest(${t}
+      DEPENDENCIES collision_monitor_node collision_monitor_ros collision_monitor_generate_messages_py)
+    string(REPLACE "/" "_" _cm_test_name "${t}")
+    set_tests_properties(_ctest_${PROJECT_NAME}_rostest_${_cm_test_name}
+      PROPERTIES ENVIRONMENT "CM_ROBOT_DATA=${CM_ROBOT_DATA_DIR}")
   endforeach()
 endif()

@@ -205,11 +205,11 @@ void Monitor::loadRobot() {
   } else {
     auto robot = bodiesFromUrdf(urdf, robot_padding_, limits_, mesh_loader_);
     if (!robot) {
-      reject("URDF '" + key + "': " + robot.error(), true);
+      rejectAtStartup("URDF '" + key + "': " + robot.error());
     } else {
       root_link = robot->root_link;
       for (const auto& e : robot->errors)
-        reject("URDF link " + e, true);
+        rejectAtStartup("URDF link " + e);
       for (const auto& [a, b] : robot->adjacent)
         disablePair(a, b, "adjacent links");
       std::size_t added = 0;
@@ -219,7 +219,7 @@ void Monitor::loadRobot() {
         if (err.empty()) {
           ++added;
         } else {
-          reject("URDF link '" + id + "' refused: " + err, true);
+          rejectAtStartup("URDF link '" + id + "' refused: " + err);
         }
       }
       ROS_INFO_STREAM(name_ << ": robot '" << robot->robot_name << "': " << added
@@ -233,7 +233,7 @@ void Monitor::loadRobot() {
     if (nh_.getParam(skey, srdf) && !srdf.empty()) {
       auto pairs = disabledPairsFromSrdf(srdf);
       if (!pairs) {
-        reject("SRDF '" + skey + "': " + pairs.error(), true);
+        rejectAtStartup("SRDF '" + skey + "': " + pairs.error());
       } else {
         for (const auto& [a, b] : *pairs)
           disablePair(a, b, "SRDF <disable_collisions>");
@@ -264,23 +264,23 @@ void Monitor::loadParameterBodies() {
   XmlRpc::XmlRpcValue list;
   if (!pnh_.getParam("bodies", list)) return;
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray) {
-    reject("parameter ~bodies: expected a list of bodies", true);
+    rejectAtStartup("parameter ~bodies: expected a list of bodies");
     return;
   }
   for (int i = 0; i < list.size(); ++i) {
     const std::string where = "parameter ~bodies[" + std::to_string(i) + "]";
     auto msg = bodyFromXmlRpc(list[i]);
     if (!msg) {
-      reject(where + ": " + msg.error(), true);
+      rejectAtStartup(where + ": " + msg.error());
       continue;
     }
     auto spec = bodyFromMsg(*msg, world::BodyOrigin::Parameter, limits_, mesh_loader_);
     if (!spec) {
-      reject(where + " body '" + msg->id + "' refused: " + spec.error(), true);
+      rejectAtStartup(where + " body '" + msg->id + "' refused: " + spec.error());
       continue;
     }
     const std::string err = addBody(std::move(spec).value());
-    if (!err.empty()) reject(where + " body '" + msg->id + "' refused: " + err, true);
+    if (!err.empty()) rejectAtStartup(where + " body '" + msg->id + "' refused: " + err);
   }
 }
 
@@ -293,17 +293,30 @@ void Monitor::disablePair(const std::string& a, const std::string& b, const std:
 // ---------------------------------------------------------------------------------------------
 // inputs
 
-void Monitor::reject(const std::string& what, bool startup) {
+void Monitor::count(const std::string& what) {
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  ++stats_.rejected;
+  stats_.last_rejection = what;
+}
+
+void Monitor::rejectAtStartup(const std::string& what) {
+  count(what);
+  ROS_ERROR_STREAM(name_ << ": " << what);
+}
+
+void Monitor::reject(const std::string& key, const std::string& what) {
+  count(what);
+  // Throttled per source (a body id, ~body_poses, a pose topic): one bad body cannot hide
+  // another's message, and a stream of bad poses logs once per period.
+  const ros::WallTime now = ros::WallTime::now();
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
-    ++stats_.rejected;
-    stats_.last_rejection = what;
+    if (last_logged_.size() > 10000) last_logged_.clear();
+    auto it = last_logged_.find(key);
+    if (it != last_logged_.end() && (now - it->second).toSec() < kRejectLogPeriod) return;
+    last_logged_[key] = now;
   }
-  if (startup) {
-    ROS_ERROR_STREAM(name_ << ": " << what);
-  } else {
-    ROS_ERROR_STREAM_THROTTLE(0.5, name_ << ": " << what);
-  }
+  ROS_ERROR_STREAM(name_ << ": " << what);
 }
 
 std::string Monitor::addBody(world::BodySpec spec) {
@@ -408,7 +421,7 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, double stamp,
       what += std::string(unknown.empty() ? "" : ";") +
               " bodies attached to TF (not pose_from_topic): " + joined(attached);
     }
-    reject(what);
+    reject(source, what);
   }
   if (unknown.size() + attached.size() < updates.size()) trigger();
 }
@@ -421,23 +434,25 @@ void Monitor::onBody(const collision_monitor::Body::ConstPtr& msg) {
     }
     if (msg->operation == collision_monitor::Body::REMOVE) {
       std::string why;
-      if (!removeBody(msg->id, &why)) reject("~bodies: cannot remove '" + msg->id + "': " + why);
+      if (!removeBody(msg->id, &why))
+        reject("~bodies:" + msg->id, "~bodies: cannot remove '" + msg->id + "': " + why);
       return;
     }
     if (msg->operation != collision_monitor::Body::ADD) {
-      reject("~bodies: body '" + msg->id + "': unknown operation " +
-             std::to_string(msg->operation));
+      reject("~bodies:" + msg->id, "~bodies: body '" + msg->id + "': unknown operation " +
+                                       std::to_string(msg->operation));
       return;
     }
     auto spec = bodyFromMsg(*msg, world::BodyOrigin::Topic, limits_, mesh_loader_);
     if (!spec) {
-      reject("~bodies: body '" + msg->id + "' refused: " + spec.error());
+      reject("~bodies:" + msg->id, "~bodies: body '" + msg->id + "' refused: " + spec.error());
       return;
     }
     const std::string err = addBody(std::move(spec).value());
-    if (!err.empty()) reject("~bodies: body '" + msg->id + "' refused: " + err);
+    if (!err.empty())
+      reject("~bodies:" + msg->id, "~bodies: body '" + msg->id + "' refused: " + err);
   } catch (const std::exception& e) {
-    reject("~bodies: body '" + msg->id + "': internal error: " + e.what());
+    reject("~bodies:" + msg->id, "~bodies: body '" + msg->id + "': internal error: " + e.what());
   }
 }
 
@@ -449,24 +464,25 @@ void Monitor::onBodyPoses(const collision_monitor::BodyPoses::ConstPtr& msg) {
     }
     auto updates = posesFromMsg(*msg);
     if (!updates) {
-      reject("~body_poses refused: " + updates.error());
+      reject("~body_poses", "~body_poses refused: " + updates.error());
       return;
     }
     if (msg->header.frame_id.empty()) {
-      reject("~body_poses refused: header.frame_id is empty");
+      reject("~body_poses", "~body_poses refused: header.frame_id is empty");
       return;
     }
     std::string why;
     auto to_fixed = toFixed(msg->header.frame_id, msg->header.stamp, &why);
     if (!to_fixed) {
-      reject("~body_poses refused: cannot resolve frame '" + msg->header.frame_id + "': " + why);
+      reject("~body_poses",
+             "~body_poses refused: cannot resolve frame '" + msg->header.frame_id + "': " + why);
       return;
     }
     for (auto& u : *updates)
       u = transformUpdate(u, *to_fixed);
     applyPoses(*updates, msg->header.stamp.toSec(), "~body_poses");
   } catch (const std::exception& e) {
-    reject(std::string("~body_poses: internal error: ") + e.what());
+    reject("~body_poses", std::string("~body_poses: internal error: ") + e.what());
   }
 }
 
@@ -480,24 +496,24 @@ void Monitor::onPoseStamped(const std::string& id,
     }
     auto pose = toTransform(msg->pose, ZeroQuaternion::Refuse);
     if (!pose) {
-      reject("pose_topic of '" + id + "' refused: " + pose.error());
+      reject("pose_topic:" + id, "pose_topic of '" + id + "' refused: " + pose.error());
       return;
     }
     if (msg->header.frame_id.empty()) {
-      reject("pose_topic of '" + id + "' refused: header.frame_id is empty");
+      reject("pose_topic:" + id, "pose_topic of '" + id + "' refused: header.frame_id is empty");
       return;
     }
     std::string why;
     auto to_fixed = toFixed(msg->header.frame_id, msg->header.stamp, &why);
     if (!to_fixed) {
-      reject("pose_topic of '" + id + "' refused: cannot resolve frame '" + msg->header.frame_id +
-             "': " + why);
+      reject("pose_topic:" + id, "pose_topic of '" + id + "' refused: cannot resolve frame '" +
+                                     msg->header.frame_id + "': " + why);
       return;
     }
     applyPoses({PoseUpdate{id, *to_fixed * *pose, std::nullopt}}, msg->header.stamp.toSec(),
                "pose_topic of '" + id + "'");
   } catch (const std::exception& e) {
-    reject("pose_topic of '" + id + "': internal error: " + e.what());
+    reject("pose_topic:" + id, "pose_topic of '" + id + "': internal error: " + e.what());
   }
 }
 
@@ -784,6 +800,7 @@ void Monitor::setupDiagnostics() {
       dt = std::max(1e-3, (t - window_start_).toSec());
       stats_window_start_ = stats_;
       window_start_ = t;
+      stats_.cycle_time_max = 0.0;  // max over the report window
     }
     const std::size_t rejected = now.rejected - before.rejected;
     if (!param_errors_.empty()) {
@@ -814,7 +831,7 @@ void Monitor::setupDiagnostics() {
     s.addf("target rate (Hz)", "%.1f", rate_);
     s.addf("mean cycle time (ms)", "%.3f",
            cycles ? 1e3 * (now.cycle_time_sum - before.cycle_time_sum) / cycles : 0.0);
-    s.addf("max cycle time (ms)", "%.3f", 1e3 * now.cycle_time_max);
+    s.addf("max cycle time since last report (ms)", "%.3f", 1e3 * now.cycle_time_max);
     s.add("pairs checked (last cycle)", now.pairs_checked);
     for (const auto& e : param_errors_)
       s.add("invalid parameter", e);

@@ -96,7 +96,12 @@ class Monitor {
   void trigger();
 
   // bookkeeping
-  void reject(const std::string& what, bool startup = false);
+  /// A refused input: counted for /diagnostics and logged, throttled per `key` (the source).
+  void reject(const std::string& key, const std::string& what);
+  void rejectAtStartup(const std::string& what);
+  void count(const std::string& what);
+  static constexpr double kRejectLogPeriod = 1.0;     ///< s between two logs of one source
+  std::map<std::string, ros::WallTime> last_logged_;  ///< guarded by stats_mutex_
   void disablePair(const std::string& a, const std::string& b, const std::string& reason);
   world::Settings settings_;
   Limits limits_;

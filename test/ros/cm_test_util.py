@@ -1,0 +1,164 @@
+"""Helpers shared by the collision_monitor rostests (python test nodes, /usr/bin/python3)."""
+import math
+import threading
+import time
+
+import rospy
+from collision_monitor.msg import (Body, BodyPoses, CollisionEvent, CollisionState, Shape)
+from collision_monitor.srv import CheckCollision, GetDistance, ListBodies
+from diagnostic_msgs.msg import DiagnosticArray
+from geometry_msgs.msg import Point, Pose
+
+NS = '/collision_monitor/'
+EVENT_NAMES = {v: k for k, v in vars(CollisionEvent).items()
+               if k.isupper() and isinstance(v, int)}
+
+
+def pose(x=0.0, y=0.0, z=0.0, qx=0.0, qy=0.0, qz=0.0, qw=1.0):
+    p = Pose()
+    p.position.x, p.position.y, p.position.z = x, y, z
+    p.orientation.x, p.orientation.y, p.orientation.z, p.orientation.w = qx, qy, qz, qw
+    return p
+
+
+def shape(kind, dims=(), **kw):
+    s = Shape(type=kind, dimensions=list(dims))
+    s.pose.orientation.w = 1.0
+    for k, v in kw.items():
+        setattr(s, k, v)
+    return s
+
+
+def sphere_body(body_id, radius, frame='', pose_from_topic=True, group='', pose_topic=''):
+    b = Body(id=body_id, operation=Body.ADD, group=group, pose_from_topic=pose_from_topic,
+             pose_topic=pose_topic)
+    b.header.frame_id = frame
+    b.parts = [shape(Shape.SPHERE, [radius])]
+    return b
+
+
+def wait_for(predicate, timeout, period=0.01):
+    """Polls predicate until it returns a truthy value; returns it (or None on timeout)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and not rospy.is_shutdown():
+        v = predicate()
+        if v:
+            return v
+        time.sleep(period)
+    return None
+
+
+class Monitor:
+    """Publishers, subscribers and service proxies of one monitor under NS."""
+
+    def __init__(self):
+        for s in ('get_distance', 'check_collision', 'list_bodies'):
+            rospy.wait_for_service(NS + s, timeout=30.0)
+        self.get_distance = rospy.ServiceProxy(NS + 'get_distance', GetDistance)
+        self.check_collision = rospy.ServiceProxy(NS + 'check_collision', CheckCollision)
+        self.list_bodies = rospy.ServiceProxy(NS + 'list_bodies', ListBodies)
+        self.bodies_pub = rospy.Publisher(NS + 'bodies', Body, queue_size=100)
+        self.poses_pub = rospy.Publisher(NS + 'body_poses', BodyPoses, queue_size=100,
+                                         tcp_nodelay=True)
+        self.lock = threading.Lock()
+        self.events = []        # (receive wall time, CollisionEvent)
+        self.state = None
+        self.diagnostics = None
+        rospy.Subscriber(NS + 'events', CollisionEvent, self._on_event, queue_size=1000,
+                         tcp_nodelay=True)
+        rospy.Subscriber(NS + 'state', CollisionState, self._on_state, queue_size=10)
+        rospy.Subscriber('/diagnostics', DiagnosticArray, self._on_diag, queue_size=10)
+        assert wait_for(lambda: self.bodies_pub.get_num_connections() > 0
+                        and self.poses_pub.get_num_connections() > 0, 10.0), \
+            'the monitor did not subscribe to ~bodies / ~body_poses'
+        assert wait_for(lambda: self.state is not None, 10.0), 'no ~state heartbeat'
+
+    def _on_event(self, msg):
+        with self.lock:
+            self.events.append((time.monotonic(), msg))
+
+    def _on_state(self, msg):
+        self.state = msg
+
+    def _on_diag(self, msg):
+        for st in msg.status:
+            if 'collision_monitor' in st.name:
+                self.diagnostics = st
+
+    def wait_event(self, etype, a, b, timeout=5.0, since=0.0):
+        """The first event of this type for pair {a, b} received after `since` (monotonic)."""
+        def find():
+            with self.lock:
+                for t, e in self.events:
+                    if t >= since and e.type == etype and {e.pair.body_a, e.pair.body_b} == {a, b}:
+                        return (t, e)
+            return None
+        return wait_for(find, timeout, period=0.001)
+
+    def events_for(self, pairs):
+        """Every event so far whose pair is one of `pairs` (a set of frozensets)."""
+        with self.lock:
+            return [e for _, e in self.events
+                    if frozenset((e.pair.body_a, e.pair.body_b)) in pairs]
+
+    def ids(self):
+        return sorted(self.list_bodies().ids)
+
+    def add(self, body):
+        self.bodies_pub.publish(body)
+
+    def wait_listed(self, body_id, present=True, timeout=5.0):
+        return wait_for(lambda: (body_id in self.list_bodies().ids) == present, timeout, 0.02)
+
+    def diag_value(self, key):
+        if self.diagnostics is None:
+            return None
+        for kv in self.diagnostics.values:
+            if kv.key == key:
+                return kv.value
+        return None
+
+
+class PoseStreamer:
+    """Publishes BodyPoses for a dict of id -> Pose at `rate` Hz (fresh stamps), in `frame`."""
+
+    def __init__(self, pub, frame='world', rate=20.0):
+        self.pub = pub
+        self.frame = frame
+        self.poses = {}
+        self.paused = set()
+        self.lock = threading.Lock()
+        self.period = 1.0 / rate
+        self.thread = threading.Thread(target=self._run, daemon=True)
+        self.thread.start()
+
+    def set(self, body_id, p, publish_now=True):
+        with self.lock:
+            self.poses[body_id] = p
+        if publish_now:
+            self.publish_now()
+
+    def publish_now(self):
+        msg = BodyPoses()
+        msg.header.frame_id = self.frame
+        msg.header.stamp = rospy.Time.now()
+        with self.lock:
+            for k, v in self.poses.items():
+                if k not in self.paused:
+                    msg.ids.append(k)
+                    msg.poses.append(v)
+        if msg.ids:
+            self.pub.publish(msg)
+        return msg.header.stamp
+
+    def _run(self):
+        while not rospy.is_shutdown():
+            try:
+                self.publish_now()
+            except rospy.ROSException:  # shutting down
+                return
+            time.sleep(self.period)
+
+
+def point_close(p, xyz, tol=1e-6):
+    return math.dist((p.x, p.y, p.z), xyz) <= tol

@@ -1,0 +1,141 @@
+#!/usr/bin/python3
+"""rostest: Franka Panda from the URDF (one body per link with collision geometry, attached to
+the link frames published by robot_state_publisher), adjacent-link and SRDF exclusion, a
+topic-posed obstacle against the hand, and robot links going stale when joint states stop."""
+import sys
+import threading
+import time
+import unittest
+import xml.etree.ElementTree as ET
+
+import rospy
+import rostest
+import tf2_ros
+from collision_monitor.msg import CollisionEvent
+from sensor_msgs.msg import JointState
+
+from cm_test_util import Monitor, PoseStreamer, pose, sphere_body, wait_for
+
+E = CollisionEvent
+LINKS = ['panda_hand', 'panda_leftfinger', 'panda_link0', 'panda_link1', 'panda_link2',
+         'panda_link3', 'panda_link4', 'panda_link5', 'panda_link6', 'panda_link7',
+         'panda_rightfinger']
+# The SRDF "default" (ready) configuration.
+READY = {'panda_joint1': 0.0, 'panda_joint2': -0.785398, 'panda_joint3': 0.0,
+         'panda_joint4': -2.35619, 'panda_joint5': 0.0, 'panda_joint6': 1.5707,
+         'panda_joint7': 0.785398, 'panda_finger_joint1': 0.02, 'panda_finger_joint2': 0.02}
+
+
+class JointStates:
+    def __init__(self, rate=20.0):
+        self.pub = rospy.Publisher('/joint_states', JointState, queue_size=10)
+        self.running = True
+        threading.Thread(target=self._run, args=(1.0 / rate,), daemon=True).start()
+
+    def _run(self, period):
+        while not rospy.is_shutdown():
+            if self.running:
+                js = JointState()
+                js.header.stamp = rospy.Time.now()
+                js.name = list(READY)
+                js.position = [READY[n] for n in js.name]
+                try:
+                    self.pub.publish(js)
+                except rospy.ROSException:  # shutting down
+                    return
+            time.sleep(period)
+
+
+class Panda(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_panda')
+        cls.joints = JointStates()
+        cls.tf = tf2_ros.Buffer()
+        cls.tf_listener = tf2_ros.TransformListener(cls.tf)
+        cls.m = Monitor()
+        srdf = ET.fromstring(rospy.get_param('/robot_description_semantic'))
+        cls.disabled = {frozenset((e.get('link1'), e.get('link2')))
+                        for e in srdf.iter('disable_collisions')}
+        cls.adjacent = {frozenset((e.get('link1'), e.get('link2')))
+                        for e in srdf.iter('disable_collisions') if e.get('reason') == 'Adjacent'}
+
+    def wait_fresh(self, a, b, timeout=5.0):
+        return wait_for(lambda: (lambda r: r if r.success else None)(
+            self.m.get_distance(a, b, '')), timeout, 0.05)
+
+    def test_01_links_with_collision_are_bodies(self):
+        r = self.m.list_bodies()
+        self.assertEqual(sorted(r.ids), LINKS)
+        self.assertEqual(list(r.frames), list(r.ids))
+        self.assertEqual(set(r.groups), {''})
+        self.assertEqual(self.m.state.header.frame_id, 'panda_link0')  # root link of the URDF
+
+    def test_02_disabled_pairs_are_refused_with_the_reason(self):
+        r = self.m.get_distance('panda_link0', 'panda_link1', '')
+        self.assertFalse(r.success)
+        self.assertIn('adjacent links', r.message)
+        r = self.m.get_distance('panda_link0', 'panda_link2', '')  # SRDF "Never"
+        self.assertFalse(r.success)
+        self.assertIn('SRDF', r.message)
+        r = self.m.get_distance('panda_link7', 'panda_hand', '')  # adjacent through panda_link8
+        self.assertFalse(r.success)
+        self.assertIn('disabled', r.message)
+
+    def test_03_enabled_pair_has_a_distance(self):
+        r = self.wait_fresh('panda_link0', 'panda_hand')
+        self.assertIsNotNone(r, self.m.get_distance('panda_link0', 'panda_hand', '').message)
+        self.assertGreater(r.result.distance, 0.1)
+        # The nearest body to the hand is one it may collide with.
+        n = self.m.get_distance('panda_hand', '', '')
+        self.assertTrue(n.success, n.message)
+        self.assertNotIn(frozenset(('panda_hand', n.result.body_b)), self.disabled)
+
+    def test_04_disabled_pairs_never_fire(self):
+        self.assertIsNotNone(self.wait_fresh('panda_link0', 'panda_hand'))
+        time.sleep(1.0)
+        self.assertEqual(self.m.events_for(self.disabled), [])
+        st = self.m.state
+        for p in st.pairs:
+            self.assertNotIn(frozenset((p.body_a, p.body_b)), self.disabled)
+        self.assertFalse(st.in_collision, [(p.body_a, p.body_b, p.distance) for p in st.pairs])
+        self.assertGreater(st.num_bodies, 10)
+
+    def test_05_obstacle_at_the_hand(self):
+        t = self.tf.lookup_transform('panda_link0', 'panda_hand', rospy.Time(0),
+                                     rospy.Duration(5.0))
+        c = t.transform.translation
+        streamer = PoseStreamer(self.m.poses_pub, 'panda_link0', rate=20.0)
+        self.m.add(sphere_body('obstacle', 0.05))
+        self.assertTrue(self.m.wait_listed('obstacle'))
+        t0 = time.monotonic()
+        streamer.set('obstacle', pose(c.x, c.y, c.z))
+        ev = self.m.wait_event(E.COLLISION_BEGIN, 'obstacle', 'panda_hand', 3.0, since=t0)
+        self.assertIsNotNone(ev, 'no COLLISION_BEGIN between the obstacle and the hand')
+        self.assertLess(ev[1].pair.distance, 0.0)
+        t1 = time.monotonic()
+        streamer.set('obstacle', pose(c.x, c.y, c.z + 1.0))
+        self.assertIsNotNone(
+            self.m.wait_event(E.COLLISION_END, 'obstacle', 'panda_hand', 3.0, since=t1))
+        streamer.paused.add('obstacle')
+
+    def test_06_robot_goes_stale_without_joint_states(self):
+        self.assertIsNotNone(self.wait_fresh('panda_link0', 'panda_hand'))
+        t0 = time.monotonic()
+        self.joints.running = False
+        ev = self.m.wait_event(E.UNKNOWN_BEGIN, 'panda_link0', 'panda_hand', 3.0, since=t0)
+        self.assertIsNotNone(ev, 'robot links did not turn UNKNOWN when TF stopped')
+        r = self.m.get_distance('panda_link0', 'panda_hand', '')
+        self.assertFalse(r.success)
+        self.assertIn('panda_hand', r.message)
+        self.assertIn('panda_hand', self.m.state.stale_bodies)
+        self.assertNotIn('panda_link0', self.m.state.stale_bodies)  # the fixed frame itself
+        t1 = time.monotonic()
+        self.joints.running = True
+        self.assertIsNotNone(
+            self.m.wait_event(E.UNKNOWN_END, 'panda_link0', 'panda_hand', 3.0, since=t1))
+        self.assertEqual(self.m.events_for(self.adjacent), [])
+
+
+if __name__ == '__main__':
+    rostest.rosrun('collision_monitor', 'panda', Panda, sys.argv)

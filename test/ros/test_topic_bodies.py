@@ -1,0 +1,299 @@
+#!/usr/bin/python3
+"""rostest: bodies from ~bodies, YAML and TF, posed by ~body_poses, pose_topic and TF, through a
+real roscore. Exact distances, events with their latency, staleness, REMOVE, refused input, the
+services. Run with backend:=gjk and backend:=libccd (same verdicts)."""
+import math
+import sys
+import time
+import unittest
+
+import rospy
+import rostest
+import tf2_ros
+from collision_monitor.msg import Body, BodyPoses, CollisionEvent, PairState, Shape
+from geometry_msgs.msg import PoseStamped, TransformStamped
+from visualization_msgs.msg import MarkerArray
+
+from cm_test_util import (Monitor, PoseStreamer, point_close, pose, shape, sphere_body,
+                          wait_for)
+
+E = CollisionEvent
+
+
+class TopicBodies(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_topic_bodies')
+        cls.backend = rospy.get_param('~backend', 'gjk')
+        # shelf_frame: 5 m along y in world, static (stamp 0 chain: never stale).
+        cls.static_tf = tf2_ros.StaticTransformBroadcaster()
+        t = TransformStamped()
+        t.header.frame_id = 'world'
+        t.child_frame_id = 'shelf_frame'
+        t.transform.translation.y = 5.0
+        t.transform.rotation.w = 1.0
+        cls.static_tf.sendTransform(t)
+        cls.m = Monitor()
+        cls.poses = PoseStreamer(cls.m.poses_pub, 'world', rate=20.0)
+        # Two unit spheres 3 m apart.
+        cls.m.add(sphere_body('s1', 1.0))
+        cls.m.add(sphere_body('s2', 1.0))
+        assert cls.m.wait_listed('s1') and cls.m.wait_listed('s2')
+        cls.poses.set('s1', pose(0, 0, 0))
+        cls.poses.set('s2', pose(3, 0, 0))
+
+    def setUp(self):
+        # Every test starts from the same scene, whatever the previous one left behind.
+        self.poses.paused.clear()
+        self.poses.set('s1', pose(0, 0, 0))
+        self.poses.set('s2', pose(3, 0, 0))
+        # Penetration depth: our EPA is exact to rounding; libccd's MPR stops at ~1e-6.
+        self.depth_tol = 1e-5 if self.backend == 'libccd' else 1e-9
+
+    def distance(self, a, b, frame=''):
+        return self.m.get_distance(a, b, frame)
+
+    def wait_distance(self, a, b, expected, tol=1e-9, timeout=3.0):
+        return wait_for(lambda: (lambda r: r if r.success and abs(r.result.distance - expected)
+                                 <= tol else None)(self.distance(a, b)), timeout, 0.01)
+
+    def test_01_two_unit_spheres_exact(self):
+        r = self.wait_distance('s1', 's2', 1.0)
+        self.assertIsNotNone(r, self.distance('s1', 's2'))
+        self.assertAlmostEqual(r.result.distance, 1.0, places=9)
+        self.assertTrue(point_close(r.result.point_a, (1, 0, 0)), r.result.point_a)
+        self.assertTrue(point_close(r.result.point_b, (2, 0, 0)), r.result.point_b)
+        self.assertTrue(point_close(r.result.normal, (1, 0, 0)), r.result.normal)
+        self.assertEqual(r.result.status, PairState.CLEAR)
+        self.assertEqual({r.result.body_a, r.result.body_b}, {'s1', 's2'})
+        # Nearest body to s1 is s2 (the shelf is 3.5 m away).
+        n = self.distance('s1', '')
+        self.assertTrue(n.success, n.message)
+        self.assertEqual(n.result.body_b, 's2')
+        self.assertAlmostEqual(n.result.distance, 1.0, places=9)
+        # State heartbeat in the fixed frame (default "world": no URDF).
+        st = self.m.state
+        self.assertEqual(st.header.frame_id, 'world')
+        self.assertGreaterEqual(st.num_bodies, 3)
+        self.assertFalse(st.in_collision)
+
+    def test_02_events_and_latency(self):
+        self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))
+        # Warning: 3 cm apart (< warning_distance 5 cm). The check loop runs at 2 Hz here, so
+        # only the pose-triggered check can deliver the event quickly.
+        latencies = []
+        for k in range(5):
+            t0 = time.monotonic()
+            self.poses.set('s2', pose(2.03, 0, 0))
+            ev = self.m.wait_event(E.WARNING_BEGIN, 's1', 's2', timeout=3.0, since=t0)
+            self.assertIsNotNone(ev, 'no WARNING_BEGIN')
+            latencies.append(ev[0] - t0)
+            self.assertAlmostEqual(ev[1].pair.distance, 0.03, places=9)
+            self.assertEqual(ev[1].header.frame_id, 'world')
+            self.assertEqual(ev[1].pair.status, PairState.WARNING)
+            t1 = time.monotonic()
+            self.poses.set('s2', pose(3, 0, 0))
+            self.assertIsNotNone(self.m.wait_event(E.WARNING_END, 's1', 's2', 3.0, since=t1))
+        latencies.sort()
+        rospy.loginfo('pose -> WARNING_BEGIN latency: median %.1f ms, max %.1f ms',
+                      1e3 * latencies[len(latencies) // 2], 1e3 * latencies[-1])
+        print('pose->event latency (ms): median %.2f max %.2f' %
+              (1e3 * latencies[len(latencies) // 2], 1e3 * latencies[-1]))
+        self.assertLess(latencies[len(latencies) // 2], 0.1)
+
+        # Collision: 10 cm penetration.
+        t2 = time.monotonic()
+        self.poses.set('s2', pose(1.9, 0, 0))
+        ev = self.m.wait_event(E.COLLISION_BEGIN, 's1', 's2', 3.0, since=t2)
+        self.assertIsNotNone(ev, 'no COLLISION_BEGIN')
+        self.assertAlmostEqual(ev[1].pair.distance, -0.1, delta=self.depth_tol)
+        self.assertTrue(wait_for(lambda: self.m.state.in_collision, 2.0))
+        t3 = time.monotonic()
+        self.poses.set('s2', pose(3, 0, 0))
+        self.assertIsNotNone(self.m.wait_event(E.COLLISION_END, 's1', 's2', 3.0, since=t3))
+        self.assertTrue(wait_for(lambda: not self.m.state.in_collision, 2.0))
+
+    def test_03_stale_pose_unknown_and_recovery(self):
+        self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))
+        t0 = time.monotonic()
+        self.poses.paused.add('s1')
+        ev = self.m.wait_event(E.UNKNOWN_BEGIN, 's1', 's2', timeout=3.0, since=t0)
+        self.assertIsNotNone(ev, 'no UNKNOWN_BEGIN after pose_timeout')
+        self.assertGreater(ev[0] - t0, 0.3)  # pose_timeout 0.5 s
+        self.assertEqual(ev[1].pair.status, PairState.UNKNOWN)
+        r = self.distance('s1', 's2')
+        self.assertFalse(r.success)
+        self.assertIn('s1', r.message)
+        listed = self.m.list_bodies()
+        self.assertTrue(listed.stale[listed.ids.index('s1')])
+        self.assertIn('s1', self.m.state.stale_bodies)
+        t1 = time.monotonic()
+        self.poses.paused.discard('s1')
+        self.poses.publish_now()
+        self.assertIsNotNone(self.m.wait_event(E.UNKNOWN_END, 's1', 's2', 3.0, since=t1))
+        self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))
+
+    def test_04_tf_attached_yaml_body(self):
+        # "shelf" (YAML ~bodies): unit cube attached to shelf_frame = world + (0, 5, 0).
+        self.assertIn('shelf', self.m.ids())
+        r = wait_for(lambda: (lambda x: x if x.success else None)(self.distance('s1', 'shelf')),
+                     5.0)
+        self.assertIsNotNone(r, self.distance('s1', 'shelf').message)
+        self.assertAlmostEqual(r.result.distance, 3.5, places=9)
+        self.assertTrue(point_close(r.result.point_a, (0, 1, 0)), r.result.point_a)
+        self.assertTrue(point_close(r.result.point_b, (0, 4.5, 0)), r.result.point_b)
+        # The same answer expressed in shelf_frame.
+        r2 = self.distance('s1', 'shelf', 'shelf_frame')
+        self.assertTrue(r2.success, r2.message)
+        self.assertTrue(point_close(r2.result.point_b, (0, -0.5, 0)), r2.result.point_b)
+        self.assertTrue(point_close(r2.result.normal, (0, 1, 0)), r2.result.normal)
+        # A static TF chain never goes stale.
+        listed = self.m.list_bodies()
+        self.assertFalse(listed.stale[listed.ids.index('shelf')])
+        self.assertEqual(listed.frames[listed.ids.index('shelf')], 'shelf_frame')
+        # Unknown frame in the request: refused with the reason.
+        r3 = self.distance('s1', 'shelf', 'no_such_frame')
+        self.assertFalse(r3.success)
+        self.assertIn('no_such_frame', r3.message)
+
+    def test_05_body_poses_in_another_frame(self):
+        # s3 posed in shelf_frame at (0, -5, 2): world (0, 0, 2).
+        self.m.add(sphere_body('s3', 0.5))
+        self.assertTrue(self.m.wait_listed('s3'))
+        msg = BodyPoses()
+        msg.header.frame_id = 'shelf_frame'
+        msg.header.stamp = rospy.Time(0)  # stamp 0: a static pose, never stale
+        msg.ids = ['s3']
+        msg.poses = [pose(0, -5, 2.0)]
+        self.m.poses_pub.publish(msg)
+        r = self.wait_distance('s1', 's3', 0.5)
+        self.assertIsNotNone(r, self.distance('s1', 's3'))
+        self.assertTrue(point_close(r.result.point_b, (0, 0, 1.5)), r.result.point_b)
+        self.m.add(Body(id='s3', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('s3', present=False))
+
+    def test_06_pose_topic(self):
+        pub = rospy.Publisher('/tracker/pose', PoseStamped, queue_size=10)
+        self.m.add(sphere_body('tracked', 0.5, pose_topic='/tracker/pose'))
+        self.assertTrue(self.m.wait_listed('tracked'))
+        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 5.0))
+
+        def publish(x):
+            p = PoseStamped()
+            p.header.frame_id = 'world'
+            p.header.stamp = rospy.Time.now()
+            p.pose = pose(x, 0, 0)
+            pub.publish(p)
+        publish(10.0)
+        r = wait_for(lambda: (lambda x: x if x.success and abs(x.result.distance - 5.5) < 1e-9
+                              else None)(self.distance('tracked', 's2')), 3.0)
+        self.assertIsNotNone(r, self.distance('tracked', 's2'))
+        # REMOVE: gone from the list, its pose topic unsubscribed, queries name it unknown.
+        self.m.add(Body(id='tracked', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('tracked', present=False))
+        self.assertTrue(wait_for(lambda: pub.get_num_connections() == 0, 5.0),
+                        'pose_topic still subscribed after REMOVE')
+        r = self.distance('tracked', 's2')
+        self.assertFalse(r.success)
+        self.assertIn("unknown body 'tracked'", r.message)
+
+    def test_07_bad_input_refused_node_keeps_answering(self):
+        before = self.m.ids()
+        rejected0 = int(self.m.diag_value('rejected inputs (total)') or 0)
+        bad = []
+        b = sphere_body('bad_nan_pose', 1.0)
+        b.parts[0].pose.position.x = float('nan')
+        bad.append(b)
+        bad.append(sphere_body('bad_negative_radius', -1.0))
+        b = sphere_body('bad_type', 1.0)
+        b.parts[0].type = 42
+        bad.append(b)
+        b = sphere_body('bad_dims', 1.0)
+        b.parts[0].dimensions = [1.0, 2.0]
+        bad.append(b)
+        b = Body(id='bad_mesh_passwd', operation=Body.ADD, pose_from_topic=True)
+        b.parts = [shape(Shape.MESH, resource='file:///etc/passwd')]
+        bad.append(b)
+        b = Body(id='bad_mesh_escape', operation=Body.ADD, pose_from_topic=True)
+        b.parts = [shape(Shape.MESH, resource='package://collision_monitor/../../../etc/passwd')]
+        bad.append(b)
+        b = Body(id='bad_no_parts', operation=Body.ADD, pose_from_topic=True)
+        bad.append(b)
+        # Replacing a YAML body from the topic is refused; the shelf stays as it is.
+        bad.append(sphere_body('shelf', 0.1))
+        for b in bad:
+            self.m.add(b)
+        # s1 pose with NaN: refused, s1 keeps its pose.
+        msg = BodyPoses()
+        msg.header.frame_id = 'world'
+        msg.header.stamp = rospy.Time.now()
+        msg.ids = ['s1']
+        msg.poses = [pose(float('nan'), 0, 0)]
+        self.m.poses_pub.publish(msg)
+        msg2 = BodyPoses()
+        msg2.header = msg.header
+        msg2.ids = ['s1', 's2']
+        msg2.poses = [pose(0, 0, 0)]  # mismatched lengths
+        self.m.poses_pub.publish(msg2)
+        time.sleep(0.5)
+        self.assertEqual(self.m.ids(), before)
+        r = self.wait_distance('s1', 's2', 1.0)
+        self.assertIsNotNone(r, 'the node stopped answering or s1/s2 changed')
+        r = self.distance('s1', 'shelf')
+        self.assertTrue(r.success, r.message)
+        self.assertAlmostEqual(r.result.distance, 3.5, places=9)
+        # Every refusal is counted on /diagnostics with the last reason.
+        ok = wait_for(lambda: int(self.m.diag_value('rejected inputs (total)') or 0)
+                      >= rejected0 + len(bad) + 2, 5.0, 0.1)
+        self.assertTrue(ok, 'rejections not counted: %s' % self.m.diag_value(
+            'rejected inputs (total)'))
+        self.assertTrue(self.m.diag_value('last rejection'))
+
+    def test_08_check_collision(self):
+        self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))
+        probe = sphere_body('probe', 0.5, frame='world', pose_from_topic=False)
+        r = self.m.check_collision(probe, pose(0, 0, 1.2), 10.0)
+        self.assertTrue(r.success, r.message)
+        self.assertTrue(r.in_collision)
+        names = [p.body_b if p.body_a == 'probe' else p.body_a for p in r.pairs]
+        self.assertEqual(names[0], 's1')
+        self.assertAlmostEqual(r.pairs[0].distance, -0.3, delta=self.depth_tol)
+        self.assertEqual(r.pairs, sorted(r.pairs, key=lambda p: p.distance))
+        self.assertIn('s2', names)
+        # Far away, small margin: nothing near.
+        r = self.m.check_collision(probe, pose(0, -20, 0), 0.1)
+        self.assertTrue(r.success, r.message)
+        self.assertFalse(r.in_collision)
+        self.assertEqual(len(r.pairs), 0)
+        # Placed through TF: in shelf_frame at the shelf's centre -> collides with the shelf.
+        probe.header.frame_id = 'shelf_frame'
+        r = self.m.check_collision(probe, pose(0, 0, 0), 0.0)
+        self.assertTrue(r.success, r.message)
+        self.assertTrue(r.in_collision)
+        self.assertIn('shelf', [p.body_b if p.body_a == 'probe' else p.body_a for p in r.pairs])
+        # Invalid body: refused with the reason.
+        bad = sphere_body('probe', -1.0, frame='world', pose_from_topic=False)
+        r = self.m.check_collision(bad, pose(0, 0, 0), 0.1)
+        self.assertFalse(r.success)
+        self.assertIn('negative', r.message)
+        self.assertNotIn('probe', self.m.ids())
+
+    def test_09_markers_while_subscribed(self):
+        arrays = []
+        sub = rospy.Subscriber('/collision_monitor/markers', MarkerArray, arrays.append)
+        try:
+            self.assertTrue(wait_for(lambda: any(a.markers for a in arrays), 5.0),
+                            'no ~markers while subscribed')
+            frames = {m.header.frame_id for a in arrays for m in a.markers
+                      if m.action != m.DELETE and m.action != m.DELETEALL}
+            self.assertEqual(frames, {'world'})
+        finally:
+            sub.unregister()
+
+    def test_10_diagnostics(self):
+        self.assertTrue(wait_for(lambda: self.m.diag_value('backend'), 5.0, 0.1))
+        self.assertEqual(self.m.diag_value('backend'), self.backend)
+
+
+if __name__ == '__main__':
+    rostest.rosrun('collision_monitor', 'topic_bodies', TopicBodies, sys.argv)
