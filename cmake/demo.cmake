@@ -22,6 +22,8 @@ if(TARGET collision_monitor_node)
   # The demo scene: designed WARNING_BEGIN, COLLISION_BEGIN and COLLISION_END on named pairs.
   add_rostest(test/demo/demo_events.test DEPENDENCIES ${CM_DEMO_TEST_DEPS})
   # rviz under Xvfb with software GL: red in a screenshot during a collision, green when clear.
-  # Screenshots go to $CM_ARTIFACTS (test.sh: build/test_results), else the ROS test results dir.
+  # Screenshots go to $CM_ARTIFACTS if set, else to <build>/test_results (demo_screenshot.png).
   add_rostest(test/demo/demo_screenshot.test DEPENDENCIES ${CM_DEMO_TEST_DEPS})
+  set_tests_properties(_ctest_${PROJECT_NAME}_rostest_test_demo_demo_screenshot.test PROPERTIES
+    ENVIRONMENT "CM_DEMO_ARTIFACTS=${CMAKE_BINARY_DIR}/test_results")
 endif()

@@ -450,7 +450,8 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     label.pose.position =
         toPoint(0.5 * (p.point_a + p.point_b) + Vec3(0.0, 0.0, 1.2 * options_.text_height));
     label.scale.z = options_.text_height;
-    label.color = color;
+    // Lighter than the bodies so that the text stays readable in front of them.
+    label.color = rgba(0.5 + 0.5 * color.r, 0.5 + 0.5 * color.g, 0.5 + 0.5 * color.b);
     label.text = distanceLabel(p.distance);
     emit(std::move(label), key);
 

@@ -8,8 +8,8 @@ screenshots (ImageMagick `import -window root`) by ~state:
   - while nothing has been in COLLISION for a moment: no red, and green bodies.
 
 Also checks that rviz rendered at all (the 3D view is not one flat colour). Screenshots are kept
-as build artefacts: $CM_ARTIFACTS/demo_screenshot.png (collision) and
-demo_screenshot_clear.png, else in the ROS test results directory under collision_monitor/.
+as build artefacts: demo_screenshot.png (collision) and demo_screenshot_clear.png in
+$CM_ARTIFACTS, else in <build>/test_results (CTest), else in the ROS test results directory.
 """
 import os
 import shutil
@@ -36,7 +36,10 @@ VIEW_X0 = 400  # the 3D view starts right of the Displays panel (rviz/demo.rviz 
 
 
 def artefact_dir():
-    d = os.environ.get("CM_ARTIFACTS") or os.path.join(rospkg.get_test_results_dir(), PKG)
+    """$CM_ARTIFACTS, else the build's test_results (set by cmake/demo.cmake for CTest), else the
+    ROS test results directory."""
+    d = (os.environ.get("CM_ARTIFACTS") or os.environ.get("CM_DEMO_ARTIFACTS") or
+         os.path.join(rospkg.get_test_results_dir(), PKG))
     os.makedirs(d, exist_ok=True)
     return d
 
@@ -162,7 +165,8 @@ class DemoScreenshot(unittest.TestCase):
     def shoot(self, name):
         """Grabs the screen as PPM (fast: no compression while the moment lasts)."""
         path = os.path.join(artefact_dir(), name)
-        subprocess.check_call(["import", "-display", self.display, "-window", "root", "-depth", "8", path])
+        subprocess.check_call(
+            ["import", "-display", self.display, "-window", "root", "-depth", "8", path])
         return path
 
     def keep_png(self, ppm):

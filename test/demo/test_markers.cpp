@@ -287,7 +287,14 @@ TEST(MarkerBuilder, WitnessLabelAndNormal) {
   }
   std::sort(texts.begin(), texts.end());
   EXPECT_EQ(texts, (std::vector<std::string>{"-4.0 mm", "23.4 mm"}));
-  EXPECT_TRUE(isAmber(labels[0]->text == "23.4 mm" ? labels[0]->color : labels[1]->color));
+  // Labels: the pair's colour, lightened (amber -> light yellow, red -> pink).
+  const auto& warn_label = labels[0]->text == "23.4 mm" ? labels[0]->color : labels[1]->color;
+  const auto& hit_label = labels[0]->text == "23.4 mm" ? labels[1]->color : labels[0]->color;
+  EXPECT_GT(warn_label.r, 0.9);
+  EXPECT_GT(warn_label.g, 0.6);
+  EXPECT_LT(warn_label.b, warn_label.g);
+  EXPECT_GT(hit_label.r, 0.9);
+  EXPECT_LT(hit_label.g, 0.7);
 
   // Only the penetrating pair gets a normal, along +x (a towards b), at least min length long.
   const auto arrows = find(out, "normals", Marker::ADD);
