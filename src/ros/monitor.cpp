@@ -82,6 +82,11 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
 
   tf_buffer_ = std::make_shared<tf2_ros::Buffer>(ros::Duration(10.0));
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_, true);
+  if (check_on_tf_) {
+    // New TF data is pose input for every TF-attached body (robot links): check promptly,
+    // coalesced with other triggers by min_check_interval.
+    tf_changed_ = tf_buffer_->_addTransformsChangedListener([this] { trigger(); });
+  }
 
   loadRobot();
   loadParameterBodies();
@@ -112,6 +117,7 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
 }
 
 Monitor::~Monitor() {
+  if (tf_changed_.connected()) tf_buffer_->_removeTransformsChangedListener(tf_changed_);
   {
     std::lock_guard<std::mutex> lock(loop_mutex_);
     stop_ = true;
@@ -166,6 +172,7 @@ void Monitor::readParameters() {
   robot_padding_ = number("robot_padding", 0.0, non_negative, ">= 0");
   min_check_interval_ = number("min_check_interval", 0.002, non_negative, ">= 0");
   pnh_.param("check_on_pose", check_on_pose_, true);
+  pnh_.param("check_on_tf", check_on_tf_, true);
   pnh_.param("publish_markers", publish_markers_, true);
   pnh_.param<std::string>("robot_description_param", robot_description_param_, "robot_description");
 
@@ -335,7 +342,7 @@ std::string Monitor::addBody(world::BodySpec spec) {
     tracked_[id] = t;
   }
   updatePoseSubscription(id, topic);
-  trigger();
+  if (check_on_pose_) trigger();
   return {};
 }
 
@@ -356,7 +363,7 @@ bool Monitor::removeBody(const std::string& id, std::string* why) {
     tracked_.erase(it);
   }
   updatePoseSubscription(id, "");
-  trigger();
+  if (check_on_pose_) trigger();
   return true;
 }
 
@@ -423,7 +430,7 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, double stamp,
     }
     reject(source, what);
   }
-  if (unknown.size() + attached.size() < updates.size()) trigger();
+  if (check_on_pose_ && unknown.size() + attached.size() < updates.size()) trigger();
 }
 
 void Monitor::onBody(const collision_monitor::Body::ConstPtr& msg) {
@@ -666,7 +673,6 @@ bool Monitor::listBodies(collision_monitor::ListBodies::Request& /*req*/,
 // the check loop
 
 void Monitor::trigger() {
-  if (!check_on_pose_) return;
   {
     std::lock_guard<std::mutex> lock(loop_mutex_);
     triggered_ = true;

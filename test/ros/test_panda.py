@@ -12,6 +12,7 @@ import rospy
 import rostest
 import tf2_ros
 from collision_monitor.msg import CollisionEvent
+from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import JointState
 
 from cm_test_util import Monitor, PoseStreamer, pose, sphere_body, wait_for
@@ -135,6 +136,58 @@ class Panda(unittest.TestCase):
         self.assertIsNotNone(
             self.m.wait_event(E.UNKNOWN_END, 'panda_link0', 'panda_hand', 3.0, since=t1))
         self.assertEqual(self.m.events_for(self.adjacent), [])
+
+    def test_07_tf_attached_obstacle_latency(self):
+        # A body attached to a TF frame the test broadcasts. The heartbeat is 2 Hz here, so a
+        # fast event shows that new TF data triggers a check.
+        hand = self.tf.lookup_transform('panda_link0', 'panda_hand', rospy.Time(0),
+                                        rospy.Duration(5.0)).transform.translation
+        broadcaster = tf2_ros.TransformBroadcaster()
+        where = {'z': hand.z + 1.0}
+
+        def send():
+            t = TransformStamped()
+            t.header.stamp = rospy.Time.now()
+            t.header.frame_id = 'panda_link0'
+            t.child_frame_id = 'probe_frame'
+            t.transform.translation.x = hand.x
+            t.transform.translation.y = hand.y
+            t.transform.translation.z = where['z']
+            t.transform.rotation.w = 1.0
+            broadcaster.sendTransform(t)
+        stop = threading.Event()
+
+        def run():
+            while not stop.is_set() and not rospy.is_shutdown():
+                try:
+                    send()
+                except rospy.ROSException:
+                    return
+                time.sleep(0.05)
+        threading.Thread(target=run, daemon=True).start()
+        try:
+            self.m.add(sphere_body('tf_probe', 0.05, frame='probe_frame', pose_from_topic=False))
+            self.assertTrue(self.m.wait_listed('tf_probe'))
+            self.assertIsNotNone(self.wait_fresh('tf_probe', 'panda_hand'))
+            latencies = []
+            for _ in range(3):
+                t0 = time.monotonic()
+                where['z'] = hand.z
+                send()
+                ev = self.m.wait_event(E.COLLISION_BEGIN, 'tf_probe', 'panda_hand', 3.0, since=t0)
+                self.assertIsNotNone(ev, 'no COLLISION_BEGIN for the TF-attached probe')
+                latencies.append(ev[0] - t0)
+                t1 = time.monotonic()
+                where['z'] = hand.z + 1.0
+                send()
+                self.assertIsNotNone(
+                    self.m.wait_event(E.COLLISION_END, 'tf_probe', 'panda_hand', 3.0, since=t1))
+            latencies.sort()
+            print('TF->event latency (ms): median %.2f max %.2f' %
+                  (1e3 * latencies[1], 1e3 * latencies[-1]))
+            self.assertLess(latencies[1], 0.1)
+        finally:
+            stop.set()
 
 
 if __name__ == '__main__':

@@ -5,6 +5,7 @@ import unittest
 
 import rospy
 import rostest
+from diagnostic_msgs.msg import DiagnosticStatus
 
 from cm_test_util import Monitor, wait_for
 
@@ -38,6 +39,12 @@ class Pr2(unittest.TestCase):
         self.assertTrue(wait_for(lambda: self.m.diag_value('rejected inputs (total)'), 5.0, 0.1))
         self.assertEqual(self.m.diag_value('rejected inputs (total)'), '0',
                          self.m.diag_value('last rejection'))
+
+    def test_04_invalid_backend_falls_back_to_gjk(self):
+        self.assertTrue(wait_for(lambda: self.m.diag_value('backend'), 5.0, 0.1))
+        self.assertEqual(self.m.diag_value('backend'), 'gjk')
+        self.assertEqual(self.m.diagnostics.level, DiagnosticStatus.ERROR)
+        self.assertIn('backend', self.m.diagnostics.message)
 
 
 if __name__ == '__main__':

@@ -5,8 +5,8 @@
 ///
 /// Threads: callbacks (subscriptions, services) run on the caller's callback queue, which may be
 /// multi-threaded (the nodelet's MT queue); the check loop runs on its own thread, woken at
-/// `rate` Hz and promptly after pose input (coalescing bursts, at most one check per
-/// `min_check_interval`). One mutex guards the world model; TF lookups, mesh loading and
+/// `rate` Hz and promptly after pose input and new TF data (coalescing bursts, at most one check
+/// per `min_check_interval`). One mutex guards the world model; TF lookups, mesh loading and
 /// publishing happen outside it.
 #pragma once
 
@@ -32,6 +32,7 @@
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
+#include <boost/signals2/connection.hpp>
 
 #include "collision_monitor/ros/conversions.h"
 #include "collision_monitor/ros/mesh_loader.h"
@@ -109,6 +110,8 @@ class Monitor {
   double rate_ = 50.0;
   double min_check_interval_ = 0.002;
   bool check_on_pose_ = true;
+  bool check_on_tf_ = true;
+  boost::signals2::connection tf_changed_;  ///< TF buffer "transforms changed" -> trigger()
   bool publish_markers_ = true;
   double robot_padding_ = 0.0;
   std::string robot_description_param_ = "robot_description";
