@@ -83,6 +83,15 @@ class Panda(unittest.TestCase):
         self.assertFalse(r.success)
         self.assertIn('disabled', r.message)
 
+    def test_02b_urdf_link_cannot_be_replaced_from_the_topic(self):
+        self.m.add(sphere_body('panda_hand', 1.0, frame='elsewhere', pose_from_topic=False))
+        time.sleep(0.3)
+        r = self.m.list_bodies()
+        self.assertEqual(sorted(r.ids), LINKS)
+        self.assertEqual(r.frames[list(r.ids).index('panda_hand')], 'panda_hand')
+        self.assertTrue(wait_for(lambda: 'panda_hand' in (self.m.diag_value('last rejection')
+                                                          or ''), 3.0, 0.1))
+
     def test_03_enabled_pair_has_a_distance(self):
         r = self.wait_fresh('panda_link0', 'panda_hand')
         self.assertIsNotNone(r, self.m.get_distance('panda_link0', 'panda_hand', '').message)

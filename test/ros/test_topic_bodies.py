@@ -11,7 +11,7 @@ import rospy
 import rostest
 import tf2_ros
 from collision_monitor.msg import Body, BodyPoses, CollisionEvent, PairState, Shape
-from geometry_msgs.msg import PoseStamped, TransformStamped
+from geometry_msgs.msg import Point, PoseStamped, TransformStamped
 from visualization_msgs.msg import MarkerArray
 
 from cm_test_util import (Monitor, PoseStreamer, point_close, pose, shape, sphere_body,
@@ -219,6 +219,13 @@ class TopicBodies(unittest.TestCase):
         bad.append(b)
         b = Body(id='bad_no_parts', operation=Body.ADD, pose_from_topic=True)
         bad.append(b)
+        b = Body(id='bad_too_many_vertices', operation=Body.ADD, pose_from_topic=True)
+        b.parts = [shape(Shape.CONVEX, vertices=[Point(math.cos(k), math.sin(k), 0.01 * k)
+                                                 for k in range(101)])]  # max 100
+        bad.append(b)
+        b = sphere_body('bad_quaternion', 1.0)
+        b.parts[0].pose.orientation.w = 2.0
+        bad.append(b)
         # Replacing a YAML body from the topic is refused; the shelf stays as it is.
         bad.append(sphere_body('shelf', 0.1))
         for b in bad:
@@ -293,6 +300,27 @@ class TopicBodies(unittest.TestCase):
     def test_10_diagnostics(self):
         self.assertTrue(wait_for(lambda: self.m.diag_value('backend'), 5.0, 0.1))
         self.assertEqual(self.m.diag_value('backend'), self.backend)
+
+    def test_11_max_bodies(self):
+        present = self.m.ids()
+        room = 8 - len(present)   # max_bodies = 8
+        self.assertGreater(room, 0, present)
+        fills = ['fill_%d' % k for k in range(room + 1)]
+        for k, f in enumerate(fills):
+            self.m.add(sphere_body(f, 0.1))
+            if k < room:
+                self.assertTrue(self.m.wait_listed(f), f)
+        time.sleep(0.3)
+        ids = self.m.ids()
+        self.assertEqual(len(ids), 8)
+        self.assertNotIn(fills[-1], ids)
+        # /diagnostics reports once a second.
+        self.assertTrue(wait_for(lambda: 'max_bodies' in (self.m.diag_value('last rejection')
+                                                          or ''), 3.0, 0.1),
+                        self.m.diag_value('last rejection'))
+        for f in fills:
+            self.m.add(Body(id=f, operation=Body.REMOVE))
+        self.assertTrue(wait_for(lambda: self.m.ids() == present, 3.0, 0.05))
 
 
 if __name__ == '__main__':
