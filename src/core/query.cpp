@@ -98,6 +98,7 @@ struct PairFrame {
   Transform3 T_AB;  ///< B's frame -> A's frame
   double rA, rB;    ///< radii (m)
   double size;      ///< bounding radii + |relative translation| (m): the tolerance scale
+  bool finite;      ///< false when a pose has NaN/Inf entries (no query is run then)
 };
 
 PairFrame makeFrame(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
@@ -108,6 +109,8 @@ PairFrame makeFrame(const ConvexShape& a, const Transform3& pose_a, const Convex
   f.rA = a.radius();
   f.rB = b.radius();
   f.size = a.boundingRadius() + b.boundingRadius() + f.T_AB.t.norm();
+  f.finite =
+      pose_a.R.allFinite() && pose_a.t.allFinite() && f.T_AB.R.allFinite() && std::isfinite(f.size);
   return f;
 }
 
@@ -249,6 +252,7 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
 bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                const Transform3& pose_b, PairCache* cache, const QueryOptions& options) {
   const PairFrame f = makeFrame(a, pose_a, b, pose_b);
+  if (!f.finite) return true;  // undecidable: conservative
   // Touching counts as intersecting: the same band as signedDistance()'s Touching.
   const double margin = f.rA + f.rB + options.touch_tolerance * f.size;
   return withPair(a, b, f, cache, [&](const auto& md) {
@@ -264,6 +268,7 @@ bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape
 ContactResult distance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                        const Transform3& pose_b, PairCache* cache, const QueryOptions& options) {
   const PairFrame f = makeFrame(a, pose_a, b, pose_b);
+  if (!f.finite) return ContactResult{};  // FailedToConverge, distance +inf, normal UnitX
   return withPair(a, b, f, cache,
                   [&](const auto& md) { return query(md, f, cache, options, false); });
 }
@@ -272,6 +277,7 @@ ContactResult signedDistance(const ConvexShape& a, const Transform3& pose_a, con
                              const Transform3& pose_b, PairCache* cache,
                              const QueryOptions& options) {
   const PairFrame f = makeFrame(a, pose_a, b, pose_b);
+  if (!f.finite) return ContactResult{};  // FailedToConverge, distance +inf, normal UnitX
   return withPair(a, b, f, cache,
                   [&](const auto& md) { return query(md, f, cache, options, true); });
 }

@@ -1,6 +1,7 @@
 // Exact answers for intersect / distance / signedDistance, worked out by hand (the comment beside
 // each expected value shows the arithmetic). Nothing here is a recorded output of the code.
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -525,4 +526,23 @@ TEST(ExactQuery, IntersectAgreesWithSignedDistanceOnAGrid) {
       EXPECT_EQ(hit, expected < 0.0) << "x = " << x;
     }
   }
+}
+
+TEST(ExactQuery, NonFinitePosesGiveADefinedFailure) {
+  // Regression: a NaN pose ran GJK to the iteration bound and returned a NaN normal; now the
+  // query reports FailedToConverge with a finite unit normal, and intersect() says true
+  // (conservative).
+  Transform3 bad = at(0, 0, 0);
+  bad.t.x() = std::numeric_limits<double>::quiet_NaN();
+  for (const bool signed_query : {false, true}) {
+    const ContactResult r = signed_query
+                                ? cm::signedDistance(kUnitCube, at(0, 0, 0), kUnitCube, bad)
+                                : cm::distance(kUnitCube, bad, kUnitCube, at(0, 0, 0));
+    EXPECT_EQ(r.status, Status::FailedToConverge);
+    EXPECT_TRUE(r.normal.allFinite());
+    EXPECT_NEAR(r.normal.norm(), 1.0, 1e-15);
+  }
+  EXPECT_TRUE(cm::intersect(kUnitCube, at(0, 0, 0), kUnitCube, bad));
+  EXPECT_STREQ(cm::toString(Status::FailedToConverge), "FailedToConverge");
+  EXPECT_STREQ(cm::toString(Status::Touching), "Touching");
 }
