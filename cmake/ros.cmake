@@ -2,7 +2,6 @@
 find_package(urdfdom REQUIRED)
 find_package(urdfdom_headers REQUIRED)
 find_package(tinyxml2 REQUIRED)
-find_package(roslib REQUIRED)   # ros::package::getPath for package:// mesh URIs
 
 set(CM_ROS_SOURCES
   src/ros/conversions.cpp
@@ -11,28 +10,20 @@ set(CM_ROS_SOURCES
   src/ros/params.cpp
   src/ros/monitor.cpp
   src/ros/nodelet.cpp
+  src/ros/markers.cpp
 )
-# The marker builder (markers.h) is written separately; publish markers once it exists.
-set(CM_HAVE_MARKERS OFF)
-if(EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/src/ros/markers.cpp)
-  list(APPEND CM_ROS_SOURCES src/ros/markers.cpp)
-  set(CM_HAVE_MARKERS ON)
-endif()
 
 add_library(collision_monitor_ros ${CM_ROS_SOURCES})
 target_include_directories(collision_monitor_ros PUBLIC
   $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
   $<BUILD_INTERFACE:${CATKIN_DEVEL_PREFIX}/${CATKIN_GLOBAL_INCLUDE_DESTINATION}>)
 target_include_directories(collision_monitor_ros SYSTEM PUBLIC
-  ${catkin_INCLUDE_DIRS} ${roslib_INCLUDE_DIRS} ${urdfdom_INCLUDE_DIRS}
+  ${catkin_INCLUDE_DIRS} ${urdfdom_INCLUDE_DIRS}
   ${urdfdom_headers_INCLUDE_DIRS})
 target_link_libraries(collision_monitor_ros PUBLIC
-  collision_monitor_world collision_monitor_core ${catkin_LIBRARIES} ${roslib_LIBRARIES}
+  collision_monitor_world collision_monitor_core ${catkin_LIBRARIES}
   ${urdfdom_LIBRARIES} tinyxml2::tinyxml2)
 target_compile_options(collision_monitor_ros PRIVATE ${CM_WARNING_FLAGS})
-if(CM_HAVE_MARKERS)
-  target_compile_definitions(collision_monitor_ros PRIVATE CM_HAVE_MARKERS)
-endif()
 add_dependencies(collision_monitor_ros ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_EXPORTED_TARGETS})
 
 add_executable(collision_monitor_node src/nodes/collision_monitor_node.cpp)

@@ -18,21 +18,10 @@
 #include "collision_monitor/ros/params.h"
 #include "collision_monitor/ros/robot_model.h"
 
-#ifdef CM_HAVE_MARKERS
 #include "collision_monitor/ros/markers.h"
-#endif
 
 namespace collision_monitor {
 namespace ros_layer {
-
-#ifdef CM_HAVE_MARKERS
-class MarkerPublisher {
- public:
-  MarkerBuilder builder;
-};
-#else
-class MarkerPublisher {};
-#endif
 
 namespace {
 
@@ -96,9 +85,6 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   events_pub_ = pnh_.advertise<collision_monitor::CollisionEvent>("events", 100);
   state_pub_ = pnh_.advertise<collision_monitor::CollisionState>("state", 10);
   markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 1);
-#ifdef CM_HAVE_MARKERS
-  markers_ = std::make_unique<MarkerPublisher>();
-#endif
   const auto hints = ros::TransportHints().tcpNoDelay();
   bodies_sub_ = pnh_.subscribe("bodies", 1000, &Monitor::onBody, this, hints);
   poses_sub_ = pnh_.subscribe("body_poses", 100, &Monitor::onBodyPoses, this, hints);
@@ -197,6 +183,9 @@ void Monitor::readParameters() {
   settings_.max_bodies = count("max_bodies", defaults.max_bodies);
   settings_.max_vertices_per_part = count("max_vertices_per_part", defaults.max_vertices_per_part);
   settings_.max_parts_per_body = count("max_parts_per_body", defaults.max_parts_per_body);
+  // Pairs listed as UNKNOWN in ~state: bounded so that 1,000 bodies without poses (500k pairs)
+  // cannot stall a cycle; stale_bodies stays complete, and any pair with a stale body is UNKNOWN.
+  settings_.max_unknown_pairs = count("max_unknown_pairs", kDefaultMaxUnknownPairs);
   limits_.max_vertices_per_part = settings_.max_vertices_per_part;
   limits_.max_parts_per_body = settings_.max_parts_per_body;
 }
@@ -750,8 +739,7 @@ void Monitor::runCycle() {
 
   world::CycleResult cycle;
   visualization_msgs::MarkerArray markers;
-  const bool want_markers =
-      publish_markers_ && markers_ != nullptr && markers_pub_.getNumSubscribers() > 0;
+  const bool want_markers = publish_markers_ && markers_pub_.getNumSubscribers() > 0;
   {
     std::lock_guard<std::mutex> lock(world_mutex_);
     for (const auto& [id, frame] : attached) {
@@ -765,9 +753,7 @@ void Monitor::runCycle() {
       }
     }
     cycle = world_->check(now);
-#ifdef CM_HAVE_MARKERS
-    if (want_markers) markers = markers_->builder.build(*world_, cycle, fixed_frame_);
-#endif
+    if (want_markers) markers = marker_builder_.build(*world_, cycle, fixed_frame_);
   }
 
   for (const auto& e : cycle.events)

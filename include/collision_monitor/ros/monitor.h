@@ -35,13 +35,15 @@
 #include <boost/signals2/connection.hpp>
 
 #include "collision_monitor/ros/conversions.h"
+#include "collision_monitor/ros/markers.h"
 #include "collision_monitor/ros/mesh_loader.h"
 #include "collision_monitor/world/world_model.h"
 
 namespace collision_monitor {
 namespace ros_layer {
 
-class MarkerPublisher;
+/// Default of ~max_unknown_pairs: how many UNKNOWN pairs ~state lists (stale_bodies is complete).
+constexpr std::size_t kDefaultMaxUnknownPairs = 1000;
 
 class Monitor {
  public:
@@ -138,7 +140,7 @@ class Monitor {
   ros::Publisher events_pub_, state_pub_, markers_pub_;
   ros::Subscriber bodies_sub_, poses_sub_;
   ros::ServiceServer distance_srv_, check_srv_, list_srv_;
-  std::unique_ptr<MarkerPublisher> markers_;
+  MarkerBuilder marker_builder_;
 
   // diagnostics (guarded by stats_mutex_)
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
