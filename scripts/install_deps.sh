@@ -20,6 +20,8 @@ PACKAGES=(
   # tests, benchmarks (FCL and Bullet are compared against), visual checks
   libgtest-dev googletest libbenchmark-dev libfcl-dev libbullet-dev
   rviz xvfb imagemagick clang-format
+  # fuzzing (scripts/fuzz.sh): clang with libFuzzer and the sanitizer runtimes; valgrind (node leak check)
+  clang libclang-rt-14-dev valgrind
 )
 if [ "${CM_SKIP_APT_UPDATE:-0}" != "1" ]; then
   $SUDO apt-get update -qq
