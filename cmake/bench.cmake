@@ -65,4 +65,17 @@ if(TARGET collision_monitor_world AND EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/bench/
     target_link_libraries(collision_monitor_bench_world PRIVATE ${CM_BENCH_FCL_TARGET})
     target_compile_definitions(collision_monitor_bench_world PRIVATE CM_BENCH_HAVE_FCL=1)
   endif()
+  set_target_properties(collision_monitor_bench_world PROPERTIES NO_SYSTEM_FROM_IMPORTED OFF)
+endif()
+
+# End-to-end latency probe (bench/latency.launch, scripts/bench_latency.sh): a roscpp node that
+# drives collision_monitor_node over loopback. Needs the ROS layer (full build).
+if(TARGET collision_monitor_ros AND EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/bench/latency_probe.cpp")
+  add_executable(collision_monitor_latency_probe bench/latency_probe.cpp)
+  target_include_directories(collision_monitor_latency_probe PRIVATE
+    ${CATKIN_DEVEL_PREFIX}/${CATKIN_GLOBAL_INCLUDE_DESTINATION})
+  target_include_directories(collision_monitor_latency_probe SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+  target_link_libraries(collision_monitor_latency_probe ${catkin_LIBRARIES})
+  target_compile_options(collision_monitor_latency_probe PRIVATE ${CM_WARNING_FLAGS})
+  add_dependencies(collision_monitor_latency_probe ${${PROJECT_NAME}_EXPORTED_TARGETS})
 endif()
