@@ -843,13 +843,11 @@ int main(int argc, char** argv) {
       const std::string suffix = "/n" + std::to_string(sp->n);
       benchmark::RegisterBenchmark((query + "/ours" + suffix).c_str(),
                                    [sp, all](benchmark::State& st) { oursCycle(st, sp, all); })
-          ->Unit(benchmark::kMicrosecond)
-          ->UseRealTime();
+          ->Unit(benchmark::kMicrosecond);
 #ifdef CM_BENCH_HAVE_FCL
       benchmark::RegisterBenchmark((query + "/fcl" + suffix).c_str(),
                                    [sp, all](benchmark::State& st) { fclCycle(st, sp, all); })
-          ->Unit(benchmark::kMicrosecond)
-          ->UseRealTime();
+          ->Unit(benchmark::kMicrosecond);
 #endif
     }
   }

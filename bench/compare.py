@@ -16,10 +16,19 @@ issue "The convex geometry core" (Speed):
   * BM_Intersect on hulls: ours >= 1.5x faster than libccd_gjk and than libccd_mpr, every size;
   * BM_DistanceWarm/ours on hulls >= 3x faster than BM_Distance/ours (cold), every size.
 --strict: exit status 1 when a target is missed or the correctness check failed.
+
+The same script reads collision_monitor_bench_world's JSON (BM_Cycle / BM_CycleAll, cases n10 ..
+n10000; times per cycle): a table per variant with ours, fcl, fcl/ours, time / (n log2 n) and the
+growth exponent between consecutive n, then the targets of the issue "The monitor node" (Speed):
+  * BM_Cycle[All]/ours/n1000 (7-link arm + 1,000 obstacles) under 1 ms per cycle;
+  * ours >= 5x faster than the FCL pipeline on the same scene, at every n;
+  * growth no worse than ~n log n: exponent of ours from n1000 to n10000 <= 1.25 (n log n gives
+    1.12 there).
 """
 
 import argparse
 import json
+import math
 import re
 import sys
 
@@ -31,6 +40,13 @@ CASE_ORDER = ["hull12", "hull32", "hull100", "hull500",
               "box_box", "capsule_capsule", "sphere_box", "cylinder_cone"]
 HULLS = ["hull12", "hull32", "hull100", "hull500"]
 TO_NS = {"ns": 1.0, "us": 1e3, "ms": 1e6, "s": 1e9}
+
+WORLD_QUERIES = ["Cycle", "CycleAll"]
+WORLD_VARIANT = {"Cycle": "arm + 10 % of the obstacles move per cycle",
+                 "CycleAll": "arm + every obstacle moves every cycle"}
+WORLD_CYCLE_TARGET_US = 1000.0  # ours at n1000
+WORLD_RATIO_TARGET = 5.0        # fcl / ours, every n
+WORLD_GROWTH_TARGET = 1.25      # exponent of ours from n1000 to n10000
 
 # (description, query of the reference, library, query of ours, minimum ratio reference/ours)
 TARGETS = [
@@ -143,9 +159,104 @@ def check_targets(times, markdown):
     return out, missed
 
 
+def case_n(case):
+    m = re.match(r"^n(\d+)$", case)
+    return int(m.group(1)) if m else None
+
+
+def fit_exponent(points):
+    """Least-squares slope of log t over log n."""
+    if len(points) < 2:
+        return None
+    xs = [math.log(n) for n, _ in points]
+    ys = [math.log(t) for _, t in points]
+    mx, my = sum(xs) / len(xs), sum(ys) / len(ys)
+    sxx = sum((x - mx) ** 2 for x in xs)
+    return sum((x - mx) * (y - my) for x, y in zip(xs, ys)) / sxx if sxx else None
+
+
+def world_tables(times, markdown):
+    out = []
+    for query in WORLD_QUERIES:
+        ns = sorted({case_n(c) for (q, _, c) in times if q == query and case_n(c)})
+        if not ns:
+            continue
+        rows = []
+        prev = {}
+        series = {"ours": [], "fcl": []}
+        for n in ns:
+            row = [f"{n:,}"]
+            for lib in ("ours", "fcl"):
+                t = times.get((query, lib, f"n{n}"))
+                row.append(f"{t / 1e3:,.1f}" if t is not None else "-")
+                if t is not None:
+                    series[lib].append((n, t))
+            ours, fcl = times.get((query, "ours", f"n{n}")), times.get((query, "fcl", f"n{n}"))
+            row.append(f"{fcl / ours:.2f}x" if ours and fcl else "-")
+            row.append(f"{ours / (n * math.log2(n)):.2f}" if ours else "-")
+            for lib, t in (("ours", ours), ("fcl", fcl)):
+                if t is not None and lib in prev:
+                    pn, pt = prev[lib]
+                    row.append(f"{math.log(t / pt) / math.log(n / pn):.2f}")
+                else:
+                    row.append("-")
+                if t is not None:
+                    prev[lib] = (n, t)
+            rows.append(row)
+        out.append(f"\nBM_{query}: {WORLD_VARIANT[query]} (median time per cycle, us; "
+                   "ratio > 1: ours faster)")
+        out.extend(render(["n obstacles", "ours us", "fcl us", "fcl/ours", "ours ns/(n log2 n)",
+                           "ours exponent", "fcl exponent"], rows, markdown))
+        fits = []
+        for lib in ("ours", "fcl"):
+            pts = [(n, t) for n, t in series[lib] if n >= 100]
+            e = fit_exponent(pts)
+            if e is not None:
+                fits.append(f"{lib} t ~ n^{e:.2f}")
+        if fits:
+            out.append("fitted over n >= 100: " + ", ".join(fits))
+    return out
+
+
+def check_world_targets(times, markdown):
+    rows, missed = [], 0
+    for query in WORLD_QUERIES:
+        ns = sorted({case_n(c) for (q, _, c) in times if q == query and case_n(c)})
+        if not ns:
+            continue
+        ours = times.get((query, "ours", "n1000"))
+        if ours is None:
+            rows.append([f"{query}: arm + 1,000 obstacles < 1 ms", "n1000", "-", "not measured"])
+        else:
+            ok = ours / 1e3 < WORLD_CYCLE_TARGET_US
+            missed += 0 if ok else 1
+            rows.append([f"{query}: arm + 1,000 obstacles < 1 ms", "n1000",
+                         f"{ours / 1e3:,.0f} us", "met" if ok else "MISSED"])
+        for n in ns:
+            o, f = times.get((query, "ours", f"n{n}")), times.get((query, "fcl", f"n{n}"))
+            if o is None or f is None:
+                rows.append([f"{query}: vs FCL pipeline >= 5x", f"n{n}", "-", "not measured"])
+                continue
+            ok = f / o >= WORLD_RATIO_TARGET
+            missed += 0 if ok else 1
+            rows.append([f"{query}: vs FCL pipeline >= 5x", f"n{n}", f"{f / o:.2f}x",
+                         "met" if ok else "MISSED"])
+        a, b = times.get((query, "ours", "n1000")), times.get((query, "ours", "n10000"))
+        if a and b:
+            e = math.log(b / a) / math.log(10.0)
+            ok = e <= WORLD_GROWTH_TARGET
+            missed += 0 if ok else 1
+            rows.append([f"{query}: growth <= ~n log n (exponent <= {WORLD_GROWTH_TARGET})",
+                         "n1000-n10000", f"{e:.2f}", "met" if ok else "MISSED"])
+    out = ["\nTargets (monitor node cycle)"]
+    out.extend(render(["target", "case", "value", "verdict"], rows, markdown))
+    return out, missed
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("json", help="Google Benchmark JSON output of collision_monitor_bench_core")
+    ap.add_argument("json", help="Google Benchmark JSON output of collision_monitor_bench_core "
+                    "or collision_monitor_bench_world")
     ap.add_argument("--markdown", action="store_true", help="markdown tables (docs/benchmarks.md)")
     ap.add_argument("--strict", action="store_true",
                     help="exit 1 when a target is missed or correctness failed")
@@ -159,9 +270,19 @@ def main():
               "cm_libraries", "cm_correctness"):
         if k in context:
             lines.append(f"{k}: {context[k]}")
-    lines += tables(times, args.markdown)
-    target_lines, missed = check_targets(times, args.markdown)
-    lines += target_lines
+    is_core = any(q in QUERIES for (q, _, _) in times)
+    is_world = any(q in WORLD_QUERIES for (q, _, _) in times)
+    missed = 0
+    if is_core:
+        lines += tables(times, args.markdown)
+        target_lines, missed = check_targets(times, args.markdown)
+        lines += target_lines
+    if is_world:
+        lines += [f"{k}: {v}" for k, v in sorted(context.items()) if k.startswith("cm_check_")]
+        lines += world_tables(times, args.markdown)
+        target_lines, world_missed = check_world_targets(times, args.markdown)
+        lines += target_lines
+        missed += world_missed
     correctness = context.get("cm_correctness", "unknown")
     lines.append(f"\n{missed} target(s) missed; correctness check: {correctness}")
     print("\n".join(lines))
