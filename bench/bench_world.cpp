@@ -53,6 +53,7 @@
 #include <iterator>
 #include <limits>
 #include <map>
+#include <optional>
 #include <memory>
 #include <random>
 #include <set>
@@ -316,6 +317,14 @@ struct Scene {
   const Transform3& obstaclePose(int o, std::int64_t cycle, bool all) const {
     const std::int64_t step = all ? cycle : (cycle + o) / 10;
     return ring[static_cast<std::size_t>(o) * kRing + static_cast<std::size_t>(step % kRing)];
+  }
+
+  /// Pose of body b at `cycle` (what both pipelines hold after that cycle).
+  Transform3 bodyPose(int b, std::int64_t cycle, bool all) const {
+    if (b >= kArmLinks) return obstaclePose(b - kArmLinks, cycle, all);
+    Transform3 links[kArmLinks];
+    panda.fk(time(cycle), links);
+    return links[b];
   }
 
   /// Calls f(body, pose) for every body that moves at `cycle` (every body at cycle 0).
@@ -619,11 +628,45 @@ class Fcl {
 
 // ---- correctness ------------------------------------------------------------------------------
 
+/// Exact signed distance of two bodies when every part pair is sphere/sphere or capsule/sphere
+/// (closed form: point-segment distance minus the radii); nullopt otherwise.
+std::optional<double> exactDistance(const Scene& scene, int a, int b, std::int64_t c, bool all) {
+  const Transform3 Ta = scene.bodyPose(a, c, all);
+  const Transform3 Tb = scene.bodyPose(b, c, all);
+  double best = std::numeric_limits<double>::infinity();
+  const auto segment = [](const PartDesc& p, const Transform3& T, Vec3* p0, Vec3* p1) {
+    const double h = p.kind == Kind::Capsule ? 0.5 * p.length : 0.0;
+    *p0 = T * Vec3(0, 0, -h);
+    *p1 = T * Vec3(0, 0, h);
+  };
+  for (const PartDesc& pa : scene.bodies[a].parts) {
+    for (const PartDesc& pb : scene.bodies[b].parts) {
+      const bool round_a = pa.kind == Kind::Sphere || pa.kind == Kind::Capsule;
+      const bool round_b = pb.kind == Kind::Sphere || pb.kind == Kind::Capsule;
+      if (!round_a || !round_b || (pa.kind == Kind::Capsule && pb.kind == Kind::Capsule)) {
+        return std::nullopt;
+      }
+      const bool a_is_sphere = pa.kind == Kind::Sphere;
+      const PartDesc& cap = a_is_sphere ? pb : pa;
+      const PartDesc& sph = a_is_sphere ? pa : pb;
+      Vec3 s0, s1, q, unused;
+      segment(cap, (a_is_sphere ? Tb : Ta) * cap.pose, &s0, &s1);
+      segment(sph, (a_is_sphere ? Ta : Tb) * sph.pose, &q, &unused);
+      const Vec3 d = s1 - s0;
+      const double len2 = d.squaredNorm();
+      const double t = len2 > 0 ? std::clamp((q - s0).dot(d) / len2, 0.0, 1.0) : 0.0;
+      best = std::min(best, (s0 + t * d - q).norm() - cap.radius - sph.radius);
+    }
+  }
+  return best;
+}
+
 /// Runs both pipelines side by side and compares the pairs below warning_distance.
 ///
 /// A pair only one pipeline reports below warning_distance (or whose two distances differ by
-/// more than kRefereeDiff) is re-measured by Fcl::referee() (and ours by WorldModel::distance()
-/// when ours did not list it). It counts as an FCL inaccuracy when ours agrees with the referee
+/// more than kRefereeDiff) is re-measured: exactly in closed form when every part pair is
+/// sphere/sphere or capsule/sphere (exactDistance()), else by Fcl::referee(); ours by
+/// WorldModel::distance() when ours did not list it. It counts as an FCL inaccuracy when ours agrees with the referee
 /// within kRefereeDiff, within the band when either distance is within kBand of the threshold,
 /// and as a mismatch otherwise.
 bool checkScene(const Scene& scene, bool all, std::string* summary) {
@@ -671,7 +714,8 @@ bool checkScene(const Scene& scene, bool all, std::string* summary) {
       }
       // Disagreement: referee.
       if (!std::isfinite(da)) da = ours.distance(ka, kb, c);
-      const double ref = fcl.referee(ka, kb);
+      const std::optional<double> exact = exactDistance(scene, ka, kb, c, all);
+      const double ref = exact ? *exact : fcl.referee(ka, kb);
       if (std::abs(da - ref) <= kRefereeDiff) {
         max_ref_diff = std::max(max_ref_diff, std::abs(da - ref));
         if (!same_side) {
