@@ -18,3 +18,12 @@ endif()
 cm_add_gtest(test_core_hostile
   SOURCES test/robustness/test_core_hostile.cpp
   LIBS collision_monitor_core)
+
+# rostests over a real roscore (python test nodes in test/robustness, /usr/bin/python3).
+if(NOT COLLISION_MONITOR_CORE_ONLY AND CATKIN_ENABLE_TESTING)
+  find_package(rostest REQUIRED)
+  file(GLOB CM_ROBUST_ROSTESTS RELATIVE ${CMAKE_CURRENT_SOURCE_DIR} test/robustness/*.test)
+  foreach(t ${CM_ROBUST_ROSTESTS})
+    add_rostest(${t} DEPENDENCIES collision_monitor_node collision_monitor_ros)
+  endforeach()
+endif()

@@ -25,11 +25,12 @@ echo "fuzz.sh: ${#INPUTS[@]} inputs replayed"
 
 echo "fuzz.sh: fuzzing for ${SECONDS_TO_RUN} s"
 rc=0
-"$B/fuzz_core" "$B/corpus-core" "$CM_ROOT/fuzz/corpus/core" \
+PARALLEL=()
+if [ "$JOBS" -gt 1 ]; then PARALLEL=(-fork="$JOBS"); fi
+(cd "$B" && ./fuzz_core "$B/corpus-core" "$CM_ROOT/fuzz/corpus/core" "${PARALLEL[@]}" \
   -max_total_time="$SECONDS_TO_RUN" -timeout=10 -rss_limit_mb=2048 -max_len=2048 \
-  -jobs="$JOBS" -workers="$JOBS" -artifact_prefix="$B/artifacts/" -print_final_stats=1 \
-  >"$B/fuzz.log" 2>&1 || rc=$?
-grep -E "^stat::number_of_executed_units|^stat::peak_rss_mb|^#[0-9]+.*DONE" "$B/fuzz.log" || true
+  -artifact_prefix="$B/artifacts/" -print_final_stats=1 >"$B/fuzz.log" 2>&1) || rc=$?
+grep -E "^stat::(number_of_executed_units|average_exec_per_sec|peak_rss_mb)|^#[0-9]+.*DONE" "$B/fuzz.log" || true
 if [ "$rc" -ne 0 ]; then
   grep -A30 -E "check failed|ERROR: (AddressSanitizer|libFuzzer)|runtime error|SUMMARY" "$B/fuzz.log" | head -60
   echo "fuzz.sh: FAILED; inputs: $(ls "$B/artifacts")" >&2

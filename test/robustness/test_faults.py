@@ -1,0 +1,191 @@
+#!/usr/bin/python3
+"""rostest: faults through a real roscore.
+  1. TF for a body's frame stops -> its pairs UNKNOWN within pose_timeout + one cycle; resumes ->
+     they recover (UNKNOWN_END) with the right distance.
+  2. A burst of 1,000 ~get_distance calls (8 threads) plus a slow client holding a connection:
+     the periodic check must not stall beyond one cycle; the largest gap between consecutive
+     ~state messages during the burst is measured.
+  3. Node restart (SIGKILL, respawned by roslaunch) while publishers keep running: the latched
+     ~bodies and the TF stream bring the world back (same ids, same distance).
+Figures go to stdout and to $CM_ARTIFACTS/faults.txt when set."""
+import os
+import signal
+import socket
+import sys
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+import tf2_ros
+from collision_monitor.msg import Body, CollisionEvent, CollisionState, PairState, Shape
+from collision_monitor.srv import GetDistance
+from geometry_msgs.msg import TransformStamped
+
+from robust_util import alive, node_pid
+from cm_test_util import Monitor, shape, wait_for
+
+E = CollisionEvent
+FIGURES = []
+
+
+def figure(line):
+    FIGURES.append(line)
+    print('[faults] ' + line, flush=True)
+
+
+class TfStreamer:
+    """Broadcasts world -> moving_frame at `rate` Hz with fresh stamps while not paused."""
+
+    def __init__(self, rate=50.0):
+        self.br = tf2_ros.TransformBroadcaster()
+        self.paused = False
+        self.x = 1.0
+        self.period = 1.0 / rate
+        threading.Thread(target=self._run, daemon=True).start()
+
+    def _run(self):
+        while not rospy.is_shutdown():
+            if not self.paused:
+                t = TransformStamped()
+                t.header.stamp = rospy.Time.now()
+                t.header.frame_id = 'world'
+                t.child_frame_id = 'moving_frame'
+                t.transform.translation.x = self.x
+                t.transform.rotation.w = 1.0
+                try:
+                    self.br.sendTransform(t)
+                except rospy.ROSException:
+                    return
+            time.sleep(self.period)
+
+
+class Faults(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_faults')
+        cls.static_tf = tf2_ros.StaticTransformBroadcaster()
+        t = TransformStamped()
+        t.header.frame_id = 'world'
+        t.child_frame_id = 'fixed_frame_a'
+        t.transform.rotation.w = 1.0
+        cls.static_tf.sendTransform([t])
+        cls.tf = TfStreamer()
+        cls.m = Monitor()
+        cls.rate = rospy.get_param('/collision_monitor/rate')
+        cls.pose_timeout = rospy.get_param('/collision_monitor/pose_timeout')
+        # Latched: a restarted node gets these again (what users must latch, docs/reliability.md).
+        cls.latched = rospy.Publisher('/collision_monitor/bodies', Body, queue_size=10, latch=True)
+        for body_id, frame, dims in (('fixed', 'fixed_frame_a', [0.2]), ('mover', 'moving_frame', [0.3])):
+            b = Body(id=body_id, operation=Body.ADD, pose_from_topic=False)
+            b.header.frame_id = frame
+            b.parts = [shape(Shape.SPHERE, dims)]
+            cls.latched.publish(b)
+        assert cls.m.wait_listed('fixed', timeout=10.0) and cls.m.wait_listed('mover', timeout=10.0)
+        cls.state_times = []
+        rospy.Subscriber('/collision_monitor/state', CollisionState,
+                         lambda msg: cls.state_times.append(time.monotonic()), queue_size=100)
+
+    def distance(self):
+        r = self.m.get_distance('fixed', 'mover', '')
+        return r.result.distance if r.success else None
+
+    def test_1_tf_stops_and_resumes(self):
+        self.assertTrue(wait_for(lambda: self.distance() is not None, 5.0))
+        self.assertAlmostEqual(self.distance(), 1.0 - 0.5, delta=1e-6)
+        t0 = time.monotonic()
+        self.tf.paused = True
+        ev = self.m.wait_event(E.UNKNOWN_BEGIN, 'fixed', 'mover', timeout=5.0, since=t0)
+        self.assertIsNotNone(ev, 'no UNKNOWN_BEGIN after the TF stream stopped')
+        latency = ev[0] - t0
+        # The last transform was up to one TF period old when the stream stopped.
+        bound = self.pose_timeout + 1.0 / self.rate + 0.1
+        figure('TF stopped: UNKNOWN_BEGIN after %.3f s (pose_timeout %.2f s, cycle %.3f s)'
+               % (latency, self.pose_timeout, 1.0 / self.rate))
+        self.assertLessEqual(latency, bound)
+        self.assertEqual(ev[1].pair.status, PairState.UNKNOWN)
+        t1 = time.monotonic()
+        self.tf.paused = False
+        ev = self.m.wait_event(E.UNKNOWN_END, 'fixed', 'mover', timeout=5.0, since=t1)
+        self.assertIsNotNone(ev, 'no UNKNOWN_END after the TF stream resumed')
+        figure('TF resumed: UNKNOWN_END after %.3f s' % (ev[0] - t1))
+        self.assertTrue(wait_for(lambda: self.distance() is not None, 2.0))
+        self.assertAlmostEqual(self.distance(), 0.5, delta=1e-6)
+
+    def test_2_service_burst(self):
+        # A slow client: connects to the service port and sends nothing.
+        uri = rospy.get_master().lookupService('/test_faults', '/collision_monitor/get_distance')[2]
+        host, port = uri[len('rosrpc://'):].rstrip('/').split(':')
+        slow = socket.create_connection((host, int(port)))
+        slow.sendall(b'\x10\x00')  # 2 bytes of a 4-byte header length, then silence
+        n, threads = 1000, 8
+        del self.state_times[:]
+        errors = []
+
+        def worker(k):
+            proxy = rospy.ServiceProxy('/collision_monitor/get_distance', GetDistance,
+                                       persistent=(k % 2 == 0))
+            for _ in range(n // threads):
+                try:
+                    proxy('fixed', 'mover', '')
+                except (rospy.ServiceException, OSError) as e:
+                    errors.append(str(e))
+        t0 = time.monotonic()
+        ws = [threading.Thread(target=worker, args=(k,)) for k in range(threads)]
+        for w in ws:
+            w.start()
+        for w in ws:
+            w.join()
+        dt = time.monotonic() - t0
+        time.sleep(0.5)
+        slow.close()
+        times = [t for t in self.state_times if t0 <= t <= t0 + dt]
+        gaps = [b - a for a, b in zip(times, times[1:])]
+        max_gap = max(gaps) if gaps else float('inf')
+        figure('burst: %d ~get_distance calls from %d threads + 1 stalled client in %.2f s '
+               '(%.0f calls/s), %d errors; ~state during it: %d messages, max gap %.1f ms '
+               '(cycle %.1f ms)' % (n, threads, dt, n / dt, len(errors), len(times),
+                                   1e3 * max_gap, 1e3 / self.rate))
+        self.assertEqual(errors, [])
+        self.assertGreater(len(times), 2)
+        self.assertLessEqual(max_gap, 2.0 / self.rate + 0.02,
+                             'the periodic check stalled beyond one cycle during the burst')
+
+    def test_3_restart(self):
+        pid = node_pid()
+        self.assertTrue(alive(pid))
+        d0 = self.distance()
+        os.kill(pid, signal.SIGKILL)
+        t0 = time.monotonic()
+        new_pid = wait_for(lambda: (lambda p: p if p and p != pid else None)(node_pid()), 30.0, 0.2)
+        self.assertIsNotNone(new_pid, 'the node was not respawned')
+        back = wait_for(lambda: self._answers(), 30.0, 0.1)
+        figure('restart: SIGKILL -> respawned (pid %s) -> world back (latched ~bodies, TF) in %.2f s'
+               % (new_pid, time.monotonic() - t0))
+        self.assertTrue(back, 'the world did not come back after the restart')
+        self.assertAlmostEqual(self.distance(), d0, delta=1e-6)
+
+    def _answers(self):
+        try:
+            rospy.wait_for_service('/collision_monitor/get_distance', timeout=0.5)
+            ids = rospy.ServiceProxy('/collision_monitor/list_bodies',
+                                     self.m.list_bodies.service_class)().ids
+            if 'fixed' not in ids or 'mover' not in ids:
+                return False
+            self.m.get_distance = rospy.ServiceProxy('/collision_monitor/get_distance', GetDistance)
+            return self.distance() is not None
+        except (rospy.ROSException, rospy.ServiceException, OSError):
+            return False
+
+    @classmethod
+    def tearDownClass(cls):
+        out = os.environ.get('CM_ARTIFACTS')
+        if out:
+            os.makedirs(out, exist_ok=True)
+            with open(os.path.join(out, 'faults.txt'), 'w') as f:
+                f.write('\n'.join(FIGURES) + '\n')
+
+
+if __name__ == '__main__':
+    rostest.rosrun('collision_monitor', 'faults', Faults, sys.argv)

@@ -1,0 +1,364 @@
+#!/usr/bin/python3
+"""rostest: a storm of random and malformed collision_monitor/Body and BodyPoses messages (NaN/Inf,
+huge and negative sizes, zero and non-unit quaternions, mismatched arrays, unknown types and
+operations, too many vertices/parts/bodies, mesh URIs outside mesh_roots, empty and 1 MB ids,
+truncated serializations with 0xFFFFFFFF length prefixes) through the real node, then: the node is
+alive, answers ~list_bodies, the bodies tracked before the storm are all there with unchanged
+~get_distance answers, /diagnostics counted the rejections. Then a 10-million-vertex Body, a
+100 MB mesh path, and 100,000 bodies: refused, with the node's resident memory measured
+(/proc/<pid>/status). CM_STORM (default 3000) sets the storm size; figures go to stdout and to
+$CM_ARTIFACTS/hostile_input.txt when set."""
+import math
+import os
+import random
+import sys
+import time
+import unittest
+
+import rospy
+import rostest
+import tf2_ros
+from collision_monitor.msg import Body, BodyPoses, Shape
+from geometry_msgs.msg import Pose, Twist, TransformStamped
+
+from robust_util import (alive, body_bytes, node_pid, proc_status_kb, raw_class, shape_bytes)
+from cm_test_util import Monitor, pose, shape, wait_for  # test/ros (path set by robust_util)
+
+NAN, INF = float('nan'), float('inf')
+FIGURES = []
+
+
+def figure(line):
+    FIGURES.append(line)
+    print('[hostile_input] ' + line, flush=True)
+
+
+def tracked_body(body_id, frame, kind, dims):
+    b = Body(id=body_id, operation=Body.ADD, pose_from_topic=False)
+    b.header.frame_id = frame
+    b.parts = [shape(kind, dims)]
+    return b
+
+
+def bad_quaternion(rng, zero_is_identity=False):
+    """Invalid quaternions; (0, 0, 0, 0) only where it is not the identity (Shape.pose)."""
+    bad = [(0, 0, 0, 2), (NAN, 0, 0, 1), (1, 1, 1, 1), (0, 0, 0, -INF), (0.5, 0, 0, 0.5)]
+    return rng.choice(bad if zero_is_identity else bad + [(0, 0, 0, 0)])
+
+
+def bad_pose(rng, zero_is_identity=False):
+    p = pose()
+    kind = rng.randrange(3)
+    if kind == 0:
+        p.position.x = rng.choice([NAN, INF, -INF])
+    else:
+        (p.orientation.x, p.orientation.y, p.orientation.z,
+         p.orientation.w) = bad_quaternion(rng, zero_is_identity)
+    return p
+
+
+def bad_shape(rng):
+    """One invalid Shape."""
+    k = rng.randrange(14)
+    if k == 0:
+        return shape(Shape.SPHERE, [rng.choice([NAN, INF, -1.0, -1e300])])
+    if k == 1:
+        return shape(Shape.BOX, [1.0, rng.choice([NAN, -2.0, INF]), 1.0])
+    if k == 2:
+        return shape(rng.choice([Shape.BOX, Shape.CYLINDER, Shape.CONE]), [1.0] * rng.choice([0, 1, 4]))
+    if k == 3:
+        return shape(rng.choice([0, 9, 200, 255]), [1.0])
+    if k == 4:
+        return shape(Shape.CONVEX, [])  # no vertices
+    if k == 5:
+        s = shape(Shape.CONVEX, [])
+        s.vertices = [pose().position for _ in range(3)]
+        s.vertices[1].x = rng.choice([NAN, INF])
+        return s
+    if k == 6:
+        return shape(Shape.MESH, [], resource=rng.choice([
+            'file:///etc/shadow', 'file:///etc/passwd', 'file:///tmp/../etc/shadow',
+            'file://../../../../etc/shadow', 'package://collision_monitor/../../../etc/shadow',
+            'package://no_such_package/x.stl', 'http://example.com/x.stl', '', 'file://',
+            '/etc/shadow', 'file:///dev/zero', 'file:///proc/self/mem', 'package://',
+            'file:///' + 'a/' * 2000 + 'x.stl']))
+    if k == 7:
+        s = shape(Shape.SPHERE, [0.1])
+        s.pose = bad_pose(rng, zero_is_identity=True)
+        return s
+    if k == 8:
+        s = shape(Shape.CONVEX, [])
+        s.scale.x, s.scale.y, s.scale.z = rng.choice([(-1, 1, 1), (NAN, 1, 1), (0, 1, 1)])
+        s.vertices = [pose(x=i % 2, y=i // 2 % 2, z=i // 4).position for i in range(8)]
+        return s
+    if k == 9:
+        return shape(Shape.SPHERE, [0.0])  # degenerate: no extent
+    if k == 10:
+        return shape(Shape.ELLIPSOID, [1.0, 1.0, -1e-9])
+    if k == 11:
+        return shape(Shape.CAPSULE, [INF, 1.0])
+    if k == 12:
+        s = shape(Shape.BOX, [1.0, 1.0, 1.0])
+        s.scale.x, s.scale.y, s.scale.z = 2.0, 2.0, 2.0  # primitives accept only 0 or 1 scales
+        return s
+    s = shape(Shape.CONVEX, [])  # more than max_vertices_per_part (100)
+    s.vertices = [pose(x=math.cos(i), y=math.sin(i), z=i * 1e-3).position for i in range(101)]
+    return s
+
+
+def bad_body(rng, tracked_ids):
+    """An invalid Body; a third of them try to replace or remove a tracked body."""
+    body_id = rng.choice(tracked_ids) if rng.random() < 0.33 else 'storm_%d' % rng.randrange(1000)
+    b = Body(id=body_id, operation=Body.ADD, pose_from_topic=False)
+    b.header.frame_id = 'world'
+    b.parts = [shape(Shape.SPHERE, [0.1])]
+    k = rng.randrange(9)
+    if k <= 2:
+        b.parts.append(bad_shape(rng))
+        rng.shuffle(b.parts)
+    elif k == 3:
+        b.padding = rng.choice([-0.1, NAN, INF])
+    elif k == 4:
+        b.id = ''
+    elif k == 5:
+        b.operation = rng.choice([2, 7, 255])
+    elif k == 6:
+        b.parts = []  # no parts
+    elif k == 7:
+        b.header.frame_id = ''  # attached to TF but no frame
+    else:
+        b.parts = [shape(Shape.SPHERE, [0.01])] * 1001  # more than max_parts_per_body
+    return b
+
+
+def bad_poses(rng, tracked_ids):
+    """An invalid BodyPoses message (every one refused as a whole)."""
+    m = BodyPoses()
+    m.header.frame_id = 'world'
+    m.header.stamp = rospy.Time.now()
+    ids = [rng.choice(tracked_ids + ['topic_a', 'nobody'])for _ in range(rng.randrange(1, 4))]
+    k = rng.randrange(7)
+    m.ids = ids
+    m.poses = [pose(x=3.0) for _ in ids]
+    if k == 0:
+        m.poses.append(pose())  # more poses than ids
+    elif k == 1:
+        m.poses = m.poses[:-1]  # fewer
+    elif k == 2:
+        m.poses[0] = bad_pose(rng)
+    elif k == 3:
+        m.twists = [Twist()] * (len(ids) + 1)  # twists neither empty nor one per id
+    elif k == 4:
+        m.ids = ids + [ids[0]]  # duplicated id
+        m.poses = m.poses + [pose()]
+    elif k == 5:
+        m.header.frame_id = ''
+    else:
+        m.ids[0] = ''
+    return m
+
+
+def raw_bad_body(rng):
+    """Serialized Body bytes that do not deserialize: absurd length prefixes, truncation."""
+    k = rng.randrange(5)
+    if k == 0:
+        return body_bytes('raw', 'world', [shape_bytes(Shape.SPHERE, [0.1])],
+                          claimed_parts=0xFFFFFFFF)
+    if k == 1:
+        # Claims 2^25 doubles in 8 bytes: roscpp resizes (and zero-fills) 256 MB before it finds
+        # the stream too short. (0x7FFFFFFF made the node touch 16 GB: kept small on purpose.)
+        return body_bytes('raw', 'world', [shape_bytes(Shape.SPHERE, [0.1], claimed_dims=1 << 25)])
+    if k == 2:
+        return body_bytes('raw', 'world', [shape_bytes(Shape.SPHERE, [0.1])], id_claimed=0xFFFFFFF0)
+    if k == 3:
+        good = body_bytes('raw', 'world', [shape_bytes(Shape.SPHERE, [0.1])])
+        return good[:rng.randrange(len(good))]  # truncated
+    return bytes(rng.randrange(256) for _ in range(rng.randrange(1, 200)))  # garbage
+
+
+class HostileInput(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_hostile_input')
+        cls.static_tf = tf2_ros.StaticTransformBroadcaster()
+        frames = []
+        for name, x in (('frame_a', 0.0), ('frame_b', 2.0), ('frame_c', 0.0)):
+            t = TransformStamped()
+            t.header.frame_id = 'world'
+            t.child_frame_id = name
+            t.transform.translation.x = x
+            t.transform.translation.y = 3.0 if name == 'frame_c' else 0.0
+            t.transform.rotation.w = 1.0
+            frames.append(t)
+        cls.static_tf.sendTransform(frames)
+        cls.m = Monitor()
+        cls.pid = node_pid()
+        assert cls.pid, 'no pid for /collision_monitor'
+        cls.tracked = {'track_a': ('frame_a', Shape.SPHERE, [0.5]),
+                       'track_b': ('frame_b', Shape.BOX, [0.4, 0.4, 0.4]),
+                       'track_c': ('frame_c', Shape.CYLINDER, [1.0, 0.3])}
+        for body_id, (frame, kind, dims) in cls.tracked.items():
+            cls.m.add(tracked_body(body_id, frame, kind, dims))
+        for body_id in cls.tracked:
+            assert cls.m.wait_listed(body_id, timeout=10.0), body_id
+        cls.pairs = [('track_a', 'track_b'), ('track_a', 'track_c'), ('track_b', 'track_c')]
+        cls.before = {}
+        for a, b in cls.pairs:
+            r = wait_for(lambda: cls._distance(a, b), 10.0, 0.05)
+            assert r, 'no answer for %s-%s before the storm' % (a, b)
+            cls.before[(a, b)] = r
+
+    @classmethod
+    def _distance(cls, a, b):
+        r = cls.m.get_distance(a, b, '')
+        return r.result.distance if r.success else None
+
+    def rss(self):
+        return proc_status_kb(self.pid, 'VmRSS'), proc_status_kb(self.pid, 'VmHWM')
+
+    def rejected(self):
+        v = self.m.diag_value('rejected inputs (total)')
+        return int(v) if v is not None else 0
+
+    def assert_world_intact(self, when):
+        self.assertTrue(alive(self.pid), 'the node died ' + when)
+        ids = self.m.list_bodies().ids
+        for body_id in self.tracked:
+            self.assertIn(body_id, ids, '%s lost %s' % (body_id, when))
+        for (a, b), d0 in self.before.items():
+            d = self._distance(a, b)
+            self.assertIsNotNone(d, '%s-%s has no answer %s' % (a, b, when))
+            self.assertAlmostEqual(d, d0, delta=1e-9, msg='%s-%s changed %s' % (a, b, when))
+
+    def test_1_storm(self):
+        n = int(os.environ.get('CM_STORM', '3000'))
+        rng = random.Random(0x5707)
+        raw_pub = rospy.Publisher('/collision_monitor/bodies', raw_class(Body), queue_size=1000)
+        wait_for(lambda: raw_pub.get_num_connections() > 0, 10.0)
+        rss0, _ = self.rss()
+        rej0 = self.rejected()
+        ids = list(self.tracked)
+        counts = {'body': 0, 'poses': 0, 'raw': 0}
+        t0 = time.monotonic()
+        for i in range(n):
+            k = rng.random()
+            if k < 0.55:
+                self.m.bodies_pub.publish(bad_body(rng, ids))
+                counts['body'] += 1
+            elif k < 0.9:
+                self.m.poses_pub.publish(bad_poses(rng, ids))
+                counts['poses'] += 1
+            else:
+                raw_pub.publish(raw_class(Body)(raw_bad_body(rng)))
+                counts['raw'] += 1
+            if i % 50 == 49:
+                time.sleep(0.02)  # the node's subscriber queues hold 100: pace, do not flood
+        dt = time.monotonic() - t0
+        # Rejections are reported on the next /diagnostics (1 Hz).
+        time.sleep(2.5)
+        rejected = self.rejected() - rej0
+        rss1, hwm = self.rss()
+        figure('storm: %d messages in %.1f s (%d Body, %d BodyPoses, %d unparseable Body); '
+               '%d rejections counted in /diagnostics; node RSS %d -> %d kB (peak %d kB)'
+               % (n, dt, counts['body'], counts['poses'], counts['raw'], rejected, rss0, rss1, hwm))
+        self.assert_world_intact('after the storm')
+        # Every parseable message of the storm is invalid and must be counted (a few may be
+        # dropped by the subscriber queues; unparseable ones never reach the node's callback).
+        self.assertGreaterEqual(rejected, 0.9 * (counts['body'] + counts['poses']))
+        # Bug (ROS layer / roscpp deserialization): a 40-byte Body claiming 2^25 dimensions makes
+        # the node allocate and zero-fill 256 MB before the message is found short; peak RSS
+        # grows by GBs during the storm and the backlog stalls the node for seconds.
+        self.assertLess(hwm - rss0, 200 * 1024, 'the storm grew the node by > 200 MB (peak)')
+        self.assertLess(rss1 - rss0, 200 * 1024, 'the storm left the node > 200 MB larger')
+        # Not refused by the contract (a non-empty id): a 1 MB id. Recorded, then removed.
+        long_id = 'x' * (1 << 20)
+        b = Body(id=long_id, operation=Body.ADD, pose_from_topic=True)
+        b.parts = [shape(Shape.SPHERE, [0.1])]
+        self.m.bodies_pub.publish(b)
+        listed = self.m.wait_listed(long_id, timeout=5.0)
+        figure('a 1 MB body id: %s' % ('accepted (no id length limit)' if listed else 'refused'))
+        self.m.bodies_pub.publish(Body(id=long_id, operation=Body.REMOVE))
+        self.m.wait_listed(long_id, present=False, timeout=5.0)
+
+    def test_2_ten_million_vertices(self):
+        pub = rospy.Publisher('/collision_monitor/bodies', raw_class(Body), queue_size=1)
+        wait_for(lambda: pub.get_num_connections() > 0, 10.0)
+        rss0, _ = self.rss()
+        n = 10 ** 7
+        payload = body_bytes('huge_convex', 'world', [shape_bytes(Shape.CONVEX, n_vertices=n)])
+        rej0 = self.rejected()
+        t0 = time.monotonic()
+        pub.publish(raw_class(Body)(payload))
+        ok = wait_for(lambda: 'huge_convex' in (self.m.diag_value('last rejection') or ''), 60.0,
+                      0.1)
+        dt = time.monotonic() - t0
+        last = self.m.diag_value('last rejection') or ''
+        rss1, hwm = self.rss()
+        figure('10,000,000-vertex Body (%d MB serialized): refused in %.1f s (%s); node RSS %d -> '
+               '%d kB, peak %d kB' % (len(payload) >> 20, dt, last[:120], rss0, rss1, hwm))
+        self.assertTrue(ok, 'no rejection counted for the 10M-vertex body')
+        self.assertIn('max_vertices_per_part', last)
+        self.assertNotIn('huge_convex', self.m.list_bodies().ids)
+        self.assert_world_intact('after the 10M-vertex body')
+        del payload
+
+    def test_3_long_mesh_path(self):
+        pub = rospy.Publisher('/collision_monitor/bodies', raw_class(Body), queue_size=1)
+        wait_for(lambda: pub.get_num_connections() > 0, 10.0)
+        size = int(os.environ.get('CM_LONG_PATH_MB', '100')) << 20
+        path = b'file:///' + b'../' * (size // 3)
+        payload = body_bytes('long_path', 'world', [shape_bytes(Shape.MESH, resource=path)])
+        rej0 = self.rejected()
+        t0 = time.monotonic()
+        pub.publish(raw_class(Body)(payload))
+        ok = wait_for(lambda: 'long_path' in (self.m.diag_value('last rejection') or ''), 60.0,
+                      0.1)
+        dt = time.monotonic() - t0
+        rss1, hwm = self.rss()
+        figure('%d MB mesh path: refused in %.1f s (%s); node RSS %d kB, peak %d kB'
+               % (size >> 20, dt, (self.m.diag_value('last rejection') or '')[:100], rss1, hwm))
+        self.assertTrue(ok, 'no rejection counted for the long path')
+        self.assertNotIn('long_path', self.m.list_bodies().ids)
+        self.assert_world_intact('after the long path')
+
+    def test_4_hundred_thousand_bodies(self):
+        n = int(os.environ.get('CM_MANY_BODIES', '100000'))
+        max_bodies = rospy.get_param('/collision_monitor/max_bodies')
+        rss0, _ = self.rss()
+        rej0 = self.rejected()
+        t0 = time.monotonic()
+        for i in range(n):
+            b = Body(id='many_%06d' % i, operation=Body.ADD, pose_from_topic=True)
+            b.parts = [shape(Shape.SPHERE, [0.01])]
+            self.m.bodies_pub.publish(b)
+            if i % 100 == 99:
+                time.sleep(0.005)
+        dt = time.monotonic() - t0
+        count = wait_for(lambda: len(self.m.list_bodies().ids) >= max_bodies and
+                         len(self.m.list_bodies().ids), 30.0, 0.2)
+        time.sleep(2.5)
+        listed = len(self.m.list_bodies().ids)
+        rejected = self.rejected() - rej0
+        last = self.m.diag_value('last rejection') or ''
+        rss1, hwm = self.rss()
+        figure('%d bodies sent in %.1f s: %d listed (max_bodies %d), %d refused (%s); node RSS '
+               '%d -> %d kB, peak %d kB' % (n, dt, listed, max_bodies, rejected, last[:100], rss0,
+                                           rss1, hwm))
+        self.assertTrue(count)
+        self.assertLessEqual(listed, max_bodies)
+        self.assertGreater(rejected, 0)
+        self.assertIn('max_bodies', last)
+        self.assert_world_intact('after 100,000 bodies')
+        self.assertLess(hwm, 2 * 1024 * 1024, 'node peak RSS above 2 GB')
+
+    @classmethod
+    def tearDownClass(cls):
+        out = os.environ.get('CM_ARTIFACTS')
+        if out:
+            os.makedirs(out, exist_ok=True)
+            with open(os.path.join(out, 'hostile_input.txt'), 'w') as f:
+                f.write('\n'.join(FIGURES) + '\n')
+
+
+if __name__ == '__main__':
+    rostest.rosrun('collision_monitor', 'hostile_input', HostileInput, sys.argv)
