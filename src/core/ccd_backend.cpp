@@ -9,11 +9,17 @@
 ///     the exact one by up to ~50 % of the size on boxes; EPA at epa_tolerance 1e-10 has depth
 ///     errors <= 3e-11 of the size on boxes and <= 2.2e-6 on random hulls (its second stopping
 ///     test compares a squared distance with the tolerance).
-///   - known libccd 2.1 weakness, measured and not worked around: on shapes with a radius
-///     (spheres, capsules) its GJK+EPA can end on a "touching contact" and report depth 0 for a
-///     deep overlap, or stop EPA on a wrong face (depth errors up to ~80 % of the size on
-///     sphere pairs, ~5 % on capsule pairs). Verdicts stay right. Use the "gjk" backend for
-///     depths on such shapes.
+///   - known libccd 2.1 weakness, measured on full shapes (ccdPenetration): on shapes with a
+///     radius (spheres, capsules) its GJK+EPA can end on a "touching contact" and report depth 0
+///     for a deep overlap, or stop EPA on a wrong face (depth errors up to ~99 % of the size on
+///     sphere pairs). The backend therefore gives libccd the cores only and adds the radii after
+///     convergence, as our GJK does (measured through the backend: <= 3e-6 of the size on every
+///     category, test_ccd_backend BackendKeepsRadiiOutOfLibccd).
+///   - where libccd cannot be trusted the backend answers with our GJK/EPA instead: poses with
+///     NaN/Inf (libccd dereferences a null pointer inside ccdGJKPenetration on them), and a
+///     "touching contact" from ccdGJKPenetration (depth within the touching band), which is how
+///     its EPA gives up on flat Minkowski differences and on some deep sphere/capsule overlaps
+///     (e.g. a zero-thickness box 955 m deep inside a sphere: libccd depth 0).
 ///   - witness points: libccd's `pos` is a median of EPA polytope vertices, not a contact point;
 ///     point_a/point_b = pos +- depth/2 * normal are only indicative (off the surfaces by up to
 ///     ~0.4 of the size, measured).
@@ -33,9 +39,10 @@ namespace {
 /// One body as libccd sees it: the full shape (core + radius) posed in A's frame, scaled.
 struct CcdBody {
   const ConvexShape* shape = nullptr;
-  Transform3 pose;     ///< shape frame -> A's frame
-  double scale = 1.0;  ///< libccd coordinates = scale * A's-frame coordinates
-  Vec3 centre;         ///< an interior point, libccd coordinates
+  Transform3 pose;         ///< shape frame -> A's frame
+  double scale = 1.0;      ///< libccd coordinates = scale * A's-frame coordinates
+  bool core_only = false;  ///< support of the core only (radius left out)
+  Vec3 centre;             ///< an interior point, libccd coordinates
 };
 
 Vec3 toEigen(const ccd_vec3_t* v) {
@@ -70,7 +77,9 @@ Vec3 interiorPoint(const ConvexShape& s) {
 void support(const void* obj, const ccd_vec3_t* dir, ccd_vec3_t* out) {
   const CcdBody* body = static_cast<const CcdBody*>(obj);
   const Vec3 d_local = body->pose.R.transpose() * toEigen(dir);
-  toCcd(body->scale * (body->pose * body->shape->support(d_local)), out);
+  const Vec3 s =
+      body->core_only ? body->shape->coreSupport(d_local) : body->shape->support(d_local);
+  toCcd(body->scale * (body->pose * s), out);
 }
 
 void centre(const void* obj, ccd_vec3_t* c) {
@@ -100,6 +109,7 @@ struct CcdPair {
     b.shape = &sb;
     b.pose = pose_a.inverse() * pose_b;
     a.scale = b.scale = s;
+    a.core_only = b.core_only = o.cores_only;
     a.centre = s * interiorPoint(sa);
     b.centre = s * (b.pose * interiorPoint(sb));
     CCD_INIT(&ccd);
@@ -115,26 +125,46 @@ struct CcdPair {
   }
 };
 
+bool finitePoses(const Transform3& pose_a, const Transform3& pose_b) {
+  return pose_a.R.allFinite() && pose_a.t.allFinite() && pose_b.R.allFinite() &&
+         pose_b.t.allFinite();
+}
+
 class LibccdNarrowPhase final : public NarrowPhase {
  public:
   LibccdNarrowPhase(const QueryOptions& query, const CcdOptions& ccd) : query_(query), ccd_(ccd) {}
   BackendType type() const override { return BackendType::Libccd; }
   bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
-                 const Transform3& pose_b, PairCache* /*cache*/) const override {
+                 const Transform3& pose_b, PairCache* cache) const override {
+    // Non-finite poses: our defined (conservative) answer; libccd would crash.
+    if (!finitePoses(pose_a, pose_b)) return core::intersect(a, pose_a, b, pose_b, cache, query_);
     return ccdIntersect(a, pose_a, b, pose_b, ccd_);
   }
   ContactResult signedDistance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                                const Transform3& pose_b, PairCache* cache) const override {
-    ContactResult r;
-    if (ccdPenetration(a, pose_a, b, pose_b, &r, ccd_, query_)) return r;
-    // libccd 2.1 has no distance query: separation by our GJK.
-    r = core::distance(a, pose_a, b, pose_b, cache, query_);
-    if (r.status == Status::Penetrating) {
-      // libccd says apart, our GJK says overlapping: only inside the touching band.
-      r.status = Status::Touching;
-      r.distance = 0.0;
+    if (!finitePoses(pose_a, pose_b)) {
+      return core::signedDistance(a, pose_a, b, pose_b, cache, query_);  // FailedToConverge
     }
-    return r;
+    // Radii stay out of libccd as out of our GJK: libccd's EPA is exact on polytope cores but
+    // stops on wrong faces of curved (radius-swept) shapes. Cores overlapping: libccd's depth plus
+    // the radii.
+    CcdOptions cores = ccd_;
+    cores.cores_only = true;
+    ContactResult r;
+    if (ccdPenetration(a, pose_a, b, pose_b, &r, cores, query_)) {
+      // A "touching contact" is how libccd's EPA gives up (flat Minkowski differences, cores
+      // that only touch): answer with our EPA rather than report depth 0.
+      if (r.status != Status::Penetrating) {
+        return core::signedDistance(a, pose_a, b, pose_b, cache, query_);
+      }
+      r.distance -= a.radius() + b.radius();
+      r.point_a += a.radius() * r.normal;
+      r.point_b -= b.radius() * r.normal;
+      return r;
+    }
+    // Cores apart: libccd 2.1 has no distance query, so the cores' distance (minus the radii,
+    // negative when only the radii overlap) comes from our GJK.
+    return core::signedDistance(a, pose_a, b, pose_b, cache, query_);
   }
 
  private:

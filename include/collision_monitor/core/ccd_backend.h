@@ -35,6 +35,9 @@ enum class CcdAlgorithm {
 struct CcdOptions {
   CcdAlgorithm intersect = CcdAlgorithm::Gjk;    ///< for intersect() (see ccd_backend.cpp)
   CcdAlgorithm penetration = CcdAlgorithm::Gjk;  ///< for the depth (see ccd_backend.cpp)
+  /// Give libccd the cores only (radii and padding left out, as in our GJK): the penetration
+  /// result is then the cores' (depth and witness points of the cores; the caller adds radii).
+  bool cores_only = false;
   /// ccd_t::epa_tolerance. libccd stops EPA when a new support point gains less than this (it
   /// compares a length times the current depth, and a squared length, against it). Measured
   /// against the exact oracle: 1e-6 -> box depth errors 8e-4 of the size, 1e-8 -> 4e-5,
