@@ -53,8 +53,8 @@
 #include <iterator>
 #include <limits>
 #include <map>
-#include <optional>
 #include <memory>
+#include <optional>
 #include <random>
 #include <set>
 #include <sstream>
@@ -106,9 +106,9 @@ enum class Kind { Sphere, Box, Hull, Capsule };
 
 struct PartDesc {
   Kind kind = Kind::Sphere;
-  double radius = 0.0;                ///< sphere, capsule
-  double length = 0.0;                ///< capsule segment length (z)
-  Vec3 sides = Vec3::Zero();          ///< box
+  double radius = 0.0;        ///< sphere, capsule
+  double length = 0.0;        ///< capsule segment length (z)
+  Vec3 sides = Vec3::Zero();  ///< box
   std::shared_ptr<const core::Polytope<3>> hull;
   std::vector<std::array<int, 3>> triangles;
   Transform3 pose = Transform3::Identity();  ///< part -> body
@@ -147,8 +147,8 @@ struct Panda {
 
   Panda() {
     const double h = kPi / 2;
-    joint_origin = {rpyXyz(0, 0, 0, Vec3(0, 0, 0.333)),   rpyXyz(-h, 0, 0, Vec3(0, 0, 0)),
-                    rpyXyz(h, 0, 0, Vec3(0, -0.316, 0)),  rpyXyz(h, 0, 0, Vec3(0.0825, 0, 0)),
+    joint_origin = {rpyXyz(0, 0, 0, Vec3(0, 0, 0.333)),        rpyXyz(-h, 0, 0, Vec3(0, 0, 0)),
+                    rpyXyz(h, 0, 0, Vec3(0, -0.316, 0)),       rpyXyz(h, 0, 0, Vec3(0.0825, 0, 0)),
                     rpyXyz(-h, 0, 0, Vec3(-0.0825, 0.384, 0)), rpyXyz(h, 0, 0, Vec3(0, 0, 0)),
                     rpyXyz(h, 0, 0, Vec3(0.088, 0, 0))};
     const auto at = [](double x, double y, double z) { return rpyXyz(0, 0, 0, Vec3(x, y, z)); };
@@ -199,7 +199,9 @@ struct Panda {
 class Rng {
  public:
   explicit Rng(std::uint64_t seed) : gen_(seed) {}
-  double uniform(double lo, double hi) { return std::uniform_real_distribution<double>(lo, hi)(gen_); }
+  double uniform(double lo, double hi) {
+    return std::uniform_real_distribution<double>(lo, hi)(gen_);
+  }
   Vec3 unitVector() {
     std::normal_distribution<double> n(0.0, 1.0);
     Vec3 v(n(gen_), n(gen_), n(gen_));
@@ -239,8 +241,9 @@ struct Scene {
           }
       // Every cell within radius k * kCell is in the cube: enough once those suffice.
       const double r = k * kCell;
-      const auto inside = std::count_if(cells.begin(), cells.end(),
-                                        [r](const std::pair<double, Vec3>& c) { return c.first <= r; });
+      const auto inside =
+          std::count_if(cells.begin(), cells.end(),
+                        [r](const std::pair<double, Vec3>& c) { return c.first <= r; });
       if (inside >= want_cells) break;
     }
     std::stable_sort(cells.begin(), cells.end(),
@@ -268,8 +271,8 @@ struct Scene {
           break;
         case 1:
           p.kind = Kind::Box;
-          p.sides = Vec3(rng.uniform(0.04, 0.115), rng.uniform(0.04, 0.115),
-                         rng.uniform(0.04, 0.115));
+          p.sides =
+              Vec3(rng.uniform(0.04, 0.115), rng.uniform(0.04, 0.115), rng.uniform(0.04, 0.115));
           p.shape = core::ConvexShape::box(p.sides);
           bound = 0.5 * p.sides.norm();
           break;
@@ -293,9 +296,8 @@ struct Scene {
       // Home: the cell centre plus a jitter that keeps >= 2 * 0.5 cm between neighbours at rest.
       const double jitter = std::max(0.0, 0.5 * kCell - bound - 0.005);
       Transform3 home;
-      home.t = cells[i].second +
-               Vec3(rng.uniform(-jitter, jitter), rng.uniform(-jitter, jitter),
-                    rng.uniform(-jitter, jitter));
+      home.t = cells[i].second + Vec3(rng.uniform(-jitter, jitter), rng.uniform(-jitter, jitter),
+                                      rng.uniform(-jitter, jitter));
       home.R = Eigen::AngleAxisd(rng.uniform(0, kPi), rng.unitVector()).toRotationMatrix();
       const Vec3 dir = rng.unitVector();
       const Vec3 axis = rng.unitVector();
@@ -381,9 +383,8 @@ class Ours {
 
   const world::CycleResult& cycle(std::int64_t c) {
     const double t = Scene::time(c);
-    scene_.forEachMoved(c, all_, [&](int b, const Transform3& T) {
-      world_.setPose(scene_.bodies[b].id, T, t);
-    });
+    scene_.forEachMoved(
+        c, all_, [&](int b, const Transform3& T) { world_.setPose(scene_.bodies[b].id, T, t); });
     last_ = world_.check(t);
     return last_;
   }
@@ -401,8 +402,7 @@ class Ours {
   /// Signed distance of two bodies now (WorldModel::distance), +inf when it has none.
   double distance(int a, int b, std::int64_t c) const {
     std::string why;
-    const auto r =
-        world_.distance(scene_.bodies[a].id, scene_.bodies[b].id, Scene::time(c), &why);
+    const auto r = world_.distance(scene_.bodies[a].id, scene_.bodies[b].id, Scene::time(c), &why);
     return r ? r->distance : std::numeric_limits<double>::infinity();
   }
 
@@ -513,9 +513,9 @@ class Fcl {
         fcl::distance(o1, o2, request, result);
         fcl::DistanceResultd swapped;
         fcl::distance(o2, o1, request, swapped);
-        os << " [parts " << i - first_object_[a] << "/" << j - first_object_[b]
-           << ": aabb gap " << o1->getAABB().distance(o2->getAABB()) << ", fcl::distance "
-           << result.min_distance << " (arguments swapped: " << swapped.min_distance << ")]";
+        os << " [parts " << i - first_object_[a] << "/" << j - first_object_[b] << ": aabb gap "
+           << o1->getAABB().distance(o2->getAABB()) << ", fcl::distance " << result.min_distance
+           << " (arguments swapped: " << swapped.min_distance << ")]";
       }
     }
     return os.str();
@@ -666,9 +666,9 @@ std::optional<double> exactDistance(const Scene& scene, int a, int b, std::int64
 /// A pair only one pipeline reports below warning_distance (or whose two distances differ by
 /// more than kRefereeDiff) is re-measured: exactly in closed form when every part pair is
 /// sphere/sphere or capsule/sphere (exactDistance()), else by Fcl::referee(); ours by
-/// WorldModel::distance() when ours did not list it. It counts as an FCL inaccuracy when ours agrees with the referee
-/// within kRefereeDiff, within the band when either distance is within kBand of the threshold,
-/// and as a mismatch otherwise.
+/// WorldModel::distance() when ours did not list it. It counts as an FCL inaccuracy when ours
+/// agrees with the referee within kRefereeDiff, within the band when either distance is within
+/// kBand of the threshold, and as a mismatch otherwise.
 bool checkScene(const Scene& scene, bool all, std::string* summary) {
 #ifdef CM_BENCH_HAVE_FCL
   constexpr double kRefereeDiff = 1e-5;
@@ -706,7 +706,8 @@ bool checkScene(const Scene& scene, bool all, std::string* summary) {
       ++compared;
       pairs_seen.insert(key);
       if (std::min(da, db) < 0.0) ++penetrating;
-      if (std::isfinite(da) && std::isfinite(db)) max_raw_diff = std::max(max_raw_diff, std::abs(da - db));
+      if (std::isfinite(da) && std::isfinite(db))
+        max_raw_diff = std::max(max_raw_diff, std::abs(da - db));
       const bool same_side = (da < w) == (db < w);
       if (same_side && std::abs(da - db) <= kRefereeDiff) {
         max_ref_diff = std::max(max_ref_diff, std::abs(da - db));
@@ -764,11 +765,11 @@ bool checkScene(const Scene& scene, bool all, std::string* summary) {
   }
   std::ostringstream os;
   os << (all ? "all moving" : "10% moving") << ", " << cycles + 1 << " cycles: " << compared
-     << " pair results below warning (" << pairs_seen.size() << " distinct pairs, "
-     << penetrating << " penetrating): " << mismatches << " mismatches, " << band
+     << " pair results below warning (" << pairs_seen.size() << " distinct pairs, " << penetrating
+     << " penetrating): " << mismatches << " mismatches, " << band
      << " in the +-1 mm band; FCL missed or invented " << fcl_wrong_set
      << " and was > 1e-5 m off on " << fcl_off
-     << " (ours confirmed by the referee; worst FCL error " << worst_fcl << " m" 
+     << " (ours confirmed by the referee; worst FCL error " << worst_fcl << " m"
      << (worst_fcl_pair.empty() ? "" : ": " + worst_fcl_pair) << "); max |ours - fcl| "
      << max_raw_diff << " m, max |ours - best FCL estimate| " << max_ref_diff
      << " m; fcl exceptions " << fcl_errors << first_missed;
@@ -871,13 +872,11 @@ int main(int argc, char** argv) {
       const bool ok = checkScene(*scenes.back(), all, &summary);
       all_ok = all_ok && ok;
       std::printf("check n%d: %s%s\n", n, summary.c_str(), ok ? "" : "  <-- FAILED");
-      benchmark::AddCustomContext(
-          "cm_check_n" + std::to_string(n) + (all ? "_all" : ""), summary);
+      benchmark::AddCustomContext("cm_check_n" + std::to_string(n) + (all ? "_all" : ""), summary);
     }
   }
   std::fflush(stdout);
-  benchmark::AddCustomContext("cm_correctness",
-                              check ? (all_ok ? "OK" : "FAILED") : "not checked");
+  benchmark::AddCustomContext("cm_correctness", check ? (all_ok ? "OK" : "FAILED") : "not checked");
   if (!all_ok) std::fprintf(stderr, "CORRECTNESS FAILED (see the check lines above)\n");
 
   for (bool all : {false, true}) {
@@ -885,13 +884,15 @@ int main(int argc, char** argv) {
     for (const auto& s : scenes) {
       const Scene* sp = s.get();
       const std::string suffix = "/n" + std::to_string(sp->n);
-      benchmark::RegisterBenchmark((query + "/ours" + suffix).c_str(),
-                                   [sp, all](benchmark::State& st) { oursCycle(st, sp, all); })
-          ->Unit(benchmark::kMicrosecond);
+      benchmark::RegisterBenchmark((query + "/ours" + suffix).c_str(), [sp,
+                                                                        all](benchmark::State& st) {
+        oursCycle(st, sp, all);
+      })->Unit(benchmark::kMicrosecond);
 #ifdef CM_BENCH_HAVE_FCL
-      benchmark::RegisterBenchmark((query + "/fcl" + suffix).c_str(),
-                                   [sp, all](benchmark::State& st) { fclCycle(st, sp, all); })
-          ->Unit(benchmark::kMicrosecond);
+      benchmark::RegisterBenchmark((query + "/fcl" + suffix).c_str(), [sp,
+                                                                       all](benchmark::State& st) {
+        fclCycle(st, sp, all);
+      })->Unit(benchmark::kMicrosecond);
 #endif
     }
   }

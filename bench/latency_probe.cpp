@@ -137,9 +137,8 @@ int main(int argc, char** argv) {
   Probe probe;
   ros::Publisher bodies_pub = nh.advertise<Body>(monitor + "/bodies", n + 10);
   ros::Publisher poses_pub = nh.advertise<BodyPoses>(monitor + "/body_poses", 100);
-  ros::Subscriber events_sub =
-      nh.subscribe(monitor + "/events", 1000, &Probe::onEvent, &probe,
-                   ros::TransportHints().tcpNoDelay());
+  ros::Subscriber events_sub = nh.subscribe(monitor + "/events", 1000, &Probe::onEvent, &probe,
+                                            ros::TransportHints().tcpNoDelay());
   ros::Subscriber state_sub = nh.subscribe(monitor + "/state", 10, &Probe::onState, &probe,
                                            ros::TransportHints().tcpNoDelay());
   ros::AsyncSpinner spinner(1);
@@ -200,8 +199,7 @@ int main(int argc, char** argv) {
             break;
           case 1:
             s.type = Shape::BOX;
-            s.dimensions = {0.04 + 0.07 * u01(rng), 0.04 + 0.07 * u01(rng),
-                            0.04 + 0.07 * u01(rng)};
+            s.dimensions = {0.04 + 0.07 * u01(rng), 0.04 + 0.07 * u01(rng), 0.04 + 0.07 * u01(rng)};
             break;
           default: {
             s.type = Shape::CONVEX;
@@ -250,8 +248,8 @@ int main(int argc, char** argv) {
     }
     if (Clock::now() > ready_deadline) {
       std::lock_guard<std::mutex> lock(probe.mutex);
-      ROS_ERROR("latency_probe: monitor holds %u bodies (%zu stale), want %d fresh", probe.num_bodies,
-                probe.num_stale, n);
+      ROS_ERROR("latency_probe: monitor holds %u bodies (%zu stale), want %d fresh",
+                probe.num_bodies, probe.num_stale, n);
       return 1;
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
@@ -291,8 +289,8 @@ int main(int argc, char** argv) {
     }
     poses_pub.publish(msg);
     std::unique_lock<std::mutex> lock(probe.mutex);
-    const bool ok = probe.cv.wait_for(lock, std::chrono::duration<double>(timeout),
-                                      [&] { return probe.got; });
+    const bool ok =
+        probe.cv.wait_for(lock, std::chrono::duration<double>(timeout), [&] { return probe.got; });
     probe.waiting = false;
     if (ok) {
       lat_ms.push_back(1e3 * std::chrono::duration<double>(probe.got_at - t0).count());
@@ -324,8 +322,9 @@ int main(int argc, char** argv) {
       "%.3f ms, p99 %.3f ms, max %.3f ms, mean %.3f ms; monitor check compute_time mean %.1f us, "
       "max %.1f us over %zu cycles\n",
       n, lat_ms.size(), timeouts, unexpected, percentile(lat_ms, 50), percentile(lat_ms, 90),
-      percentile(lat_ms, 99), lat_ms.empty() ? 0.0 : *std::max_element(lat_ms.begin(), lat_ms.end()),
-      mean, 1e6 * compute_mean, 1e6 * compute_max, states);
+      percentile(lat_ms, 99),
+      lat_ms.empty() ? 0.0 : *std::max_element(lat_ms.begin(), lat_ms.end()), mean,
+      1e6 * compute_mean, 1e6 * compute_max, states);
   std::fflush(stdout);
   if (!output.empty()) {
     std::ofstream f(output);
