@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Every test: install dependencies, build with -Werror, run the whole CTest suite (core gtests,
 # world gtests, rostests over a real roscore), then the geometry core again under ASan+UBSan,
-# then a build inside a catkin workspace. Exits non-zero on any failure.
+# a bounded libFuzzer run on the core, then a build inside a catkin workspace. Exits non-zero on any failure.
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
 JOBS="$(nproc)"
@@ -31,7 +31,7 @@ run_ctest() {
 }
 bash "$CM_ROOT/scripts/install_deps.sh"
 
-echo "=== 1/3 standalone build (-Werror) and full test suite"
+echo "=== 1/4 standalone build (-Werror) and full test suite"
 bash "$CM_ROOT/scripts/build.sh" -DCOLLISION_MONITOR_WERROR=ON
 cm_source_devel
 if [ ! -d "$CM_ROBOT_DATA/example-robot-data" ]; then
@@ -40,7 +40,7 @@ if [ ! -d "$CM_ROBOT_DATA/example-robot-data" ]; then
 fi
 run_ctest "$CM_BUILD" CM_ARTIFACTS="$CM_BUILD/test_results"
 
-echo "=== 2/3 geometry core under AddressSanitizer + UndefinedBehaviorSanitizer"
+echo "=== 2/4 geometry core under AddressSanitizer + UndefinedBehaviorSanitizer"
 SAN_BUILD="$CM_BUILD-asan"
 cmake -S "$CM_ROOT" -B "$SAN_BUILD" -DCOLLISION_MONITOR_CORE_ONLY=ON -DCOLLISION_MONITOR_SANITIZE=ON \
   -DCOLLISION_MONITOR_WERROR=ON -DCOLLISION_MONITOR_BENCHMARKS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
@@ -48,7 +48,14 @@ cmake --build "$SAN_BUILD" -j"$JOBS"
 run_ctest "$SAN_BUILD" ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   CM_SWEEP_SCALE="${CM_SWEEP_SCALE_SANITIZER:-0.1}"
 
-echo "=== 3/3 build inside a catkin workspace (catkin_make)"
+echo "=== 3/4 libFuzzer on the geometry core (clang, ASan + UBSan): replay the corpus, fuzz ${CM_FUZZ_SECONDS:-60} s"
+if bash "$CM_ROOT/scripts/fuzz.sh" "${CM_FUZZ_SECONDS:-60}"; then
+  PASSED=$((PASSED + 1))
+else
+  FAILED=$((FAILED + 1))
+fi
+
+echo "=== 4/4 build inside a catkin workspace (catkin_make)"
 WS="$CM_BUILD-ws"
 mkdir -p "$WS/src"
 ln -sfn "$CM_ROOT" "$WS/src/collision_monitor"
