@@ -30,48 +30,13 @@ const char* toString(Status s) {
 
 namespace {
 
-/// The per-query support object of a core: the core itself (small value types), or a polytope
-/// with this pair's hill-climbing hint.
-/// Per-query support object of a polytope core with this pair's hill-climbing hint. Large
-/// polytopes (with adjacency) hill-climb through Polytope::support(d, hint), as PolytopeSupport.
-/// Small ones are scanned with two independent running maxima: perf showed the compare-and-select
-/// chain of the one-maximum scan as the hot spot of GJK on 12-vertex hulls; two chains measured
-/// 10-20 % faster per scan (noisy, loaded machine). Same vertex as Polytope::supportIndex (the
-/// first maximum).
+/// Per-query support object of a polytope core with this pair's hill-climbing hint (-1: cold,
+/// the climb starts at the polytope's direction table). Small polytopes are a structure-of-arrays
+/// linear scan (Polytope::scanIndex), larger ones hill-climb.
 struct PolytopeCore {
   const Polytope<3>* poly = nullptr;
-  mutable int hint = 0;
-  Vec3 support(const Vec3& d) const {
-    const int n = poly->size();
-    if (n > Polytope<3>::kLinearScanMax && poly->hasAdjacency()) return poly->support(d, hint);
-    const Vec3* v = poly->vertices().data();
-    int i0 = 0;
-    int i1 = n > 1 ? 1 : 0;
-    double b0 = v[0].dot(d);
-    double b1 = v[i1].dot(d);
-    int i = 2;
-    for (; i + 1 < n; i += 2) {
-      const double x0 = v[i].dot(d);
-      const double x1 = v[i + 1].dot(d);
-      if (x0 > b0) {
-        b0 = x0;
-        i0 = i;
-      }
-      if (x1 > b1) {
-        b1 = x1;
-        i1 = i + 1;
-      }
-    }
-    if (i < n) {
-      const double x = v[i].dot(d);
-      if (x > b0) {
-        b0 = x;
-        i0 = i;
-      }
-    }
-    hint = (b1 > b0 || (b1 == b0 && i1 < i0)) ? i1 : i0;
-    return v[hint];
-  }
+  mutable int hint = -1;
+  Vec3 support(const Vec3& d) const { return poly->vertices()[poly->supportIndex(d, hint)]; }
 };
 
 template <class C>
@@ -90,6 +55,34 @@ int hintOf(const S& /*s*/, int old) {
 }
 inline int hintOf(const PolytopeCore& s, int /*old*/) {
   return s.hint;
+}
+
+/// A type-erased Minkowski difference: one function pointer per support call. EPA is not the hot
+/// path (it only runs on penetrating pairs of signedDistance()), so it is compiled once for this
+/// type instead of once per core-type pair (49 instantiations): query.cpp compiles several times
+/// faster, and the indirect call is small next to EPA's own work per support point.
+struct ErasedDifference {
+  static constexpr int kDim = 3;
+  const void* md = nullptr;
+  SupportPoint<3> (*fn)(const void*, const Vec3&) = nullptr;
+  Vec3 initial = Vec3::UnitX();
+  SupportPoint<3> support(const Vec3& d) const { return fn(md, d); }
+  Vec3 initialDirection() const { return initial; }
+};
+
+template <class MD>
+ErasedDifference eraseDifference(const MD& md) {
+  ErasedDifference e;
+  e.md = &md;
+  e.fn = [](const void* p, const Vec3& d) { return static_cast<const MD*>(p)->support(d); };
+  e.initial = md.initialDirection();
+  return e;
+}
+
+/// EPA on the erased difference: the one instantiation of epa3 in the library.
+[[gnu::noinline]] EpaResult<3> runEpa(const ErasedDifference& md, const Simplex<3>& simplex,
+                                      const EpaSettings& es) {
+  return epa3(md, simplex, es);
 }
 
 /// What every query needs about the pair: the relative transform and the size scale.
@@ -127,8 +120,8 @@ GjkSettings gjkSettings(const PairFrame& f, const QueryOptions& o) {
 template <class Fn>
 auto withPair(const ConvexShape& a, const ConvexShape& b, const PairFrame& frame, PairCache* cache,
               Fn&& fn) {
-  const int ha = cache != nullptr ? cache->hint_a : 0;
-  const int hb = cache != nullptr ? cache->hint_b : 0;
+  const int ha = cache != nullptr ? cache->hint_a : -1;
+  const int hb = cache != nullptr ? cache->hint_b : -1;
   return std::visit(
       [&](const auto& ca, const auto& cb) {
         const auto& sa = makeSupport(ca, ha);
@@ -236,7 +229,7 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   es.rel_tolerance = o.rel_tolerance;
   es.abs_tolerance = o.rel_tolerance * f.size;
   es.max_iterations = o.max_iterations;
-  const EpaResult<3> e = epa3(md, g.simplex, es);
+  const EpaResult<3> e = runEpa(eraseDifference(md), g.simplex, es);
   r.epa_iterations = e.iterations;
   if (e.status == EpaStatus::Flat) {
     finish(f, o, 0.0, e.point_a, e.point_b, flatNormal(e, f.T_AB.t), false, r);

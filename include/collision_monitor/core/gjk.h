@@ -372,6 +372,49 @@ Closest<D> generic(const Points<D>& w, const std::array<int, D + 1>& idx, int m)
 
 }  // namespace detail
 
+namespace detail {
+
+/// Closest point to the origin of the convex hull of the simplex's vertices, without changing the
+/// simplex: which vertices carry it, their weights, the point and its squared norm.
+template <int D>
+Closest<D> closestOf(const Simplex<D>& s, bool force_generic = false) {
+  Points<D> w;
+  for (int i = 0; i < s.size; ++i)
+    w[i] = s.v[i].w;
+  if (s.size <= 0) {
+    Closest<D> c;
+    c.dist2 = 0.0;
+    return c;
+  }
+  if (s.size == 1) return vertex<D>(w, 0);
+  if (s.size == 2) return s1d<D>(w, 0, 1);
+  if constexpr (D == 3) {
+    if (!force_generic) return s.size == 3 ? s2d3(w, 0, 1, 2) : s3d(w, 0, 1, 2, 3);
+  } else if constexpr (D == 2) {
+    if (!force_generic) return s2d2(w, 0, 1, 2);
+  }
+  std::array<int, D + 1> all{};
+  for (int i = 0; i <= D; ++i)
+    all[i] = i;
+  return generic<D>(w, all, s.size);
+}
+
+/// Reduce `s` in place to the vertices of `c` (from closestOf(s)) with their weights. The kept
+/// indices are increasing (every sub-algorithm lists vertices in increasing order), so
+/// c.idx[k] >= k and nothing is overwritten before it is read.
+template <int D>
+void compact(Simplex<D>& s, const Closest<D>& c) {
+  if (s.size <= 0) return;
+  const int n = std::min(c.n, D + 1);
+  for (int k = 0; k < n; ++k) {
+    if (c.idx[k] != k) s.v[k] = s.v[c.idx[k]];
+    s.bary[k] = c.lambda[k];
+  }
+  s.size = n;
+}
+
+}  // namespace detail
+
 /// Closest point to the origin of the convex hull of the simplex's vertices. Reduces `s` in place
 /// to the vertices that carry it (weights in s.bary) and returns the point (A's frame). Uses signed
 /// volumes for D = 2, 3 and the generic projection otherwise; `force_generic` selects the generic
@@ -379,36 +422,9 @@ Closest<D> generic(const Points<D>& w, const std::array<int, D + 1>& idx, int m)
 /// input.
 template <int D>
 Vec<D> solveSimplex(Simplex<D>& s, bool force_generic = false) {
-  detail::Points<D> w;
-  for (int i = 0; i < s.size; ++i)
-    w[i] = s.v[i].w;
-  detail::Closest<D> c;
-  std::array<int, D + 1> all{};
-  for (int i = 0; i <= D; ++i)
-    all[i] = i;
-  if (s.size <= 0) {
-    return Vec<D>::Zero();
-  } else if (s.size == 1) {
-    c = detail::vertex<D>(w, 0);
-  } else if (s.size == 2) {
-    c = detail::s1d<D>(w, 0, 1);
-  } else if (force_generic) {
-    c = detail::generic<D>(w, all, s.size);
-  } else if constexpr (D == 3) {
-    c = s.size == 3 ? detail::s2d3(w, 0, 1, 2) : detail::s3d(w, 0, 1, 2, 3);
-  } else if constexpr (D == 2) {
-    c = detail::s2d2(w, 0, 1, 2);
-  } else {
-    c = detail::generic<D>(w, all, s.size);
-  }
-  // Compact in place: the kept indices are increasing (every branch above lists vertices in
-  // increasing order), so c.idx[k] >= k and nothing is overwritten before it is read.
-  const int n = std::min(c.n, D + 1);
-  for (int k = 0; k < n; ++k) {
-    if (c.idx[k] != k) s.v[k] = s.v[c.idx[k]];
-    s.bary[k] = c.lambda[k];
-  }
-  s.size = n;
+  if (s.size <= 0) return Vec<D>::Zero();
+  const detail::Closest<D> c = detail::closestOf(s, force_generic);
+  detail::compact(s, c);
   return c.v;
 }
 
@@ -497,7 +513,10 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st,
       break;
     }
     ++it;
-    const SupportPoint<D> w = md.support(-v);
+    // The new support point goes straight into the free slot; the simplex is only reduced
+    // (compacted) once it is known to make progress, so "undo" is dropping that slot.
+    SupportPoint<D>& w = s.v[s.size];
+    w = md.support(-v);
     const double vw = v.dot(w.w);
     const double vn = std::sqrt(vv);
     // van den Bergen: upper bound |v| and lower bound v.w/|v| agree (plus an absolute floor).
@@ -505,17 +524,16 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st,
       r.status = GjkStatus::Separated;
       break;
     }
-    const Simplex<D> prev = s;
-    s.v[s.size++] = w;
-    const Vec<D> v_new = solveSimplex<D>(s);
-    const double vv_new = v_new.squaredNorm();
-    if (!(vv_new < vv)) {  // no progress (rounding): keep the better simplex and stop
-      s = prev;
+    ++s.size;
+    const detail::Closest<D> c = detail::closestOf(s);
+    if (!(c.dist2 < vv)) {  // no progress (rounding): keep the better simplex and stop
+      --s.size;
       r.status = GjkStatus::Separated;
       break;
     }
-    v = v_new;
-    vv = vv_new;
+    detail::compact(s, c);
+    v = c.v;
+    vv = c.dist2;
   }
   r.iterations = it;
   r.v = v;
@@ -554,7 +572,8 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
       break;
     }
     ++it;
-    const SupportPoint<D> w = md.support(-v);
+    SupportPoint<D>& w = s.v[s.size];
+    w = md.support(-v);
     const double vw = v.dot(w.w);
     const double vn = std::sqrt(vv);
     if (vw > reach * vn) {  // separating plane with the margin: lower bound > margin
@@ -565,17 +584,16 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
       result = vn <= reach;  // converged: the distance is |v|
       break;
     }
-    const Simplex<D> prev = s;
-    s.v[s.size++] = w;
-    const Vec<D> v_new = solveSimplex<D>(s);
-    const double vv_new = v_new.squaredNorm();
-    if (!(vv_new < vv)) {
-      s = prev;
+    ++s.size;
+    const detail::Closest<D> c = detail::closestOf(s);
+    if (!(c.dist2 < vv)) {
+      --s.size;
       result = vn <= reach;
       break;
     }
-    v = v_new;
-    vv = vv_new;
+    detail::compact(s, c);
+    v = c.v;
+    vv = c.dist2;
   }
   if (simplex != nullptr) *simplex = s;
   if (iterations != nullptr) *iterations = it;

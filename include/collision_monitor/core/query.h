@@ -58,11 +58,11 @@ struct ContactResult {
 /// shape's own frame, so it stays valid after the shapes move) and the polytope hill-climbing
 /// hints. Keep one per (part, part) pair across cycles; a default-constructed cache is cold.
 struct PairCache {
-  int size = 0;                                  ///< simplex vertices cached (0 = cold)
-  std::array<Vec3, 4> local_a{};                 ///< support points on A's core, A's frame
-  std::array<Vec3, 4> local_b{};                 ///< support points on B's core, B's frame
-  int hint_a = 0;                                ///< polytope hill-climbing start on A
-  int hint_b = 0;                                ///< polytope hill-climbing start on B
+  int size = 0;                   ///< simplex vertices cached (0 = cold)
+  std::array<Vec3, 4> local_a{};  ///< support points on A's core, A's frame
+  std::array<Vec3, 4> local_b{};  ///< support points on B's core, B's frame
+  int hint_a = -1;                ///< polytope hill-climbing start on A (-1: none, direction table)
+  int hint_b = -1;                ///< polytope hill-climbing start on B (-1: none, direction table)
   void reset() { size = 0; }
 };
 

@@ -10,8 +10,11 @@
 /// convergence (see query.h), as in Box2D and coal.
 #pragma once
 
+#include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 #include "collision_monitor/core/math.h"
@@ -40,7 +43,8 @@ struct BoxShape {
   Vec<D> half = Vec<D>::Zero();
   Vec<D> support(const Vec<D>& d) const {
     Vec<D> s;
-    for (int i = 0; i < D; ++i) s[i] = d[i] < 0.0 ? -half[i] : half[i];
+    for (int i = 0; i < D; ++i)
+      s[i] = d[i] < 0.0 ? -half[i] : half[i];
     return s;
   }
 };
@@ -93,10 +97,14 @@ struct ConeShape {
 /// Convex polytope given by its vertices (all of them hull vertices when built by
 /// buildConvexHull()), with the hull's vertex adjacency for hill-climbing support queries.
 ///
-/// With an empty adjacency (or few vertices) the support query is a linear scan. With adjacency,
-/// support(d, hint) hill-climbs from vertex `hint` to a vertex maximising dot(d, x); on a convex
-/// polytope a local maximum over the edge graph is the global one. `hint` is updated to the
-/// answer, so a caller that keeps it (the warm-start cache) starts next to the answer.
+/// With an empty adjacency (or few vertices) the support query is a linear scan over a
+/// structure-of-arrays copy of the vertices (x[], y[], z[] padded to a multiple of 4, four
+/// independent running maxima: branch-light and vectorisable). With adjacency, support(d, hint)
+/// hill-climbs from vertex `hint` to a vertex maximising dot(d, x); on a convex polytope a local
+/// maximum over the edge graph is the global one. `hint` is updated to the answer, so a caller
+/// that keeps it (the warm-start cache) starts next to the answer. A `hint` outside [0, size())
+/// (e.g. -1: no hint) starts the climb at startVertex(d): the extreme vertex, computed once at
+/// construction, of the nearest of 26 fixed directions (the cube's faces, edges and corners).
 template <int D>
 class Polytope {
  public:
@@ -110,7 +118,10 @@ class Polytope {
            std::vector<int> adjacency = {})
       : vertices_(std::move(vertices)),
         offsets_(std::move(adjacency_offsets)),
-        adjacency_(std::move(adjacency)) {}
+        adjacency_(std::move(adjacency)) {
+    buildScanArrays();
+    buildStartTable();
+  }
 
   const std::vector<Vec<D>>& vertices() const { return vertices_; }
   int size() const { return static_cast<int>(vertices_.size()); }
@@ -118,23 +129,57 @@ class Polytope {
   const std::vector<int>& adjacencyOffsets() const { return offsets_; }
   const std::vector<int>& adjacency() const { return adjacency_; }
 
-  /// Index of a vertex maximising dot(d, x). `hint` (in/out) is the start vertex of the climb.
+  /// True when supportIndex() is a linear scan (few vertices or no adjacency).
+  bool usesLinearScan() const { return size() <= kLinearScanMax || !hasAdjacency(); }
+
+  /// Index of the first vertex maximising dot(d, x) by a linear scan over all vertices.
+  int scanIndex(const Vec<D>& d) const {
+    const int np = padded_;
+    const double* c = soa_.data();
+    std::array<double, D> dd;
+    for (int k = 0; k < D; ++k)
+      dd[k] = d[k];
+    // Four lanes, each keeping its first maximum; a pad slot repeats vertex 0, so it can only tie
+    // with vertex 0 and loses the tie (larger index).
+    double best[4] = {-kInf, -kInf, -kInf, -kInf};
+    int idx[4] = {0, 0, 0, 0};
+    for (int i = 0; i < np; i += 4) {
+      for (int l = 0; l < 4; ++l) {
+        double x = c[i + l] * dd[0];
+        for (int k = 1; k < D; ++k)
+          x += c[k * np + i + l] * dd[k];
+        const bool better = x > best[l];
+        best[l] = better ? x : best[l];
+        idx[l] = better ? i + l : idx[l];
+      }
+    }
+    int b = idx[0];
+    double bv = best[0];
+    for (int l = 1; l < 4; ++l) {
+      if (best[l] > bv || (best[l] == bv && idx[l] < b)) {
+        bv = best[l];
+        b = idx[l];
+      }
+    }
+    return b;
+  }
+
+  /// Start vertex of a cold hill-climb: the precomputed extreme vertex of the fixed direction
+  /// (one of 26 in 3D, 8 in 2D) nearest to d. 0 for a zero or non-finite d.
+  int startVertex(const Vec<D>& d) const {
+    if (start_.empty()) return 0;
+    return start_[directionCell(d)];
+  }
+
+  /// Index of a vertex maximising dot(d, x). `hint` (in/out) is the start vertex of the climb
+  /// (outside [0, size()): start at startVertex(d)).
   int supportIndex(const Vec<D>& d, int& hint) const {
     const int n = size();
-    if (n <= kLinearScanMax || !hasAdjacency()) {
-      int best = 0;
-      double best_dot = vertices_[0].dot(d);
-      for (int i = 1; i < n; ++i) {
-        const double v = vertices_[i].dot(d);
-        if (v > best_dot) {
-          best_dot = v;
-          best = i;
-        }
-      }
-      hint = best;
-      return best;
+    if (usesLinearScan()) {
+      hint = scanIndex(d);
+      return hint;
     }
-    int cur = (hint >= 0 && hint < n) ? hint : 0;
+    int cur = (hint >= 0 && hint < n) ? hint : startVertex(d);
     double cur_dot = vertices_[cur].dot(d);
     // Steepest ascent: move to the best neighbour while it strictly improves. Strict improvement
     // bounds the walk by the vertex count, so it always terminates.
@@ -157,16 +202,61 @@ class Polytope {
     return cur;
   }
   Vec<D> support(const Vec<D>& d, int& hint) const { return vertices_[supportIndex(d, hint)]; }
-  /// Support without a kept hint (starts from vertex 0).
+  /// Support without a kept hint (a climb starts at startVertex(d)).
   Vec<D> support(const Vec<D>& d) const {
-    int hint = 0;
+    int hint = -1;
     return support(d, hint);
   }
 
  private:
+  static constexpr double kInf = std::numeric_limits<double>::infinity();
+
+  /// Cell of d among the 3^D - 1 directions with components in {-1, 0, 1}: component k counts
+  /// when |d_k| > (sqrt(2) - 1) max |d_j| (the boundary between an axis and an edge direction).
+  static int directionCell(const Vec<D>& d) {
+    const double m = d.cwiseAbs().maxCoeff();
+    if (!(m > 0.0) || !(m < kInf)) return 0;
+    const double th = 0.41421356237309503 * m;
+    int cell = 0;
+    for (int k = 0; k < D; ++k)
+      cell = 3 * cell + (d[k] > th ? 2 : (d[k] < -th ? 0 : 1));
+    return cell;
+  }
+
+  void buildScanArrays() {
+    const int n = size();
+    padded_ = (n + 3) / 4 * 4;
+    soa_.assign(static_cast<std::size_t>(D) * padded_, 0.0);
+    for (int i = 0; i < padded_; ++i) {
+      const Vec<D>& p = vertices_[i < n ? i : 0];
+      for (int k = 0; k < D; ++k)
+        soa_[static_cast<std::size_t>(k) * padded_ + i] = p[k];
+    }
+  }
+
+  void buildStartTable() {
+    if (vertices_.empty() || usesLinearScan()) return;
+    int cells = 1;
+    for (int k = 0; k < D; ++k)
+      cells *= 3;
+    start_.assign(cells, 0);
+    for (int cell = 0; cell < cells; ++cell) {
+      Vec<D> dir;
+      int c = cell;
+      for (int k = D - 1; k >= 0; --k) {
+        dir[k] = static_cast<double>(c % 3 - 1);
+        c /= 3;
+      }
+      start_[cell] = scanIndex(dir);
+    }
+  }
+
   std::vector<Vec<D>> vertices_;
   std::vector<int> offsets_;
   std::vector<int> adjacency_;
+  std::vector<double> soa_;  ///< coordinates k of vertex i at [k * padded_ + i]
+  int padded_ = 0;           ///< vertex count rounded up to a multiple of 4
+  std::vector<int> start_;   ///< extreme vertex per direction cell (climbing polytopes only)
 };
 
 /// A polytope with its own hill-climbing hint: the per-query support object GJK uses, so the
@@ -174,7 +264,7 @@ class Polytope {
 template <int D>
 struct PolytopeSupport {
   const Polytope<D>* poly = nullptr;
-  mutable int hint = 0;
+  mutable int hint = -1;  ///< -1: cold (the climb starts at Polytope::startVertex)
   Vec<D> support(const Vec<D>& d) const { return poly->support(d, hint); }
 };
 
