@@ -65,6 +65,50 @@ bool validTransform(const Transform3& T) {
   return core::isValidRotation<3>(T.R) && core::allFinite(T.t);
 }
 
+}  // namespace
+
+core::Aabb shapeAabb(const core::ConvexShape& shape, const Transform3& pose) {
+  const core::Mat3& R = pose.R;
+  const double r = shape.radius();
+  Vec3 lo;
+  Vec3 hi;
+  const auto& c = shape.core();
+  if (const auto* p = std::get_if<core::PointShape<3>>(&c)) {
+    lo = hi = R * p->p;
+  } else if (const auto* sg = std::get_if<core::SegmentShape<3>>(&c)) {
+    const Vec3 a = R * sg->a;
+    const Vec3 b = R * sg->b;
+    lo = a.cwiseMin(b);
+    hi = a.cwiseMax(b);
+  } else if (const auto* bx = std::get_if<core::BoxShape<3>>(&c)) {
+    hi = R.cwiseAbs() * bx->half;
+    lo = -hi;
+  } else if (const auto* el = std::get_if<core::EllipsoidShape<3>>(&c)) {
+    hi = (R * el->semi.asDiagonal()).rowwise().norm();
+    lo = -hi;
+  } else if (const auto* cy = std::get_if<core::CylinderShape>(&c)) {
+    for (int i = 0; i < 3; ++i) {
+      const double z = R(i, 2);
+      hi[i] = std::abs(z) * cy->half_height + cy->radius * std::sqrt(std::max(0.0, 1.0 - z * z));
+    }
+    lo = -hi;
+  } else if (const auto* poly = std::get_if<std::shared_ptr<const core::Polytope<3>>>(&c);
+             poly && *poly && (*poly)->size() > 0 && (*poly)->size() <= 64) {
+    const std::vector<Vec3>& v = (*poly)->vertices();
+    lo = hi = R * v[0];
+    for (std::size_t k = 1; k < v.size(); ++k) {
+      const Vec3 w = R * v[k];
+      lo = lo.cwiseMin(w);
+      hi = hi.cwiseMax(w);
+    }
+  } else {
+    return shape.aabb(pose);
+  }
+  return core::Aabb{lo.array() + (pose.t.array() - r), hi.array() + (pose.t.array() + r)};
+}
+
+namespace {
+
 /// Narrow-phase output for a compound pair, in the fixed frame.
 struct Narrow {
   double distance = kInf;  ///< signed, m; +inf when every part pair was beyond the cutoff
@@ -106,7 +150,7 @@ struct BodyState {
     box = core::Aabb();
     for (std::size_t i = 0; i < n; ++i) {
       part_poses[i] = pose * spec.parts[i].pose;
-      part_boxes[i] = spec.parts[i].shape.aabb(part_poses[i]);
+      part_boxes[i] = shapeAabb(spec.parts[i].shape, part_poses[i]);
       part_radii[i] = spec.parts[i].shape.boundingRadius();
       box.extend(part_boxes[i]);
     }
@@ -144,7 +188,7 @@ struct WorldModel::Impl {
   std::unordered_map<std::string, std::unordered_set<std::string>> disabled;  ///< both ways
   std::unordered_set<std::uint64_t> disabled_slots;                           ///< orderedKey
   std::unordered_map<std::uint64_t, PairEntry> pairs;                         ///< orderedKey
-  SweepAndPrune sap;
+  HashGrid grid;  ///< the fresh bodies' boxes
   std::uint64_t cycle = 0;
   std::size_t count = 0;
   std::vector<Event> pending;  ///< END events of removed bodies' pairs, for the next check()
@@ -155,7 +199,8 @@ struct WorldModel::Impl {
   // Scratch, reused across cycles.
   std::vector<int> active;
   std::vector<int> stale;
-  std::vector<char> moved;                     ///< by slot: box changed or newly active
+  std::vector<char> moved;      ///< by slot: box changed or newly active (all 0 between cycles)
+  std::vector<int> moved_list;  ///< the slots flagged in `moved`
   std::vector<std::uint64_t> candidates;       ///< this cycle's broad-phase pairs (orderedKey)
   std::vector<std::uint64_t> next_candidates;  ///< built from the previous cycle's
   std::vector<std::uint64_t> pair_keys;        ///< rankKey per output pair
@@ -470,6 +515,7 @@ bool WorldModel::removeBody(const std::string& id) {
       ++ds;
     }
   }
+  m.grid.remove(slot);
   m.bodies[slot] = BodyState();
   m.boxes[slot] = core::Aabb();
   m.slot_of.erase(it);
@@ -561,20 +607,34 @@ CycleResult WorldModel::check(double now) {
   const std::uint64_t cycle = ++m.cycle;
   res.num_bodies = m.count;
 
-  // 1. Freshness.
+  // 1. Freshness, and which bodies entered, left or moved in the broad phase since the last
+  // cycle (one pass over the slots; the broad phase itself only touches those).
   m.active.clear();
   m.stale.clear();
+  m.moved_list.clear();
+  if (m.moved.size() < m.bodies.size()) m.moved.resize(m.bodies.size(), 0);
+  const double reach = clearCutoffAny(s);
+  m.grid.setMargin(reach);
   double oldest = kInf;
   for (int slot = 0; slot < static_cast<int>(m.bodies.size()); ++slot) {
     BodyState& b = m.bodies[slot];
     if (!b.used) continue;
+    b.fresh_prev = b.fresh;
     b.fresh = b.isFresh(now, s.pose_timeout);
     if (b.fresh) {
       m.active.push_back(slot);
       if (b.stamp > 0.0) oldest = std::min(oldest, b.stamp);
+      if (!b.was_active || b.swept_version != b.version) {
+        m.moved[slot] = 1;
+        m.moved_list.push_back(slot);
+        m.grid.set(slot, m.boxes[slot]);
+      }
     } else {
       m.stale.push_back(slot);
+      if (b.was_active) m.grid.remove(slot);
     }
+    b.was_active = b.fresh;
+    b.swept_version = b.version;
   }
   res.stamp = std::isfinite(oldest) ? oldest : now;
 
@@ -583,42 +643,25 @@ CycleResult WorldModel::check(double now) {
   m.event_keys.clear();
 
   // 2. Broad phase. Pairs between bodies whose boxes did not change since the last cycle are
-  // kept from it; only moved (or newly fresh) bodies are swept against the rest, unless many
-  // moved, then the whole sweep is cheaper.
-  const double reach = clearCutoffAny(s);
-  m.sap.update(m.active, m.boxes, reach);
-  m.moved.assign(m.bodies.size(), 0);
-  std::size_t num_moved = 0;
-  for (int slot : m.active) {
-    const BodyState& b = m.bodies[slot];
-    if (!b.was_active || b.swept_version != b.version) {
-      m.moved[slot] = 1;
-      ++num_moved;
-    }
-  }
+  // kept from it; only moved (or newly fresh) bodies are queried in the grid.
+  m.grid.prepare();
   m.next_candidates.clear();
   const auto consider = [&](int i, int j) {
     if (!m.allowed(i, j)) return;
     if (m.boxes[i].distance(m.boxes[j]) > reach) return;
     m.next_candidates.push_back(orderedKey(i, j));
   };
-  if (num_moved * 4 > m.active.size()) {
-    m.sap.forEachPair(consider);
-  } else {
-    for (std::uint64_t key : m.candidates) {
-      const int i = keyLo(key);
-      const int j = keyHi(key);
-      if (!m.bodies[i].fresh || !m.bodies[j].fresh || m.moved[i] || m.moved[j]) continue;
-      if (!m.allowed(i, j)) continue;
-      m.next_candidates.push_back(key);
-    }
-    if (num_moved > 0) m.sap.forEachPairWith(m.moved, consider);
+  for (std::uint64_t key : m.candidates) {
+    const int i = keyLo(key);
+    const int j = keyHi(key);
+    if (!m.bodies[i].fresh || !m.bodies[j].fresh || m.moved[i] || m.moved[j]) continue;
+    if (!m.allowed(i, j)) continue;
+    m.next_candidates.push_back(key);
   }
+  if (!m.moved_list.empty()) m.grid.forEachPairWith(m.moved_list, m.moved, consider);
+  for (int slot : m.moved_list)
+    m.moved[slot] = 0;
   m.candidates.swap(m.next_candidates);
-  for (BodyState& b : m.bodies) {
-    b.was_active = b.used && b.fresh;
-    b.swept_version = b.version;
-  }
   res.num_broad_phase_pairs = m.candidates.size();
 
   // 3. Narrow phase, hysteresis, events.
@@ -723,8 +766,6 @@ CycleResult WorldModel::check(double now) {
 
   for (int sl : m.stale)
     res.stale_bodies.push_back(m.bodies[sl].spec.id);
-  for (BodyState& b : m.bodies)
-    b.fresh_prev = b.used && b.fresh;
 
   // Deterministic order: pairs and events by (body_a, body_b) in id order, a pair's END before
   // its BEGIN; END events of removed bodies first.

@@ -137,6 +137,12 @@ struct BodyInfo {
   bool stale = true;
 };
 
+/// Exact bounding box of `shape` at `pose` (fixed frame), equal to ConvexShape::aabb() up to
+/// rounding but in closed form for points, segments, boxes, ellipsoids and cylinders, and by one
+/// pass over the vertices for polytopes of up to 64 vertices (ConvexShape::aabb() otherwise).
+/// What the world model boxes its parts with on every pose change.
+core::Aabb shapeAabb(const core::ConvexShape& shape, const Transform3& pose);
+
 class WorldModel {
  public:
   explicit WorldModel(const Settings& settings = Settings());
