@@ -182,6 +182,144 @@ TEST(SweepAndPrune, TouchingAndMarginBoundaries) {
   EXPECT_EQ(sweep(sap), PairSet{});
 }
 
+// ---- HashGrid -------------------------------------------------------------------------------
+
+PairSet gridAll(const HashGrid& grid) {
+  PairSet out;
+  grid.forEachPair([&](int i, int j) {
+    const bool inserted = out.emplace(std::min(i, j), std::max(i, j)).second;
+    EXPECT_TRUE(inserted) << "pair reported twice: " << i << ", " << j;
+  });
+  return out;
+}
+
+TEST(HashGrid, IncrementalCandidatesMatchBruteForceOverManyCycles) {
+  // The world model's use: every cycle some boxes move (small steps, occasional teleports and
+  // size changes), some leave and come back; pairs of unmoved boxes are kept from the previous
+  // cycle and only the moved ones are queried. The union must equal brute force every cycle,
+  // each pair reported once; includes a few huge boxes (large list) and mixed sizes.
+  std::mt19937 g(20261122);
+  const int n = 700;
+  const double margin = 0.055;
+  const Vec3 extent(4, 3, 2.5);
+  std::vector<Aabb> boxes(n);
+  for (Aabb& b : boxes)
+    b = randomBox(g, extent);
+  boxes[5] = Aabb{Vec3(-1, -1, -0.1), Vec3(5, 4, 0.0)};   // a floor: large list
+  boxes[77] = Aabb{Vec3(1, 1, 1), Vec3(1.6, 1.1, 1.05)};  // arm-link-like, wide
+  boxes[123] = Aabb{Vec3(2, 2, 2), Vec3(2, 2, 2)};        // a point
+  std::vector<char> in(n, 1);
+  HashGrid grid;
+  grid.setMargin(margin);
+  std::vector<int> moved;
+  std::vector<char> flag(n, 0);
+  for (int i = 0; i < n; ++i) {
+    grid.set(i, boxes[i]);
+    moved.push_back(i);
+    flag[i] = 1;
+  }
+  PairSet kept;
+  std::size_t total = 0;
+  std::size_t max_large = 0;
+  for (int cycle = 0; cycle < 200; ++cycle) {
+    if (cycle > 0) {
+      moved.clear();
+      std::fill(flag.begin(), flag.end(), 0);
+      const auto touch = [&](int i) {
+        if (!flag[i]) {
+          flag[i] = 1;
+          moved.push_back(i);
+        }
+      };
+      const int step = cycle % 10 == 0 ? 1 : 7;  // every 10th cycle: everything moves
+      for (int i = cycle % step; i < n; i += step) {
+        if (!in[i]) continue;
+        const Vec3 d(uniform(g, -0.03, 0.03), uniform(g, -0.03, 0.03), uniform(g, -0.03, 0.03));
+        boxes[i].min += d;
+        boxes[i].max += d;
+        if (g() % 50 == 0) boxes[i] = randomBox(g, extent);       // teleport
+        if (g() % 200 == 0) boxes[i].max += Vec3::Constant(0.4);  // grows
+        grid.set(i, boxes[i]);
+        touch(i);
+      }
+      for (int k = 0; k < 5; ++k) {  // leave / come back
+        const int i = static_cast<int>(g() % n);
+        if (in[i]) {
+          in[i] = 0;
+          grid.remove(i);
+          flag[i] = 0;
+          moved.erase(std::remove(moved.begin(), moved.end(), i), moved.end());
+        } else {
+          in[i] = 1;
+          grid.set(i, boxes[i]);
+          touch(i);
+        }
+      }
+      if (cycle == 100) {  // the scene grows 3x: prepare() rebuilds with another cell size
+        for (Aabb& b : boxes) {
+          b.min *= 3.0;
+          b.max *= 3.0;
+        }
+        for (int i = 0; i < n; ++i) {
+          if (in[i]) {
+            grid.set(i, boxes[i]);
+            touch(i);
+          }
+        }
+        grid.rebuild();
+      }
+    }
+    grid.prepare();
+    max_large = std::max(max_large, grid.numLarge());
+    // Kept pairs: both still in, neither moved (the world model's cache).
+    PairSet got;
+    for (const auto& p : kept) {
+      if (in[p.first] && in[p.second] && !flag[p.first] && !flag[p.second]) got.insert(p);
+    }
+    grid.forEachPairWith(moved, flag, [&](int i, int j) {
+      EXPECT_TRUE(flag[i] || flag[j]);
+      const bool inserted = got.emplace(std::min(i, j), std::max(i, j)).second;
+      EXPECT_TRUE(inserted) << "pair reported twice or kept and reported: " << i << ", " << j;
+    });
+    std::vector<int> slots;
+    for (int i = 0; i < n; ++i) {
+      if (in[i]) slots.push_back(i);
+    }
+    const PairSet expected = bruteForce(slots, boxes, margin);
+    ASSERT_EQ(got, expected) << "cycle " << cycle;
+    if (cycle % 50 == 0) {
+      EXPECT_EQ(gridAll(grid), expected) << "cycle " << cycle;
+    }
+    EXPECT_EQ(grid.size(), slots.size());
+    kept = got;
+    total += expected.size();
+  }
+  EXPECT_GT(total / 200, 300u);  // meaningful: hundreds of pairs per cycle
+  EXPECT_GE(max_large, 1u);      // the floor went to the large list
+}
+
+TEST(HashGrid, TouchingAndMarginBoundariesAndFarAway) {
+  std::vector<Aabb> boxes = {Aabb{Vec3(0, 0, 0), Vec3(1, 1, 1)}, Aabb{Vec3(1, 0, 0), Vec3(2, 1, 1)},
+                             Aabb{Vec3(2.25, 0, 0), Vec3(3.25, 1, 1)},
+                             Aabb{Vec3(3.75, 0, 0), Vec3(4.75, 1, 1)},
+                             // far from the origin (coordinates clamp) and touching each other
+                             Aabb{Vec3(1e9, 1e9, 1e9), Vec3(1e9 + 1, 1e9 + 1, 1e9 + 1)},
+                             Aabb{Vec3(1e9 + 1, 1e9, 1e9), Vec3(1e9 + 2, 1e9 + 1, 1e9 + 1)}};
+  for (double margin : {0.25, 0.5}) {
+    HashGrid grid;
+    grid.setMargin(margin);
+    for (int i = 0; i < static_cast<int>(boxes.size()); ++i)
+      grid.set(i, boxes[i]);
+    grid.prepare();
+    std::vector<int> all = {0, 1, 2, 3, 4, 5};
+    EXPECT_EQ(gridAll(grid), bruteForce(all, boxes, margin)) << margin;
+    EXPECT_EQ(gridAll(grid).count({4, 5}), 1u);
+  }
+  HashGrid empty;
+  empty.prepare();
+  EXPECT_EQ(gridAll(empty), PairSet{});
+}
+
 }  // namespace
 }  // namespace world
 }  // namespace collision_monitor

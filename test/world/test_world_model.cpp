@@ -671,6 +671,45 @@ TEST(WorldModel, TimeToCollisionHeadOn) {
             std::numeric_limits<double>::infinity());
 }
 
+TEST(WorldModel, ShapeAabbEqualsTheSupportBox) {
+  // The closed-form part boxes equal ConvexShape::aabb() (6 support queries) for every core.
+  std::mt19937 g(11);
+  const auto u = [&](double lo, double hi) {
+    return lo + (hi - lo) * (static_cast<double>(g()) / 4294967296.0);
+  };
+  std::vector<Vec3> pts;
+  for (int k = 0; k < 16; ++k)
+    pts.emplace_back(u(-0.1, 0.1), u(-0.05, 0.05), u(-0.2, 0.2));
+  std::vector<Vec3> many;
+  for (int k = 0; k < 200; ++k)
+    many.emplace_back(u(-1, 1), u(-1, 1), u(-1, 1));
+  const std::vector<ConvexShape> shapes = {
+      ConvexShape::sphere(0.1),
+      ConvexShape::point(Vec3(0.1, -0.2, 0.3)),
+      ConvexShape::segment(Vec3(0.1, 0, 0), Vec3(-0.3, 0.2, 0.5)),
+      ConvexShape::capsule(0.4, 0.05),
+      ConvexShape::box(Vec3(0.2, 0.4, 0.1)),
+      ConvexShape::cylinder(0.3, 0.1),
+      ConvexShape::cone(0.3, 0.1),
+      ConvexShape::ellipsoid(Vec3(0.1, 0.2, 0.3)),
+      ConvexShape::convexHull(pts),
+      ConvexShape::convexHull(many),
+      ConvexShape::box(Vec3(0.2, 0.4, 0.1)).padded(0.02),
+      ConvexShape::convexHull(pts).padded(0.01)};
+  for (int trial = 0; trial < 200; ++trial) {
+    Transform3 T = at(u(-5, 5), u(-5, 5), u(-5, 5));
+    T.R =
+        Eigen::Quaterniond(u(-1, 1), u(-1, 1), u(-1, 1), u(-1, 1)).normalized().toRotationMatrix();
+    if (trial == 0) T.R.setIdentity();
+    for (const ConvexShape& sh : shapes) {
+      const core::Aabb a = shapeAabb(sh, T);
+      const core::Aabb b = sh.aabb(T);
+      EXPECT_LE((a.min - b.min).cwiseAbs().maxCoeff(), 1e-12) << sh.describe();
+      EXPECT_LE((a.max - b.max).cwiseAbs().maxCoeff(), 1e-12) << sh.describe();
+    }
+  }
+}
+
 TEST(WorldModel, ArmAmongAThousandObstaclesIsFast) {
   // The benchmark scene in miniature: a 7-link arm (one group) moving through 1,000 static
   // obstacles. Prints the cycle time; asserts only a generous bound (the machine is shared).
