@@ -5,6 +5,7 @@ find_package(tinyxml2 REQUIRED)
 
 set(CM_ROS_SOURCES
   src/ros/conversions.cpp
+  src/ros/wire_check.cpp
   src/ros/mesh_loader.cpp
   src/ros/robot_model.cpp
   src/ros/params.cpp
@@ -63,6 +64,16 @@ if(CATKIN_ENABLE_TESTING)
     target_compile_definitions(test_ros_conversions PRIVATE
       CM_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}"
       CM_ROBOT_DATA="${CM_ROBOT_DATA_DIR}")
+  endif()
+
+  # Hostile-input defences, no master: the layout walkers behind Checked<M> (bounded
+  # deserialization) and the length limits / bounded quoting of input strings. Its own binary: it
+  # replaces the global operator new to measure allocations.
+  cm_add_gtest(test_ros_wire_check
+    SOURCES test/ros/test_wire_check.cpp
+    LIBS collision_monitor_ros)
+  if(TARGET test_ros_wire_check)
+    target_include_directories(test_ros_wire_check SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
   endif()
 
   # rostests over a real roscore (python test nodes in test/ros, run with /usr/bin/python3).

@@ -112,6 +112,36 @@ Expected<ConvexShape> primitive(const collision_monitor::Shape& msg) {
 
 }  // namespace
 
+std::string quoteInput(const std::string& s, std::size_t max_bytes) {
+  const std::size_t n = std::min(s.size(), max_bytes);
+  std::string out;
+  out.reserve(n + 32);
+  out.push_back('\'');
+  static const char kHex[] = "0123456789abcdef";
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    if (c < 0x20 || c >= 0x7f) {
+      out += "\\x";
+      out.push_back(kHex[c >> 4]);
+      out.push_back(kHex[c & 0xf]);
+    } else {
+      out.push_back(static_cast<char>(c));
+    }
+  }
+  if (n < s.size()) {
+    out += "...' (" + std::to_string(s.size()) + " bytes)";
+  } else {
+    out.push_back('\'');
+  }
+  return out;
+}
+
+std::string checkLength(const std::string& s, std::size_t max_bytes, const std::string& what) {
+  if (s.size() <= max_bytes) return {};
+  return what + " is " + std::to_string(s.size()) + " bytes, longer than the limit of " +
+         std::to_string(max_bytes) + ": " + quoteInput(s);
+}
+
 Expected<Transform3> toTransform(const geometry_msgs::Pose& pose, ZeroQuaternion zero) {
   const auto& p = pose.position;
   const auto& o = pose.orientation;
@@ -233,9 +263,11 @@ Expected<ConvexShape> shapeFromMsg(const collision_monitor::Shape& msg, const Li
     // MESH
     if (!msg.vertices.empty()) return Error{"mesh part takes no vertices (use resource)"};
     if (msg.resource.empty()) return Error{"mesh part has an empty resource"};
+    const std::string too_long = checkLength(msg.resource, kMaxResourceLength, "mesh resource");
+    if (!too_long.empty()) return Error{too_long};
     if (!load_mesh) return Error{"mesh parts are not supported here"};
     auto shape = load_mesh(msg.resource, *scale);
-    if (!shape) return Error{"mesh '" + msg.resource + "': " + shape.error()};
+    if (!shape) return Error{"mesh " + quoteInput(msg.resource) + ": " + shape.error()};
     return shape;
   } catch (const std::exception& e) {
     return Error{shapeTypeName(msg.type) + ": " + e.what()};
@@ -259,6 +291,12 @@ Expected<world::Part> partFromMsg(const collision_monitor::Shape& msg, double pa
 Expected<world::BodySpec> bodyFromMsg(const collision_monitor::Body& msg, world::BodyOrigin origin,
                                       const Limits& limits, const MeshLoader& load_mesh) {
   if (msg.id.empty()) return Error{"body id is empty"};
+  for (const auto& [field, value] :
+       {std::make_pair("body id", &msg.id), std::make_pair("header.frame_id", &msg.header.frame_id),
+        std::make_pair("group", &msg.group), std::make_pair("pose_topic", &msg.pose_topic)}) {
+    const std::string too_long = checkLength(*value, kMaxNameLength, field);
+    if (!too_long.empty()) return Error{too_long};
+  }
   if (msg.operation != collision_monitor::Body::ADD) {
     return Error{"operation " + std::to_string(msg.operation) + " is not ADD"};
   }
@@ -296,6 +334,9 @@ Expected<world::BodySpec> bodyFromMsg(const collision_monitor::Body& msg, world:
 }
 
 Expected<std::vector<PoseUpdate>> posesFromMsg(const collision_monitor::BodyPoses& msg) {
+  const std::string frame_too_long =
+      checkLength(msg.header.frame_id, kMaxNameLength, "header.frame_id");
+  if (!frame_too_long.empty()) return Error{frame_too_long};
   if (msg.ids.size() != msg.poses.size()) {
     return Error{"ids and poses differ in length (" + std::to_string(msg.ids.size()) + " vs " +
                  std::to_string(msg.poses.size()) + ")"};
@@ -310,14 +351,16 @@ Expected<std::vector<PoseUpdate>> posesFromMsg(const collision_monitor::BodyPose
   for (std::size_t i = 0; i < msg.ids.size(); ++i) {
     const std::string& id = msg.ids[i];
     if (id.empty()) return Error{"ids[" + std::to_string(i) + "] is empty"};
-    if (!seen.insert(id).second) return Error{"id '" + id + "' appears twice"};
+    const std::string too_long = checkLength(id, kMaxNameLength, "ids[" + std::to_string(i) + "]");
+    if (!too_long.empty()) return Error{too_long};
+    if (!seen.insert(id).second) return Error{"id " + quoteInput(id) + " appears twice"};
     auto pose = toTransform(msg.poses[i], ZeroQuaternion::Refuse);
-    if (!pose) return Error{"pose of '" + id + "': " + pose.error()};
+    if (!pose) return Error{"pose of " + quoteInput(id) + ": " + pose.error()};
     PoseUpdate u{id, *pose, std::nullopt};
     if (!msg.twists.empty()) {
       const auto& t = msg.twists[i];
       if (!finite(t.linear) || !finite(t.angular)) {
-        return Error{"twist of '" + id + "' is not finite"};
+        return Error{"twist of " + quoteInput(id) + " is not finite"};
       }
       u.twist = world::Twist{toVec3(t.linear), toVec3(t.angular)};
     }

@@ -15,6 +15,7 @@
 #include <ros/package.h>
 
 #include "collision_monitor/core/shapes.h"
+#include "collision_monitor/ros/conversions.h"
 
 namespace collision_monitor {
 namespace ros_layer {
@@ -34,6 +35,9 @@ std::string canonical(const std::string& path, std::string* why) {
   }
   return buf;
 }
+
+/// Paths are quoted longer than other input (they are checked against PATH_MAX first).
+constexpr std::size_t kPathQuote = 512;
 
 /// True when canonical `path` lies inside canonical directory `dir`.
 bool inside(const std::string& path, const std::string& dir) {
@@ -61,7 +65,8 @@ Expected<std::string> resolveMeshUri(const std::string& uri,
     }
     const std::string package = rest.substr(0, slash);
     const std::string dir = resolve_package ? resolve_package(package) : std::string();
-    if (dir.empty()) return Error{"unknown package '" + package + "' (not on ROS_PACKAGE_PATH)"};
+    if (dir.empty())
+      return Error{"unknown package " + quoteInput(package) + " (not on ROS_PACKAGE_PATH)"};
     std::string why;
     package_dir = canonical(dir, &why);
     if (package_dir.empty()) return Error{"package directory " + dir + ": " + why};
@@ -76,7 +81,7 @@ Expected<std::string> resolveMeshUri(const std::string& uri,
 
   std::string why;
   const std::string real = canonical(path, &why);
-  if (real.empty()) return Error{"cannot resolve " + path + ": " + why};
+  if (real.empty()) return Error{"cannot resolve " + quoteInput(path, kPathQuote) + ": " + why};
 
   bool allowed = inside(real, package_dir);
   for (const std::string& root : mesh_roots) {
@@ -105,6 +110,11 @@ Expected<core::ConvexShape> loadMeshHull(const std::string& path, const core::Ve
         "file://" + path, Eigen::Vector3d(scale.x(), scale.y(), scale.z())));
     if (!mesh) return Error{"cannot load " + path + " (not a readable STL/DAE/OBJ mesh)"};
     if (mesh->vertex_count == 0) return Error{path + " has no vertices"};
+    // Checked before hulling: a huge mesh inside mesh_roots is refused without the hull's cost.
+    if (mesh->vertex_count > max_vertices) {
+      return Error{path + " has " + std::to_string(mesh->vertex_count) +
+                   " vertices, more than max_vertices_per_part " + std::to_string(max_vertices)};
+    }
     std::vector<core::Vec3> points;
     points.reserve(mesh->vertex_count);
     for (unsigned i = 0; i < mesh->vertex_count; ++i) {

@@ -39,9 +39,20 @@ Transform3 toTransform3(const geometry_msgs::Transform& t) {
 std::string joined(const std::vector<std::string>& items, std::size_t max_items = 10) {
   std::ostringstream os;
   for (std::size_t i = 0; i < items.size() && i < max_items; ++i)
-    os << (i ? ", " : "") << items[i];
+    os << (i ? ", " : "") << items[i].substr(0, kMaxNameLength + 64);
   if (items.size() > max_items) os << ", ... (" << items.size() << " in all)";
   return os.str();
+}
+
+/// Throttling key of an input source named by (untrusted) `id`: bounded in length.
+std::string sourceKey(const char* prefix, const std::string& id) {
+  return prefix + id.substr(0, kMaxNameLength);
+}
+
+/// `what` cut to `max_bytes` ("... (N bytes)" appended when cut).
+std::string capped(const std::string& what, std::size_t max_bytes) {
+  if (what.size() <= max_bytes) return what;
+  return what.substr(0, max_bytes) + "... (" + std::to_string(what.size()) + " bytes)";
 }
 
 }  // namespace
@@ -86,6 +97,8 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   state_pub_ = pnh_.advertise<collision_monitor::CollisionState>("state", 10);
   markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 1);
   const auto hints = ros::TransportHints().tcpNoDelay();
+  // Checked<M>: every length prefix is checked against the message size before anything is
+  // allocated (wire_check.h).
   bodies_sub_ = pnh_.subscribe("bodies", 1000, &Monitor::onBody, this, hints);
   poses_sub_ = pnh_.subscribe("body_poses", 100, &Monitor::onBodyPoses, this, hints);
   distance_srv_ = pnh_.advertiseService("get_distance", &Monitor::getDistance, this);
@@ -272,11 +285,11 @@ void Monitor::loadParameterBodies() {
     }
     auto spec = bodyFromMsg(*msg, world::BodyOrigin::Parameter, limits_, mesh_loader_);
     if (!spec) {
-      rejectAtStartup(where + " body '" + msg->id + "' refused: " + spec.error());
+      rejectAtStartup(where + " body " + quoteInput(msg->id) + " refused: " + spec.error());
       continue;
     }
     const std::string err = addBody(std::move(spec).value());
-    if (!err.empty()) rejectAtStartup(where + " body '" + msg->id + "' refused: " + err);
+    if (!err.empty()) rejectAtStartup(where + " body " + quoteInput(msg->id) + " refused: " + err);
   }
 }
 
@@ -289,30 +302,50 @@ void Monitor::disablePair(const std::string& a, const std::string& b, const std:
 // ---------------------------------------------------------------------------------------------
 // inputs
 
-void Monitor::count(const std::string& what) {
+std::string Monitor::count(const std::string& what) {
+  std::string text = capped(what, kMaxRejectionText);
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++stats_.rejected;
-  stats_.last_rejection = what;
+  stats_.last_rejection = text;
+  return text;
 }
 
 void Monitor::rejectAtStartup(const std::string& what) {
-  count(what);
-  ROS_ERROR_STREAM(name_ << ": " << what);
+  ROS_ERROR_STREAM(name_ << ": " << count(what));
 }
 
 void Monitor::reject(const std::string& key, const std::string& what) {
-  count(what);
+  const std::string text = count(what);
   // Throttled per source (a body id, ~body_poses, a pose topic): one bad body cannot hide
-  // another's message, and a stream of bad poses logs once per period.
+  // another's message, and a stream of bad poses logs once per period. A storm of distinct
+  // sources is bounded by the overall budget; the lines left out are counted in the next one.
   const ros::WallTime now = ros::WallTime::now();
+  std::size_t skipped = 0;
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     if (last_logged_.size() > 10000) last_logged_.clear();
     auto it = last_logged_.find(key);
     if (it != last_logged_.end() && (now - it->second).toSec() < kRejectLogPeriod) return;
+    if ((now - log_window_start_).toSec() >= 1.0) {
+      log_window_start_ = now;
+      logged_in_window_ = 0;
+    }
+    if (logged_in_window_ >= kRejectLogBudget) {
+      ++not_logged_;
+      return;
+    }
+    ++logged_in_window_;
     last_logged_[key] = now;
+    skipped = not_logged_;
+    not_logged_ = 0;
   }
-  ROS_ERROR_STREAM(name_ << ": " << what);
+  if (skipped > 0) {
+    ROS_ERROR_STREAM(name_ << ": " << text << " (and " << skipped
+                           << " other rejections not logged: over " << kRejectLogBudget
+                           << " lines/s)");
+  } else {
+    ROS_ERROR_STREAM(name_ << ": " << text);
+  }
 }
 
 std::string Monitor::addBody(world::BodySpec spec) {
@@ -422,41 +455,54 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, double stamp,
   if (check_on_pose_ && unknown.size() + attached.size() < updates.size()) trigger();
 }
 
-void Monitor::onBody(const collision_monitor::Body::ConstPtr& msg) {
+void Monitor::onBody(const ros::MessageEvent<const Checked<collision_monitor::Body>>& event) {
+  const auto& msg = event.getConstMessage();
+  const std::string key = sourceKey("~bodies:", msg->id);
   try {
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++stats_.bodies_msgs;
     }
+    if (!msg->refused.empty()) {
+      reject("~bodies (malformed)", "~bodies: message from " +
+                                        quoteInput(event.getPublisherName()) +
+                                        " refused: " + msg->refused);
+      return;
+    }
+    const std::string id = quoteInput(msg->id);
     if (msg->operation == collision_monitor::Body::REMOVE) {
       std::string why;
-      if (!removeBody(msg->id, &why))
-        reject("~bodies:" + msg->id, "~bodies: cannot remove '" + msg->id + "': " + why);
+      if (!removeBody(msg->id, &why)) reject(key, "~bodies: cannot remove " + id + ": " + why);
       return;
     }
     if (msg->operation != collision_monitor::Body::ADD) {
-      reject("~bodies:" + msg->id, "~bodies: body '" + msg->id + "': unknown operation " +
-                                       std::to_string(msg->operation));
+      reject(key, "~bodies: body " + id + ": unknown operation " + std::to_string(msg->operation));
       return;
     }
     auto spec = bodyFromMsg(*msg, world::BodyOrigin::Topic, limits_, mesh_loader_);
     if (!spec) {
-      reject("~bodies:" + msg->id, "~bodies: body '" + msg->id + "' refused: " + spec.error());
+      reject(key, "~bodies: body " + id + " refused: " + spec.error());
       return;
     }
     const std::string err = addBody(std::move(spec).value());
-    if (!err.empty())
-      reject("~bodies:" + msg->id, "~bodies: body '" + msg->id + "' refused: " + err);
+    if (!err.empty()) reject(key, "~bodies: body " + id + " refused: " + err);
   } catch (const std::exception& e) {
-    reject("~bodies:" + msg->id, "~bodies: body '" + msg->id + "': internal error: " + e.what());
+    reject(key, "~bodies: body " + quoteInput(msg->id) + ": internal error: " + e.what());
   }
 }
 
-void Monitor::onBodyPoses(const collision_monitor::BodyPoses::ConstPtr& msg) {
+void Monitor::onBodyPoses(
+    const ros::MessageEvent<const Checked<collision_monitor::BodyPoses>>& event) {
+  const auto& msg = event.getConstMessage();
   try {
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++stats_.poses_msgs;
+    }
+    if (!msg->refused.empty()) {
+      reject("~body_poses", "~body_poses: message from " + quoteInput(event.getPublisherName()) +
+                                " refused: " + msg->refused);
+      return;
     }
     auto updates = posesFromMsg(*msg);
     if (!updates) {
@@ -470,8 +516,8 @@ void Monitor::onBodyPoses(const collision_monitor::BodyPoses::ConstPtr& msg) {
     std::string why;
     auto to_fixed = toFixed(msg->header.frame_id, msg->header.stamp, &why);
     if (!to_fixed) {
-      reject("~body_poses",
-             "~body_poses refused: cannot resolve frame '" + msg->header.frame_id + "': " + why);
+      reject("~body_poses", "~body_poses refused: cannot resolve frame " +
+                                quoteInput(msg->header.frame_id) + ": " + capped(why, 512));
       return;
     }
     for (auto& u : *updates)
@@ -490,26 +536,35 @@ void Monitor::onPoseStamped(const std::string& id,
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++stats_.pose_topic_msgs;
     }
+    const std::string key = sourceKey("pose_topic:", id);
+    const std::string source = "pose_topic of " + quoteInput(id);
     auto pose = toTransform(msg->pose, ZeroQuaternion::Refuse);
     if (!pose) {
-      reject("pose_topic:" + id, "pose_topic of '" + id + "' refused: " + pose.error());
+      reject(key, source + " refused: " + pose.error());
       return;
     }
     if (msg->header.frame_id.empty()) {
-      reject("pose_topic:" + id, "pose_topic of '" + id + "' refused: header.frame_id is empty");
+      reject(key, source + " refused: header.frame_id is empty");
+      return;
+    }
+    const std::string too_long =
+        checkLength(msg->header.frame_id, kMaxNameLength, "header.frame_id");
+    if (!too_long.empty()) {
+      reject(key, source + " refused: " + too_long);
       return;
     }
     std::string why;
     auto to_fixed = toFixed(msg->header.frame_id, msg->header.stamp, &why);
     if (!to_fixed) {
-      reject("pose_topic:" + id, "pose_topic of '" + id + "' refused: cannot resolve frame '" +
-                                     msg->header.frame_id + "': " + why);
+      reject(key, source + " refused: cannot resolve frame " + quoteInput(msg->header.frame_id) +
+                      ": " + capped(why, 512));
       return;
     }
     applyPoses({PoseUpdate{id, *to_fixed * *pose, std::nullopt}}, msg->header.stamp.toSec(),
-               "pose_topic of '" + id + "'");
+               source);
   } catch (const std::exception& e) {
-    reject("pose_topic:" + id, "pose_topic of '" + id + "': internal error: " + e.what());
+    reject(sourceKey("pose_topic:", id),
+           "pose_topic of " + quoteInput(id) + ": internal error: " + e.what());
   }
 }
 
@@ -544,17 +599,18 @@ bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
     {
       std::lock_guard<std::mutex> lock(world_mutex_);
       if (!world_->hasBody(req.body_a)) {
-        why = "unknown body '" + req.body_a + "'";
+        why = "unknown body " + quoteInput(req.body_a);
       } else if (req.body_b.empty()) {
         result = world_->nearest(req.body_a, now, &why);
       } else if (!world_->hasBody(req.body_b)) {
-        why = "unknown body '" + req.body_b + "'";
+        why = "unknown body " + quoteInput(req.body_b);
       } else if (req.body_a == req.body_b) {
         why = "body_a and body_b are the same body";
       } else {
         const std::string never = whyNeverChecked(req.body_a, req.body_b);
         if (!never.empty()) {
-          why = "'" + req.body_a + "' and '" + req.body_b + "' are never checked: " + never;
+          why = quoteInput(req.body_a) + " and " + quoteInput(req.body_b) +
+                " are never checked: " + never;
         } else {
           result = world_->distance(req.body_a, req.body_b, now, &why);
         }
@@ -573,7 +629,8 @@ bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
         to_frame =
             toTransform3(tf_buffer_->lookupTransform(frame, fixed_frame_, ros::Time(0)).transform);
       } catch (const tf2::TransformException& e) {
-        res.message = "cannot express the result in frame '" + req.frame_id + "': " + e.what();
+        res.message = "cannot express the result in frame " + quoteInput(req.frame_id) + ": " +
+                      capped(e.what(), 512);
         return true;
       }
     }
@@ -587,10 +644,15 @@ bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
   return true;
 }
 
-bool Monitor::checkCollision(collision_monitor::CheckCollision::Request& req,
+bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>& req,
                              collision_monitor::CheckCollision::Response& res) {
   try {
     res.success = false;
+    if (!req.refused.empty()) {
+      res.message = "request refused: " + req.refused;
+      reject("~check_collision (malformed)", "~check_collision: " + res.message);
+      return true;
+    }
     const double now = ros::Time::now().toSec();
     collision_monitor::Body body = req.body;
     if (body.id.empty()) body.id = "check_collision";
@@ -604,7 +666,7 @@ bool Monitor::checkCollision(collision_monitor::CheckCollision::Request& req,
     }
     auto spec = bodyFromMsg(body, world::BodyOrigin::Topic, limits_, mesh_loader_);
     if (!spec) {
-      res.message = "body '" + body.id + "' refused: " + spec.error();
+      res.message = "body " + quoteInput(body.id) + " refused: " + spec.error();
       return true;
     }
     auto pose = toTransform(req.pose, ZeroQuaternion::Identity);
@@ -615,7 +677,8 @@ bool Monitor::checkCollision(collision_monitor::CheckCollision::Request& req,
     std::string why;
     auto to_fixed = toFixed(body.header.frame_id, body.header.stamp, &why);
     if (!to_fixed) {
-      res.message = "cannot resolve frame '" + body.header.frame_id + "': " + why;
+      res.message =
+          "cannot resolve frame " + quoteInput(body.header.frame_id) + ": " + capped(why, 512);
       return true;
     }
     std::vector<world::PairResult> pairs;

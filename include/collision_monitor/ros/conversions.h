@@ -15,7 +15,10 @@
 /// - CONVEX: 1..max_vertices_per_part vertices; MESH: a non-empty resource (resolved and loaded by
 ///   the MeshLoader, which enforces mesh_roots);
 /// - bodies: non-empty id, 1..max_parts_per_body parts, padding >= 0, a frame_id unless the pose
-///   comes from a topic; a non-empty pose_topic implies pose_from_topic.
+///   comes from a topic; a non-empty pose_topic implies pose_from_topic;
+/// - lengths: ids, frame ids, groups and topic names at most kMaxNameLength bytes, mesh resources
+///   at most kMaxResourceLength bytes. Messages quote input strings through quoteInput() only, so
+///   no error text grows with the input.
 #pragma once
 
 #include <cstddef>
@@ -44,6 +47,21 @@ namespace ros_layer {
 
 /// |q| may differ from 1 by this much; such quaternions are normalised, others refused.
 constexpr double kQuaternionTolerance = 1e-3;
+
+/// Longest id, frame id, group or topic name accepted (bytes).
+constexpr std::size_t kMaxNameLength = 256;
+/// Longest mesh resource URI accepted (bytes; PATH_MAX).
+constexpr std::size_t kMaxResourceLength = 4096;
+/// How many bytes of an input string an error message quotes.
+constexpr std::size_t kQuoteLength = 120;
+
+/// `s` in single quotes for an error message: at most `max_bytes` of it, then "...' (N bytes)";
+/// control characters and bytes >= 0x7f are escaped as \xNN (a log line stays one line).
+std::string quoteInput(const std::string& s, std::size_t max_bytes = kQuoteLength);
+
+/// Empty when `s` is at most `max_bytes` long; else the error ("<what> is N bytes, longer than
+/// the limit of M: '<first bytes>...' (N bytes)").
+std::string checkLength(const std::string& s, std::size_t max_bytes, const std::string& what);
 
 /// What a zero quaternion means where a pose enters.
 enum class ZeroQuaternion {

@@ -37,6 +37,7 @@
 #include "collision_monitor/ros/conversions.h"
 #include "collision_monitor/ros/markers.h"
 #include "collision_monitor/ros/mesh_loader.h"
+#include "collision_monitor/ros/wire_check.h"
 #include "collision_monitor/world/world_model.h"
 
 namespace collision_monitor {
@@ -71,8 +72,10 @@ class Monitor {
   void setupDiagnostics();
 
   // inputs
-  void onBody(const collision_monitor::Body::ConstPtr& msg);
-  void onBodyPoses(const collision_monitor::BodyPoses::ConstPtr& msg);
+  // ~bodies, ~body_poses and ~check_collision deserialize through Checked<M> (wire_check.h): a
+  // malformed message arrives with `refused` set and nothing deserialized.
+  void onBody(const ros::MessageEvent<const Checked<collision_monitor::Body>>& event);
+  void onBodyPoses(const ros::MessageEvent<const Checked<collision_monitor::BodyPoses>>& event);
   void onPoseStamped(const std::string& id, const geometry_msgs::PoseStamped::ConstPtr& msg);
   /// Adds (or replaces) a validated body and (re)subscribes its pose topic. Empty on success.
   std::string addBody(world::BodySpec spec);
@@ -86,7 +89,7 @@ class Monitor {
   // services
   bool getDistance(collision_monitor::GetDistance::Request& req,
                    collision_monitor::GetDistance::Response& res);
-  bool checkCollision(collision_monitor::CheckCollision::Request& req,
+  bool checkCollision(Checked<collision_monitor::CheckCollision::Request>& req,
                       collision_monitor::CheckCollision::Response& res);
   bool listBodies(collision_monitor::ListBodies::Request& req,
                   collision_monitor::ListBodies::Response& res);
@@ -99,12 +102,20 @@ class Monitor {
   void trigger();
 
   // bookkeeping
-  /// A refused input: counted for /diagnostics and logged, throttled per `key` (the source).
+  /// A refused input: counted for /diagnostics and logged, throttled per `key` (the source) and
+  /// to kRejectLogBudget lines per second in all. `what` is capped at kMaxRejectionText bytes.
   void reject(const std::string& key, const std::string& what);
   void rejectAtStartup(const std::string& what);
-  void count(const std::string& what);
-  static constexpr double kRejectLogPeriod = 1.0;     ///< s between two logs of one source
-  std::map<std::string, ros::WallTime> last_logged_;  ///< guarded by stats_mutex_
+  /// Counts a rejection; returns `what` capped at kMaxRejectionText bytes.
+  std::string count(const std::string& what);
+  static constexpr double kRejectLogPeriod = 1.0;  ///< s between two logs of one source
+  static constexpr std::size_t kRejectLogBudget =
+      20;  ///< rejection log lines per second, all sources
+  static constexpr std::size_t kMaxRejectionText = 1024;  ///< bytes of a rejection message
+  std::map<std::string, ros::WallTime> last_logged_;      ///< guarded by stats_mutex_
+  ros::WallTime log_window_start_;                        ///< guarded by stats_mutex_
+  std::size_t logged_in_window_ = 0;                      ///< guarded by stats_mutex_
+  std::size_t not_logged_ = 0;  ///< rejections over the budget since the last line (stats_mutex_)
   void disablePair(const std::string& a, const std::string& b, const std::string& reason);
   world::Settings settings_;
   Limits limits_;
