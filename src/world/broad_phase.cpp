@@ -112,7 +112,7 @@ void HashGrid::setMargin(double margin) {
   margin_ = margin;
   half_ = 0.5 * margin * (1.0 + 1e-12) + 1e-12;
   for (int s : members_)
-    entries_[s].box = entries_[s].raw.inflated(half_);
+    boxes_[s] = entries_[s].raw.inflated(half_);
   built_ = false;  // re-enter everything at the next prepare()
 }
 
@@ -192,7 +192,7 @@ void HashGrid::place(int slot) {
   Entry& e = entries_[slot];
   std::array<int, 3> lo;
   std::array<int, 3> hi;
-  if (!cellRange(e.box, &lo, &hi)) {
+  if (!cellRange(boxes_[slot], &lo, &hi)) {
     if (e.entered) leave(slot);
     if (!e.large) addLarge(slot);
     return;
@@ -209,7 +209,10 @@ void HashGrid::place(int slot) {
 
 void HashGrid::set(int slot, const core::Aabb& box) {
   if (slot < 0) return;
-  if (static_cast<std::size_t>(slot) >= entries_.size()) entries_.resize(slot + 1);
+  if (static_cast<std::size_t>(slot) >= entries_.size()) {
+    entries_.resize(slot + 1);
+    boxes_.resize(slot + 1);
+  }
   Entry& e = entries_[slot];
   if (!e.present) {
     e.present = true;
@@ -217,7 +220,7 @@ void HashGrid::set(int slot, const core::Aabb& box) {
     members_.push_back(slot);
   }
   e.raw = box;
-  e.box = box.inflated(half_);
+  boxes_[slot] = box.inflated(half_);
   if (built_) place(slot);
 }
 
@@ -242,7 +245,7 @@ void HashGrid::rebuild() {
   // Cell size from the median largest side of the (finite) inflated boxes.
   scratch_.clear();
   for (int s : members_) {
-    const core::Aabb& b = entries_[s].box;
+    const core::Aabb& b = boxes_[s];
     const double side = (b.max - b.min).maxCoeff();
     if (std::isfinite(side) && side >= 0.0) scratch_.push_back(side);
   }
@@ -256,7 +259,7 @@ void HashGrid::rebuild() {
   inv_cell_ = 1.0 / cell_;
 
   std::size_t table = 64;
-  while (table < 8 * members_.size())
+  while (table < 2 * members_.size())
     table *= 2;
   for (std::vector<Item>& b : buckets_)
     b.clear();

@@ -121,26 +121,27 @@ struct Narrow {
 
 /// A body in its slot, with its placement in the fixed frame.
 struct BodyState {
+  // Hot fields first (read for every slot each cycle), the rest after.
   bool used = false;
-  BodySpec spec;
-  int group = 0;  ///< dense id of spec.group, 0 = none
   bool has_pose = false;
   bool unresolved = false;
-  double stamp = 0.0;  ///< s; <= 0 static
-  Transform3 pose = Transform3::Identity();
+  bool fresh = false;       ///< fresh at the last check()
+  bool fresh_prev = false;  ///< fresh at the check() before (and existed)
+  bool was_active = false;  ///< in the broad phase of the last check()
   bool has_twist = false;
-  Twist twist;
+  int group = 0;       ///< dense id of spec.group, 0 = none
+  double stamp = 0.0;  ///< s; <= 0 static
   /// Bumped whenever the pose or the geometry changes: a pair result computed at the same
   /// versions of both bodies is still exact.
   std::uint64_t version = 0;
-  core::Aabb box;                      ///< union of part boxes, fixed frame
+  std::uint64_t swept_version = 0;  ///< version in the broad phase of the last check()
+  Transform3 pose = Transform3::Identity();
+  Twist twist;
+  core::Aabb box;  ///< union of part boxes, fixed frame
+  BodySpec spec;
   std::vector<core::Aabb> part_boxes;  ///< fixed frame
   std::vector<Transform3> part_poses;  ///< part frame -> fixed frame
   std::vector<double> part_radii;      ///< bounding radius about the part origin, m
-  bool fresh = false;                  ///< fresh at the last check()
-  bool fresh_prev = false;             ///< fresh at the check() before (and existed)
-  bool was_active = false;             ///< in the broad phase of the last check()
-  std::uint64_t swept_version = 0;     ///< version in the broad phase of the last check()
 
   void place() {
     const std::size_t n = spec.parts.size();

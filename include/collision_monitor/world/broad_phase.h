@@ -182,7 +182,6 @@ class HashGrid {
  private:
   struct Entry {
     core::Aabb raw;           ///< as given
-    core::Aabb box;           ///< inflated by half the margin
     std::array<int, 3> lo{};  ///< cell range touched (inclusive)
     std::array<int, 3> hi{};
     bool present = false;
@@ -217,15 +216,16 @@ class HashGrid {
   template <class Flagged, class Visit>
   void queryOne(int m, const Flagged& flagged, Visit& visit) const {
     const Entry& em = entries_[m];
+    const core::Aabb& bm = boxes_[m];
     const auto skip = [&](int o) { return o == m || (o < m && flagged(o)); };
     if (em.large) {
       for (int o : members_) {
-        if (!skip(o) && overlap(em.box, entries_[o].box)) visit(m, o);
+        if (!skip(o) && overlap(bm, boxes_[o])) visit(m, o);
       }
       return;
     }
     for (int o : large_) {
-      if (!skip(o) && overlap(em.box, entries_[o].box)) visit(m, o);
+      if (!skip(o) && overlap(bm, boxes_[o])) visit(m, o);
     }
     for (int z = em.lo[2]; z <= em.hi[2]; ++z) {
       for (int y = em.lo[1]; y <= em.hi[1]; ++y) {
@@ -239,16 +239,17 @@ class HashGrid {
             }
             const int o = it.slot;
             if (skip(o)) continue;
-            if (overlap(em.box, entries_[o].box)) visit(m, o);
+            if (overlap(bm, boxes_[o])) visit(m, o);
           }
         }
       }
     }
   }
 
-  std::vector<Entry> entries_;  ///< by slot
-  std::vector<int> members_;    ///< every held slot
-  std::vector<int> large_;      ///< slots not in the buckets
+  std::vector<core::Aabb> boxes_;  ///< by slot: the box inflated by half the margin
+  std::vector<Entry> entries_;     ///< by slot
+  std::vector<int> members_;       ///< every held slot
+  std::vector<int> large_;         ///< slots not in the buckets
   /// A box in a bucket, with its lower cell (for the reference-cell test without a lookup).
   struct Item {
     int slot;
