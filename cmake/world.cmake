@@ -9,8 +9,9 @@ target_include_directories(collision_monitor_world PUBLIC
 target_link_libraries(collision_monitor_world PUBLIC collision_monitor_core)
 target_compile_options(collision_monitor_world PRIVATE ${CM_WARNING_FLAGS})
 
-# Pure logic (status machine, events, time to collision, sweep and prune on boxes): needs neither
-# the GJK core nor ROS, so it is built from the sources directly against Eigen.
+# Pure logic (status machine, events, time to collision, hash grid and sweep and prune on
+# boxes): needs neither the GJK core nor ROS, so it is built from the sources directly against
+# Eigen.
 cm_add_gtest(test_world_logic
   SOURCES test/world/test_pair_logic.cpp test/world/test_broad_phase.cpp src/world/broad_phase.cpp
   LIBS Eigen3::Eigen)

@@ -1,11 +1,13 @@
 /// \file
-/// The world model: bodies in dense slots, sweep-and-prune broad phase, compound narrow phase
+/// The world model: bodies in dense slots, hash-grid broad phase, compound narrow phase
 /// with per-part-pair warm starts, per-pair status with hysteresis and events.
 ///
 /// Per cycle (check()):
-///  1. freshness of every body at `now`;
-///  2. broad phase over the fresh bodies' boxes (already in the fixed frame: boxes are updated
-///     when a pose or the geometry changes, not per cycle), refined by the exact box distance;
+///  1. freshness of every body at `now`; bodies that moved (pose or geometry), became fresh or
+///     went stale since the last cycle update the hash grid (HashGrid, broad_phase.h);
+///  2. broad phase: pairs of two unmoved bodies are kept from the last cycle, each moved body is
+///     queried in the grid (boxes are in the fixed frame, exact, updated when a pose or the
+///     geometry changes), refined by the exact box distance;
 ///  3. narrow phase for each surviving pair, unless neither body moved since the pair's last
 ///     result (then that result is reused); per part pair a cheap lower bound first;
 ///  4. every pair with a stale body is UNKNOWN;
