@@ -166,6 +166,76 @@ struct BodyState {
   const Twist* twistPtr() const { return has_twist ? &twist : nullptr; }
 };
 
+/// id -> slot for the hot path (setPose by id string): open addressing with linear probing on
+/// the id's hash, one flat array (std::unordered_map costs a bucket and a node per lookup).
+/// Mirrors Impl::slot_of; tombstones on erase, rebuilt when half full.
+class SlotIndex {
+ public:
+  static std::uint64_t hashOf(const std::string& id) { return std::hash<std::string>()(id); }
+  template <class IdOf>
+  int find(const std::string& id, const IdOf& id_of) const {
+    if (cells_.empty()) return -1;
+    const std::uint64_t h = hashOf(id);
+    for (std::size_t i = h & mask_;; i = (i + 1) & mask_) {
+      const Cell& c = cells_[i];
+      if (c.slot == kEmpty) return -1;
+      if (c.slot >= 0 && c.hash == h && id_of(c.slot) == id) return c.slot;
+    }
+  }
+  void insert(const std::string& id, int slot) {
+    if (2 * (live_ + tombs_ + 1) > cells_.size())
+      rehash(std::max<std::size_t>(16, 4 * (live_ + 1)));
+    place(hashOf(id), slot);
+    ++live_;
+  }
+  void erase(const std::string& id, int slot) {
+    if (cells_.empty()) return;
+    const std::uint64_t h = hashOf(id);
+    for (std::size_t i = h & mask_;; i = (i + 1) & mask_) {
+      Cell& c = cells_[i];
+      if (c.slot == kEmpty) return;
+      if (c.slot == slot) {
+        c.slot = kTomb;
+        --live_;
+        ++tombs_;
+        return;
+      }
+    }
+  }
+
+ private:
+  static constexpr int kEmpty = -1;
+  static constexpr int kTomb = -2;
+  struct Cell {
+    std::uint64_t hash = 0;
+    int slot = kEmpty;
+  };
+  void place(std::uint64_t h, int slot) {
+    std::size_t i = h & mask_;
+    while (cells_[i].slot >= 0)
+      i = (i + 1) & mask_;
+    if (cells_[i].slot == kTomb) --tombs_;
+    cells_[i] = Cell{h, slot};
+  }
+  void rehash(std::size_t want) {
+    std::size_t cap = 16;
+    while (cap < want)
+      cap *= 2;
+    std::vector<Cell> old;
+    old.swap(cells_);
+    cells_.assign(cap, Cell());
+    mask_ = cap - 1;
+    tombs_ = 0;
+    for (const Cell& c : old) {
+      if (c.slot >= 0) place(c.hash, c.slot);
+    }
+  }
+  std::vector<Cell> cells_;
+  std::size_t mask_ = 0;
+  std::size_t live_ = 0;
+  std::size_t tombs_ = 0;
+};
+
 /// What is remembered of a pair between cycles. Slots in key order: a = lower slot.
 struct PairEntry {
   PairStatus status = PairStatus::Clear;
@@ -187,6 +257,7 @@ struct WorldModel::Impl {
   std::vector<core::Aabb> boxes;  ///< by slot (mirror of BodyState::box)
   std::vector<int> free_slots;
   std::unordered_map<std::string, int> slot_of;  ///< id -> slot
+  SlotIndex fast_slot_of;                        ///< the same, for setPose
   std::unordered_map<std::string, int> group_ids;
   std::unordered_map<std::string, std::unordered_set<std::string>> disabled;  ///< both ways
   std::unordered_set<std::uint64_t> disabled_slots;                           ///< orderedKey
@@ -474,6 +545,7 @@ std::string WorldModel::addBody(BodySpec spec) {
   b.group = m.groupId(b.spec.group);
   m.boxes[slot] = b.box;
   m.slot_of.emplace(b.spec.id, slot);
+  m.fast_slot_of.insert(b.spec.id, slot);
   ++m.count;
   m.ranks_dirty = true;
   auto dis = m.disabled.find(b.spec.id);
@@ -519,6 +591,7 @@ bool WorldModel::removeBody(const std::string& id) {
     }
   }
   m.grid.remove(slot);
+  m.fast_slot_of.erase(id, slot);
   m.bodies[slot] = BodyState();
   m.boxes[slot] = core::Aabb();
   m.slot_of.erase(it);
@@ -564,11 +637,12 @@ bool WorldModel::isPairDisabled(const std::string& a, const std::string& b) cons
 bool WorldModel::setPose(const std::string& id, const Transform3& pose, double stamp,
                          const std::optional<Twist>& twist) {
   Impl& m = *impl_;
-  auto it = m.slot_of.find(id);
-  if (it == m.slot_of.end()) return false;
+  const int slot =
+      m.fast_slot_of.find(id, [&](int k) -> const std::string& { return m.bodies[k].spec.id; });
+  if (slot < 0) return false;
   if (std::isnan(stamp) || !validTransform(pose)) return false;
   if (twist && !(core::allFinite(twist->linear) && core::allFinite(twist->angular))) return false;
-  BodyState& b = m.bodies[it->second];
+  BodyState& b = m.bodies[slot];
   // Out of order: only between two timed stamps. A static pose (stamp <= 0) always applies,
   // and any timed pose may follow a static one.
   if (b.has_pose && stamp > 0.0 && b.stamp > 0.0 && stamp < b.stamp) return false;
@@ -582,7 +656,7 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, double s
     b.pose = pose;
     ++b.version;
     b.place();
-    m.boxes[it->second] = b.box;
+    m.boxes[slot] = b.box;
   }
   return true;
 }

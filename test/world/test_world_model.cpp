@@ -710,6 +710,32 @@ TEST(WorldModel, ShapeAabbEqualsTheSupportBox) {
   }
 }
 
+TEST(WorldModel, SetPoseFindsBodiesAcrossManyAddsAndRemoves) {
+  // setPose looks ids up in its own flat index: it must follow every add, remove and re-add.
+  WorldModel w;
+  std::set<std::string> present;
+  std::mt19937 g(5);
+  for (int round = 0; round < 20; ++round) {
+    for (int k = 0; k < 200; ++k) {
+      const std::string id = "b" + std::to_string(g() % 400);
+      if (present.count(id)) {
+        ASSERT_TRUE(w.removeBody(id));
+        present.erase(id);
+      } else {
+        ASSERT_EQ(w.addBody(sphere(id, 0.01)), "");
+        present.insert(id);
+      }
+    }
+    for (int i = 0; i < 400; ++i) {
+      const std::string id = "b" + std::to_string(i);
+      EXPECT_EQ(w.setPose(id, at(i, round), 1.0 + round), present.count(id) == 1) << id;
+    }
+    EXPECT_EQ(w.size(), present.size());
+    const CycleResult r = w.check(1.0 + round);
+    EXPECT_TRUE(r.stale_bodies.empty());
+  }
+}
+
 TEST(WorldModel, ArmAmongAThousandObstaclesIsFast) {
   // The benchmark scene in miniature: a 7-link arm (one group) moving through 1,000 static
   // obstacles. Prints the cycle time; asserts only a generous bound (the machine is shared).
