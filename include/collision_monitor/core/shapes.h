@@ -102,9 +102,10 @@ struct ConeShape {
 /// independent running maxima: branch-light and vectorisable). With adjacency, support(d, hint)
 /// hill-climbs from vertex `hint` to a vertex maximising dot(d, x); on a convex polytope a local
 /// maximum over the edge graph is the global one. `hint` is updated to the answer, so a caller
-/// that keeps it (the warm-start cache) starts next to the answer. A `hint` outside [0, size())
-/// (e.g. -1: no hint) starts the climb at startVertex(d): the extreme vertex, computed once at
-/// construction, of the nearest of 26 fixed directions (the cube's faces, edges and corners).
+/// that keeps it (the warm-start cache) starts next to the answer. The climb starts at the better
+/// (larger dot(d, x)) of `hint` and startVertex(d): the extreme vertex, computed once at
+/// construction, of the nearest of 26 fixed directions (the cube's faces, edges and corners). A
+/// `hint` outside [0, size()) (e.g. -1: no hint) is ignored.
 template <int D>
 class Polytope {
  public:
@@ -171,16 +172,25 @@ class Polytope {
     return start_[directionCell(d)];
   }
 
-  /// Index of a vertex maximising dot(d, x). `hint` (in/out) is the start vertex of the climb
-  /// (outside [0, size()): start at startVertex(d)).
+  /// Index of a vertex maximising dot(d, x). `hint` (in/out): a candidate start vertex of the
+  /// climb (the better of it and startVertex(d) is used; outside [0, size()): ignored).
   int supportIndex(const Vec<D>& d, int& hint) const {
     const int n = size();
     if (usesLinearScan()) {
       hint = scanIndex(d);
       return hint;
     }
-    int cur = (hint >= 0 && hint < n) ? hint : startVertex(d);
+    // Start at the better of the hint and the direction table's vertex: a kept hint is near the
+    // answer for small changes of d, the table for large ones (GJK's first iterations).
+    int cur = startVertex(d);
     double cur_dot = vertices_[cur].dot(d);
+    if (hint >= 0 && hint < n && hint != cur) {
+      const double h = vertices_[hint].dot(d);
+      if (h >= cur_dot) {
+        cur = hint;
+        cur_dot = h;
+      }
+    }
     // Steepest ascent: move to the best neighbour while it strictly improves. Strict improvement
     // bounds the walk by the vertex count, so it always terminates.
     for (;;) {
