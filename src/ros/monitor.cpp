@@ -289,7 +289,7 @@ void Monitor::loadParameterBodies() {
       continue;
     }
     const std::string err = addBody(std::move(spec).value());
-    if (!err.empty()) rejectAtStartup(where + " body " + quoteInput(msg->id) + " refused: " + err);
+    if (!err.empty()) rejectAtStartup(where + ": " + err);
   }
 }
 
@@ -485,7 +485,7 @@ void Monitor::onBody(const ros::MessageEvent<const Checked<collision_monitor::Bo
       return;
     }
     const std::string err = addBody(std::move(spec).value());
-    if (!err.empty()) reject(key, "~bodies: body " + id + " refused: " + err);
+    if (!err.empty()) reject(key, "~bodies: " + err);  // the world's errors name the body
   } catch (const std::exception& e) {
     reject(key, "~bodies: body " + quoteInput(msg->id) + ": internal error: " + e.what());
   }
