@@ -36,8 +36,8 @@ Expected<std::string> resolveMeshUri(const std::string& uri,
                                      const PackageResolver& resolve_package);
 
 /// Loads the mesh file at `path` (STL/DAE/OBJ via geometric_shapes/assimp), scaled, and returns
-/// its convex hull; refused when the hull has more than `max_vertices` vertices or the file has
-/// no vertices.
+/// its convex hull; refused when the mesh has more than `max_vertices` (distinct) vertices,
+/// checked right after loading and before hulling, or when it has no vertices.
 Expected<core::ConvexShape> loadMeshHull(const std::string& path, const core::Vec3& scale,
                                          std::size_t max_vertices);
 
