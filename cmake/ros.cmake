@@ -74,6 +74,8 @@ if(CATKIN_ENABLE_TESTING)
     LIBS collision_monitor_ros)
   if(TARGET test_ros_wire_check)
     target_include_directories(test_ros_wire_check SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+    target_compile_definitions(test_ros_wire_check PRIVATE
+      CM_SOURCE_DIR="${CMAKE_CURRENT_SOURCE_DIR}")
   endif()
 
   # rostests over a real roscore (python test nodes in test/ros, run with /usr/bin/python3).

@@ -16,6 +16,7 @@
 #include <ros/serialization.h>
 
 #include "collision_monitor/ros/conversions.h"
+#include "collision_monitor/ros/mesh_loader.h"
 #include "collision_monitor/ros/wire_check.h"
 
 // ---------------------------------------------------------------------------------------------
@@ -439,4 +440,15 @@ TEST(InputStrings, BodyPosesNamesAreLimited) {
   r = posesFromMsg(m);
   ASSERT_FALSE(r.ok());
   EXPECT_TRUE(contains(r.error(), "header.frame_id is 257 bytes")) << r.error();
+}
+
+TEST(InputStrings, MeshVertexCountIsCheckedBeforeHulling) {
+  const std::string path = std::string(CM_SOURCE_DIR) + "/meshes/gripper.stl";
+  auto hull = loadMeshHull(path, core::Vec3(1, 1, 1), 100000);
+  ASSERT_TRUE(hull.ok()) << hull.error();
+  auto r = loadMeshHull(path, core::Vec3(1, 1, 1), 3);
+  ASSERT_FALSE(r.ok());
+  // The mesh's own count, not its hull's: refused before hulling.
+  EXPECT_TRUE(contains(r.error(), "vertices, more than max_vertices_per_part 3")) << r.error();
+  EXPECT_FALSE(contains(r.error(), "convex hull")) << r.error();
 }
