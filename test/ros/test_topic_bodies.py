@@ -2,7 +2,9 @@
 """rostest: bodies from ~bodies, YAML and TF, posed by ~body_poses, pose_topic and TF, through a
 real roscore. Exact distances, events with their latency, staleness, REMOVE, refused input, the
 services. Run with backend:=gjk and backend:=libccd (same verdicts)."""
+import io
 import math
+import struct
 import sys
 import time
 import unittest
@@ -11,6 +13,7 @@ import rospy
 import rostest
 import tf2_ros
 from collision_monitor.msg import Body, BodyPoses, CollisionEvent, PairState, Shape
+from collision_monitor.srv import CheckCollision, CheckCollisionRequest, CheckCollisionResponse
 from geometry_msgs.msg import Point, PoseStamped, TransformStamped
 from visualization_msgs.msg import MarkerArray
 
@@ -18,6 +21,26 @@ from cm_test_util import (Monitor, PoseStreamer, point_close, pose, shape, spher
                           wait_for)
 
 E = CollisionEvent
+
+
+def raw_request_class(request_class):
+    """A request class of `request_class`'s type whose instances carry their serialized bytes
+    (malformed on purpose): RawX(payload)."""
+    def __init__(self, payload=b''):
+        self.payload = payload
+
+    def serialize(self, buff):
+        buff.write(self.payload)
+
+    return type('Raw' + request_class.__name__, (request_class,), {
+        '__slots__': ['payload'], '__init__': __init__, 'serialize': serialize})
+
+
+def raw_service(service_class, raw_request, response_class):
+    """service_class for rospy.ServiceProxy whose requests are `raw_request` instances."""
+    return type('Raw' + service_class.__name__, (object,), {
+        '_type': service_class._type, '_md5sum': service_class._md5sum,
+        '_request_class': raw_request, '_response_class': response_class})
 
 
 class TopicBodies(unittest.TestCase):
@@ -284,6 +307,26 @@ class TopicBodies(unittest.TestCase):
         self.assertFalse(r.success)
         self.assertIn('negative', r.message)
         self.assertNotIn('probe', self.m.ids())
+        # Malformed request (a 2^31 dimensions claim in ~100 bytes): refused before deserialization
+        # (no 16 GB allocation), with the reason; the service keeps answering.
+        req = CheckCollisionRequest(body=sphere_body('probe', 0.5, frame='world',
+                                                     pose_from_topic=False), pose=pose(), margin=0.1)
+        buff = io.BytesIO()
+        req.serialize(buff)
+        raw = bytearray(buff.getvalue())
+        b = req.body
+        dims = 12 + 4 + len(b.header.frame_id) + 4 + len(b.id) + 1 + 4 + len(b.group) + 4 + 1
+        self.assertEqual(struct.unpack_from('<I', raw, dims)[0], 1)
+        struct.pack_into('<I', raw, dims, 0x80000000)
+        raw_request = raw_request_class(CheckCollisionRequest)
+        raw_check = rospy.ServiceProxy('/collision_monitor/check_collision', raw_service(
+            CheckCollision, raw_request, CheckCollisionResponse))
+        r = raw_check(raw_request(bytes(raw)))
+        self.assertFalse(r.success)
+        self.assertIn('malformed message', r.message)
+        self.assertIn('body.parts[0].dimensions claims 2147483648', r.message)
+        r = self.m.check_collision(probe, pose(0, -20, 0), 0.1)
+        self.assertTrue(r.success, r.message)
 
     def test_09_markers_while_subscribed(self):
         arrays = []
