@@ -99,7 +99,7 @@ struct ConeShape {
 ///
 /// With an empty adjacency (or few vertices) the support query is a linear scan over a
 /// structure-of-arrays copy of the vertices (x[], y[], z[] padded to a multiple of 4, four
-/// independent running maxima: branch-light and vectorisable). With adjacency, support(d, hint)
+/// independent running maxima; GCC 12 -O3 keeps it scalar). With adjacency, support(d, hint)
 /// hill-climbs from vertex `hint` to a vertex maximising dot(d, x); on a convex polytope a local
 /// maximum over the edge graph is the global one. `hint` is updated to the answer, so a caller
 /// that keeps it (the warm-start cache) starts next to the answer. The climb starts at the better
