@@ -475,3 +475,51 @@ TEST(Oracle, SpheresCapsulesAndPaddingKnownAnswers) {
               std::sqrt(5.0) - 0.5, 1e-15);
   EXPECT_NEAR(cube.supportValue(Vec3(1, 1, 0).normalized()), std::sqrt(0.5), 1e-15);
 }
+
+TEST(ConvexHull, SupportFromDirectionTableAndAnyHintEqualsBruteForce) {
+  // Climbing hulls start at the better of the hint and the 26-direction table vertex; small ones
+  // use the structure-of-arrays scan. Every start (no hint, garbage, each vertex) must give a
+  // vertex maximising dot(d, x), and the scan the first such vertex.
+  std::mt19937_64 rng(11);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (int n : {4, 5, 12, 23, 24, 25, 40, 300}) {
+    std::vector<Vec3> pts;
+    for (int i = 0; i < n; ++i)
+      pts.push_back(Vec3(0.3 * g(rng), 1.0 * g(rng), 2.0 * g(rng)));
+    const auto poly = cm::buildConvexHull(pts);
+    const auto& vs = poly->vertices();
+    const int m = poly->size();
+    for (int k = 0; k < 300; ++k) {
+      Vec3 d = randomUnit(rng);
+      if (k % 50 == 0) d = Vec3(k % 100 == 0 ? 1.0 : 0.0, 0.0, k % 100 == 0 ? 0.0 : -1.0);
+      double best = -std::numeric_limits<double>::infinity();
+      int first = -1;
+      for (int i = 0; i < m; ++i) {
+        if (vs[i].dot(d) > best) {
+          best = vs[i].dot(d);
+          first = i;
+        }
+      }
+      EXPECT_EQ(poly->scanIndex(d), first) << "n " << n << " direction " << k;
+      const int sv = poly->startVertex(d);
+      EXPECT_GE(sv, 0);
+      EXPECT_LT(sv, m);
+      for (int h : {-1, -7, m, m + 5, k % m}) {
+        int hint = h;
+        const int idx = poly->supportIndex(d, hint);
+        ASSERT_GE(idx, 0);
+        ASSERT_LT(idx, m);
+        EXPECT_EQ(hint, idx);
+        EXPECT_EQ(vs[idx].dot(d), best) << "n " << n << " direction " << k << " hint " << h;
+      }
+    }
+    // Zero and non-finite directions: a defined vertex, never out of range.
+    for (const Vec3& d : {Vec3(Vec3::Zero()), Vec3(std::nan(""), 0.0, 1.0),
+                          Vec3(std::numeric_limits<double>::infinity(), 0.0, 0.0)}) {
+      int hint = -1;
+      const int idx = poly->supportIndex(d, hint);
+      EXPECT_GE(idx, 0);
+      EXPECT_LT(idx, m);
+    }
+  }
+}
