@@ -22,19 +22,9 @@
 
 namespace cm = collision_monitor::core;
 using oracle::Category;
+using oracle::scaled;
 
 namespace {
-
-double sweepScale() {
-  const char* env = std::getenv("CM_SWEEP_SCALE");
-  if (env == nullptr) return 1.0;
-  const double s = std::atof(env);
-  return s > 0.0 ? s : 1.0;
-}
-
-int scaled(int n) {
-  return std::max(20, static_cast<int>(std::lround(n * sweepScale())));
-}
 
 double tolerance(const oracle::Pair& p) {
   return 1e-9 * p.size + 1e-14 * p.far;
