@@ -102,7 +102,10 @@ struct CcdPair {
   CcdPair(const ConvexShape& sa, const Transform3& pose_a, const ConvexShape& sb,
           const Transform3& pose_b, const CcdOptions& o) {
     size = sa.boundingRadius() + sb.boundingRadius();
-    if (!(size > 0.0) || !std::isfinite(size)) size = 1.0;  // two points: any scale works
+    // Two points (size 0) or sub-normal sizes (1/size overflows to inf and every support
+    // point becomes NaN, on which ccdGJKPenetration dereferences a null pointer): any finite
+    // scale works for those, so use 1.
+    if (!(size > 0.0) || !std::isfinite(1.0 / size) || !std::isfinite(size)) size = 1.0;
     const double s = 1.0 / size;
     a.shape = &sa;
     a.pose = Transform3::Identity();

@@ -90,6 +90,32 @@ TEST(CoreHostile, LibccdNanTranslation) {
       << "libccd backend crashed or gave no defined failure on a NaN translation";
 }
 
+TEST(CoreHostile, LibccdSubnormalPair) {
+  // Bug (found by fuzz_core in CI): a hull of sub-normal points (4.9e-324 m) and a sphere of
+  // radius 4.9e-324 m at the same place. The backend scaled the pair by 1 / size, which is inf
+  // for a sub-normal size, so every support point was NaN and ccdGJKPenetration dereferenced a
+  // null pointer (SIGSEGV). Child process: a crash fails only this test.
+  const double tiny = std::numeric_limits<double>::denorm_min();
+  const auto gjk = cm::makeNarrowPhase(cm::BackendType::Gjk);
+  const auto libccd = cm::makeNarrowPhase(cm::BackendType::Libccd);
+  const ConvexShape speck =
+      ConvexShape::convexHull({Vec3(0, tiny, -tiny), Vec3(0, 0, tiny), Vec3(tiny, 0, 0)});
+  const ConvexShape dot = ConvexShape::sphere(tiny);
+  const Transform3 pa = at(0, -14 * tiny, -1.9375);
+  const Transform3 pb = at(0, -13 * tiny, -1.9375);
+  const cm::ContactResult ours = gjk->signedDistance(speck, pa, dot, pb, nullptr);
+  ASSERT_NE(ours.status, cm::Status::FailedToConverge);
+  EXPECT_EXIT(
+      {
+        // The verdict may go either way: the shapes touch (distance -4.9e-324 m).
+        libccd->intersect(speck, pa, dot, pb, nullptr);
+        const cm::ContactResult r = libccd->signedDistance(speck, pa, dot, pb, nullptr);
+        std::exit(std::abs(r.distance - ours.distance) <= 1e-300 && r.normal.allFinite() ? 0 : 3);
+      },
+      ::testing::ExitedWithCode(0), "")
+      << "libccd backend crashed or disagreed on a pair of sub-normal shapes";
+}
+
 TEST(CoreHostile, LibccdFlatBoxDepth) {
   // Bug (found by fuzz_core): a box with a zero (or denormal) side deep inside a 1000 m sphere:
   // our EPA reports the depth (~955 m), the libccd backend reports Touching with depth 0 (its EPA
