@@ -20,6 +20,10 @@
 ///     "touching contact" from ccdGJKPenetration (depth within the touching band), which is how
 ///     its EPA gives up on flat Minkowski differences and on some deep sphere/capsule overlaps
 ///     (e.g. a zero-thickness box 955 m deep inside a sphere: libccd depth 0).
+///   - a libccd contact claim is checked against the supports (see contradicts()): along its own
+///     normal and along the separating axis our GJK finds. libccd's GJK ends "inside" for thin,
+///     long pairs that are apart (a 2.2 m needle 0.055 m from a 2875 m x 2.5 m disc: raw libccd
+///     contact, depth 0.055 m; 1 mm thick: depth 0.96 m); the backend then answers with our GJK.
 ///   - witness points: libccd's `pos` is a median of EPA polytope vertices, not a contact point;
 ///     point_a/point_b = pos +- depth/2 * normal are only indicative (off the surfaces by up to
 ///     ~0.4 of the size, measured).
@@ -128,6 +132,22 @@ struct CcdPair {
   }
 };
 
+/// Whether the supports contradict a claimed penetration `depth` >= 0 along unit `n` (A towards
+/// B) of the posed cores: the projections on n are disjoint (a separating axis), or they overlap
+/// by less than `depth` (the true depth is the smallest overlap over all axes). libccd's GJK can
+/// end "inside" for thin, long cores that are apart (fuzz_core: 1.9e-5 of the size apart), and then
+/// its EPA reports the distance as a depth, or a depth of 0.96 m for a gap of 0.05 m.
+bool contradicts(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
+                 const Transform3& pose_b, const Vec3& n, double depth, double tolerance) {
+  const auto extent = [&n](const ConvexShape& s, const Transform3& pose, double sign) {
+    return sign * n.dot(pose * s.coreSupport(pose.R.transpose() * (sign * n)));
+  };
+  const double a_max = extent(a, pose_a, 1.0), a_min = -extent(a, pose_a, -1.0);
+  const double b_max = extent(b, pose_b, 1.0), b_min = -extent(b, pose_b, -1.0);
+  return b_min - a_max > tolerance || a_min - b_max > tolerance ||
+         a_max - b_min < depth - tolerance;
+}
+
 bool finitePoses(const Transform3& pose_a, const Transform3& pose_b) {
   return pose_a.R.allFinite() && pose_a.t.allFinite() && pose_b.R.allFinite() &&
          pose_b.t.allFinite();
@@ -141,7 +161,11 @@ class LibccdNarrowPhase final : public NarrowPhase {
                  const Transform3& pose_b, PairCache* cache) const override {
     // Non-finite poses: our defined (conservative) answer; libccd would crash.
     if (!finitePoses(pose_a, pose_b)) return core::intersect(a, pose_a, b, pose_b, cache, query_);
-    return ccdIntersect(a, pose_a, b, pose_b, ccd_);
+    if (!ccdIntersect(a, pose_a, b, pose_b, ccd_)) return false;
+    // libccd's GJK can claim contact for pairs that are apart (see contradicts()): contact is
+    // confirmed by the penetration query, which checks libccd's answer against the supports
+    // (overlaps are the rare case in a monitor).
+    return signedDistance(a, pose_a, b, pose_b, cache).distance <= 0.0;
   }
   ContactResult signedDistance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                                const Transform3& pose_b, PairCache* cache) const override {
@@ -159,6 +183,17 @@ class LibccdNarrowPhase final : public NarrowPhase {
       // that only touch): answer with our EPA rather than report depth 0.
       if (r.status != Status::Penetrating) {
         return core::signedDistance(a, pose_a, b, pose_b, cache, query_);
+      }
+      // libccd's answer stands unless the supports contradict it: along its own normal, or
+      // along the separating axis our GJK finds (a certificate checked here, not a vote).
+      const double tolerance = 1e-9 * (a.boundingRadius() + b.boundingRadius());
+      if (contradicts(a, pose_a, b, pose_b, r.normal, -r.distance, tolerance)) {
+        return core::signedDistance(a, pose_a, b, pose_b, cache, query_);
+      }
+      const ContactResult ours = core::signedDistance(a, pose_a, b, pose_b, cache, query_);
+      if (ours.distance + a.radius() + b.radius() > tolerance &&
+          contradicts(a, pose_a, b, pose_b, ours.normal, 0.0, tolerance)) {
+        return ours;
       }
       r.distance -= a.radius() + b.radius();
       r.point_a += a.radius() * r.normal;

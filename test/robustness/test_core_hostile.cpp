@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "collision_monitor/core/backend.h"
+#include "collision_monitor/core/ccd_backend.h"
 #include "collision_monitor/core/convex_shape.h"
 #include "collision_monitor/core/query.h"
 
@@ -114,6 +115,26 @@ TEST(CoreHostile, LibccdSubnormalPair) {
       },
       ::testing::ExitedWithCode(0), "")
       << "libccd backend crashed or disagreed on a pair of sub-normal shapes";
+}
+
+TEST(CoreHostile, LibccdFalseContactOnThinLongPair) {
+  // Bug (found by fuzz_core): a 2.2 m needle (cone of radius th) 0.055 m from a thin disc
+  // (ellipsoid 2.5 x 2875 x th m). Raw libccd GJK says contact and its EPA a depth (0.055 m, or
+  // 0.96 m for th = 1 mm); the backend refutes that with a separating axis and answers apart.
+  const auto gjk = cm::makeNarrowPhase(cm::BackendType::Gjk);
+  const auto libccd = cm::makeNarrowPhase(cm::BackendType::Libccd);
+  const Transform3 pa = at(0, 0, 1.40625);
+  const Transform3 pb = at(2.6020377929944694, 0, 1.5557924018962339);
+  for (const double th : {0.0, 1e-9, 1e-3}) {
+    const ConvexShape needle = ConvexShape::cone(2.21875, th);
+    const ConvexShape disc = ConvexShape::ellipsoid(Vec3(2.546875, 2875, th));
+    EXPECT_TRUE(cm::ccdIntersect(needle, pa, disc, pb)) << "libccd fixed? th " << th;
+    const cm::ContactResult ours = gjk->signedDistance(needle, pa, disc, pb, nullptr);
+    EXPECT_NEAR(ours.distance, th == 1e-3 ? 0.0547302 : 0.0551628, 1e-6) << "th " << th;
+    EXPECT_FALSE(libccd->intersect(needle, pa, disc, pb, nullptr)) << "th " << th;
+    const cm::ContactResult theirs = libccd->signedDistance(needle, pa, disc, pb, nullptr);
+    EXPECT_NEAR(theirs.distance, ours.distance, 1e-12) << "th " << th;
+  }
 }
 
 TEST(CoreHostile, LibccdFlatBoxDepth) {
