@@ -2,10 +2,13 @@
 """rostest: faults through a real roscore.
   1. TF for a body's frame stops -> its pairs UNKNOWN within pose_timeout + one cycle; resumes ->
      they recover (UNKNOWN_END) with the right distance.
+  4. A per-body pose_topic publisher stops -> that body's pairs UNKNOWN within pose_timeout + one
+     cycle (and not before pose_timeout less one publishing period); resumes -> UNKNOWN_END.
+  5. The same for a ~body_poses publisher of two bodies.
   2. A burst of 1,000 ~get_distance calls (8 threads) plus a slow client holding a connection:
      the periodic check must not stall beyond one cycle; the largest gap between consecutive
      ~state messages during the burst is measured.
-  3. Node restart (SIGKILL, respawned by roslaunch) while publishers keep running: the latched
+  6. Node restart (SIGKILL, respawned by roslaunch) while publishers keep running: the latched
      ~bodies and the TF stream bring the world back (same ids, same distance).
 Figures go to stdout and to $CM_ARTIFACTS/faults.txt when set."""
 import os
@@ -22,10 +25,10 @@ import rostest
 import tf2_ros
 from collision_monitor.msg import Body, CollisionEvent, CollisionState, PairState, Shape
 from collision_monitor.srv import GetDistance
-from geometry_msgs.msg import TransformStamped
+from geometry_msgs.msg import PoseStamped, TransformStamped
 
 from robust_util import alive, node_pid
-from cm_test_util import Monitor, shape, wait_for
+from cm_test_util import Monitor, PoseStreamer, pose, shape, wait_for
 
 E = CollisionEvent
 FIGURES = []
@@ -62,6 +65,30 @@ class TfStreamer:
             time.sleep(self.period)
 
 
+class PoseStampedStreamer:
+    """Publishes a PoseStamped (frame world, fresh stamps) on `topic` at `rate` Hz while not
+    paused."""
+
+    def __init__(self, topic, p, rate=20.0):
+        self.pub = rospy.Publisher(topic, PoseStamped, queue_size=10, tcp_nodelay=True)
+        self.pose = p
+        self.paused = False
+        self.period = 1.0 / rate
+        threading.Thread(target=self._run, daemon=True).start()
+
+    def _run(self):
+        while not rospy.is_shutdown():
+            if not self.paused:
+                m = PoseStamped(pose=self.pose)
+                m.header.frame_id = 'world'
+                m.header.stamp = rospy.Time.now()
+                try:
+                    self.pub.publish(m)
+                except rospy.ROSException:
+                    return
+            time.sleep(self.period)
+
+
 class Faults(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -88,6 +115,13 @@ class Faults(unittest.TestCase):
         cls.state_times = []
         rospy.Subscriber('/collision_monitor/state', CollisionState,
                          lambda msg: cls.state_times.append(time.monotonic()), queue_size=100)
+        # Topic-posed bodies of faults.test (~bodies parameter), 'fixed' at the origin (r 0.2):
+        # 'tracked' (r 0.1) on its pose_topic at y = 1, 'posed_a'/'posed_b' (r 0.1) on
+        # ~body_poses at y = 2 / y = 3: every pair CLEAR while their publishers run.
+        cls.tracked = PoseStampedStreamer('/tracked_pose', pose(y=1.0))
+        cls.poses = PoseStreamer(cls.m.poses_pub, frame='world', rate=20.0)
+        cls.poses.set('posed_a', pose(y=2.0))
+        cls.poses.set('posed_b', pose(y=3.0))
 
     def distance(self):
         r = self.m.get_distance('fixed', 'mover', '')
@@ -154,7 +188,81 @@ class Faults(unittest.TestCase):
         self.assertLessEqual(max_gap, 2.0 / self.rate + 0.02,
                              'the periodic check stalled beyond one cycle during the burst')
 
-    def test_3_restart(self):
+    def publisher_stops_and_resumes(self, what, pause, resume, body_ids, period):
+        """Stops a pose publisher: every pair of `fixed` with `body_ids` must turn UNKNOWN within
+        pose_timeout + one cycle of the stop (not before pose_timeout - one publishing period),
+        and recover (UNKNOWN_END, exact distance) when the publisher resumes."""
+        pairs = [('fixed', b) for b in body_ids]
+        expected = {b: self.distance_of('fixed', b) for b in body_ids}
+        for b in body_ids:
+            self.assertIsNotNone(expected[b], 'fixed-%s has no distance before the stop' % b)
+        t0 = time.monotonic()
+        pause()
+        lo = self.pose_timeout - period - 0.02
+        hi = self.pose_timeout + 1.0 / self.rate + 0.1
+        latencies = []
+        for a, b in pairs:
+            ev = self.m.wait_event(E.UNKNOWN_BEGIN, a, b, timeout=5.0, since=t0)
+            self.assertIsNotNone(ev, 'no UNKNOWN_BEGIN for %s-%s after the %s stopped' % (a, b, what))
+            self.assertEqual(ev[1].pair.status, PairState.UNKNOWN)
+            latencies.append(ev[0] - t0)
+        figure('%s stopped: UNKNOWN_BEGIN after %s s (pose_timeout %.2f s, cycle %.3f s)'
+               % (what, '/'.join('%.3f' % x for x in latencies), self.pose_timeout,
+                  1.0 / self.rate))
+        for x in latencies:
+            self.assertLessEqual(x, hi)
+            self.assertGreaterEqual(x, lo, 'UNKNOWN before the pose could be stale')
+        for b in body_ids:
+            self.assertTrue(wait_for(lambda: b in self.m.state.stale_bodies, 1.0))
+            r = self.m.get_distance('fixed', b, '')
+            self.assertFalse(r.success)
+            self.assertIn('stale', r.message)
+        t1 = time.monotonic()
+        resume()
+        latencies = []
+        for a, b in pairs:
+            ev = self.m.wait_event(E.UNKNOWN_END, a, b, timeout=5.0, since=t1)
+            self.assertIsNotNone(ev, 'no UNKNOWN_END for %s-%s after the %s resumed' % (a, b, what))
+            latencies.append(ev[0] - t1)
+        figure('%s resumed: UNKNOWN_END after %s s'
+               % (what, '/'.join('%.3f' % x for x in latencies)))
+        for x in latencies:
+            self.assertLessEqual(x, period + 1.0 / self.rate + 0.1)
+        for b in body_ids:
+            self.assertAlmostEqual(self.distance_of('fixed', b), expected[b], delta=1e-9)
+            self.assertTrue(wait_for(lambda: b not in self.m.state.stale_bodies, 1.0))
+
+    def distance_of(self, a, b):
+        r = wait_for(lambda: (lambda x: x if x.success else None)(self.m.get_distance(a, b, '')),
+                     5.0)
+        return r.result.distance if r else None
+
+    def test_4_pose_topic_stops_and_resumes(self):
+        self.assertAlmostEqual(self.distance_of('fixed', 'tracked'), 1.0 - 0.3, delta=1e-9)
+
+        def pause():
+            self.tracked.paused = True
+
+        def resume():
+            self.tracked.paused = False
+        self.publisher_stops_and_resumes('pose_topic publisher', pause, resume, ['tracked'],
+                                         self.tracked.period)
+
+    def test_5_body_poses_stop_and_resume(self):
+        self.assertAlmostEqual(self.distance_of('fixed', 'posed_a'), 2.0 - 0.3, delta=1e-9)
+        self.assertAlmostEqual(self.distance_of('fixed', 'posed_b'), 3.0 - 0.3, delta=1e-9)
+
+        def pause():
+            with self.poses.lock:
+                self.poses.paused.update(('posed_a', 'posed_b'))
+
+        def resume():
+            with self.poses.lock:
+                self.poses.paused.clear()
+        self.publisher_stops_and_resumes('~body_poses publisher', pause, resume,
+                                         ['posed_a', 'posed_b'], self.poses.period)
+
+    def test_6_restart(self):
         pid = node_pid()
         self.assertTrue(alive(pid))
         d0 = self.distance()
