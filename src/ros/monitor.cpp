@@ -432,6 +432,7 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, double stamp,
   std::vector<std::string> unknown, attached;
   {
     std::lock_guard<std::mutex> lock(world_mutex_);
+    bool applied = false;
     for (const auto& u : updates) {
       auto it = tracked_.find(u.id);
       if (it == tracked_.end()) {
@@ -439,8 +440,12 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, double stamp,
       } else if (it->second.from_tf) {
         attached.push_back(u.id + " (frame " + it->second.frame + ")");
       } else {
-        world_->setPose(u.id, u.pose, stamp, u.twist);
+        applied = world_->setPose(u.id, u.pose, stamp, u.twist) || applied;
       }
+    }
+    if (applied) {  // statistics: see pose_msgs_applied_
+      ++pose_msgs_applied_;
+      new_poses_ = true;
     }
   }
   if (!unknown.empty() || !attached.empty()) {
@@ -801,6 +806,7 @@ void Monitor::runCycle() {
   }
 
   world::CycleResult cycle;
+  std::size_t pose_msgs_applied = 0, checks_with_new_poses = 0;
   visualization_msgs::MarkerArray markers;
   const bool want_markers = publish_markers_ && markers_pub_.getNumSubscribers() > 0;
   {
@@ -816,6 +822,10 @@ void Monitor::runCycle() {
       }
     }
     cycle = world_->check(now);
+    if (new_poses_) ++checks_with_new_poses_;
+    new_poses_ = false;
+    pose_msgs_applied = pose_msgs_applied_;
+    checks_with_new_poses = checks_with_new_poses_;
     if (want_markers) markers = marker_builder_.build(*world_, cycle, fixed_frame_);
   }
 
@@ -833,6 +843,8 @@ void Monitor::runCycle() {
     stats_.stale_ids = cycle.stale_bodies;
     stats_.bodies = cycle.num_bodies;
     stats_.pairs_checked = cycle.num_pairs_checked;
+    stats_.pose_msgs_applied = pose_msgs_applied;
+    stats_.checks_with_new_poses = checks_with_new_poses;
   }
   diagnostics_->update();
 }
@@ -888,6 +900,13 @@ void Monitor::setupDiagnostics() {
            cycles ? 1e3 * (now.cycle_time_sum - before.cycle_time_sum) / cycles : 0.0);
     s.addf("max cycle time since last report (ms)", "%.3f", 1e3 * now.cycle_time_max);
     s.add("pairs checked (last cycle)", now.pairs_checked);
+    s.add("checks (total)", now.cycles);
+    s.add("~body_poses messages (total)", now.poses_msgs);
+    s.add("pose_topic messages (total)", now.pose_topic_msgs);
+    s.add("pose messages applied (total)", now.pose_msgs_applied);
+    s.add("checks with new poses (total)", now.checks_with_new_poses);
+    s.add("pose messages coalesced (total)",
+          now.pose_msgs_applied - std::min(now.pose_msgs_applied, now.checks_with_new_poses));
     for (const auto& e : param_errors_)
       s.add("invalid parameter", e);
   });

@@ -144,6 +144,11 @@ class Monitor {
   std::unique_ptr<world::WorldModel> world_;
   std::map<std::string, Tracked> tracked_;
   std::map<std::pair<std::string, std::string>, std::string> disabled_reasons_;  // sorted pairs
+  // Pose input vs. checks (guarded by world_mutex_): messages that set at least one pose, and
+  // checks that saw at least one such message since the previous check. The difference is the
+  // number of pose messages superseded before a check used them (coalesced), on /diagnostics.
+  std::size_t pose_msgs_applied_ = 0, checks_with_new_poses_ = 0;
+  bool new_poses_ = false;
 
   std::mutex subs_mutex_;
   std::map<std::string, std::pair<std::string, ros::Subscriber>> pose_subs_;  // id -> topic, sub
@@ -158,6 +163,7 @@ class Monitor {
   mutable std::mutex stats_mutex_;
   struct Stats {
     std::size_t bodies_msgs = 0, poses_msgs = 0, pose_topic_msgs = 0, cycles = 0;
+    std::size_t pose_msgs_applied = 0, checks_with_new_poses = 0;  // copies taken by each check
     std::size_t rejected = 0;
     std::string last_rejection;
     double cycle_time_max = 0.0, cycle_time_sum = 0.0;
