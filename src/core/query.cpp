@@ -235,7 +235,10 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
     finish(f, o, 0.0, e.point_a, e.point_b, flatNormal(e, f.T_AB.t), false, r);
     return r;
   }
-  const bool failed = e.status != EpaStatus::Converged;
+  // Unconverged EPA still settles the answer when its upper bound on the depth is inside the
+  // touching band: the cores' signed distance is then within [-band, GJK tolerance].
+  const bool failed = e.status != EpaStatus::Converged &&
+                      !(e.depth_is_upper_bound && e.depth <= o.touch_tolerance * f.size);
   finish(f, o, -e.depth, e.point_a, e.point_b, e.normal, failed, r);
   return r;
 }
