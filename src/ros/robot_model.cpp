@@ -4,6 +4,8 @@
 #include <map>
 #include <memory>
 #include <set>
+#include <unordered_map>
+#include <vector>
 
 #include <tinyxml2.h>
 #include <urdf_model/model.h>
@@ -57,11 +59,120 @@ Expected<collision_monitor::Shape> shapeOf(const urdf::Collision& c) {
   return s;
 }
 
+/// A name from the URDF for an error text: at most 120 bytes, escaped (quoteInput).
+std::string quoted(const char* name) {
+  return quoteInput(name ? std::string(name) : std::string());
+}
+
+/// Releases the links' child pointers before the model is freed: urdfdom's links own their
+/// children (shared_ptr), so freeing a chain recurses once per link.
+struct FlattenOnExit {
+  urdf::ModelInterfaceSharedPtr* model;
+  ~FlattenOnExit() {
+    if (!*model) return;
+    for (auto& [name, link] : (*model)->links_) {
+      if (!link) continue;
+      link->child_links.clear();
+      link->child_joints.clear();
+    }
+  }
+};
+
 }  // namespace
+
+std::string checkUrdfStructure(const std::string& urdf_xml) {
+  tinyxml2::XMLDocument doc;
+  const tinyxml2::XMLError parsed = doc.Parse(urdf_xml.c_str(), urdf_xml.size());
+  if (parsed == tinyxml2::XML_ELEMENT_DEPTH_EXCEEDED) {
+    return "URDF nests XML elements more than " + std::to_string(TINYXML2_MAX_ELEMENT_DEPTH) +
+           " deep";
+  }
+  if (parsed != tinyxml2::XML_SUCCESS) {
+    return std::string("URDF does not parse as XML: ") + doc.ErrorStr();
+  }
+  const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
+  if (robot == nullptr) return "URDF has no <robot> root element";
+
+  std::unordered_map<std::string, std::size_t> index;  // link name -> number
+  for (const tinyxml2::XMLElement* e = robot->FirstChildElement("link"); e;
+       e = e->NextSiblingElement("link")) {
+    if (index.size() >= kMaxUrdfLinks) {
+      return "URDF has more than " + std::to_string(kMaxUrdfLinks) + " links";
+    }
+    const char* name = e->Attribute("name");
+    if (name == nullptr) continue;  // urdfdom reports it
+    if (!index.emplace(name, index.size()).second) {
+      return "URDF declares link " + quoted(name) + " more than once";
+    }
+  }
+  constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+  std::vector<std::size_t> parent(index.size(), kNone);
+  std::set<std::string> joints;
+  for (const tinyxml2::XMLElement* e = robot->FirstChildElement("joint"); e;
+       e = e->NextSiblingElement("joint")) {
+    const char* name = e->Attribute("name");
+    if (name != nullptr && !joints.insert(name).second) {
+      return "URDF declares joint " + quoted(name) + " more than once";
+    }
+    const tinyxml2::XMLElement* pe = e->FirstChildElement("parent");
+    const tinyxml2::XMLElement* ce = e->FirstChildElement("child");
+    const char* p = pe ? pe->Attribute("link") : nullptr;
+    const char* c = ce ? ce->Attribute("link") : nullptr;
+    if (p == nullptr || c == nullptr) continue;  // urdfdom reports it
+    auto pi = index.find(p);
+    auto ci = index.find(c);
+    if (pi == index.end() || ci == index.end()) continue;  // urdfdom reports unknown links
+    if (pi->second == ci->second) {
+      return "URDF joint " + quoted(name) + " joins link " + quoted(c) + " to itself";
+    }
+    if (parent[ci->second] != kNone) {
+      return "URDF link " + quoted(c) + " is the child of more than one joint (joint " +
+             quoted(name) + ")";
+    }
+    parent[ci->second] = pi->second;
+  }
+  // Walking up from any link must end at a root (no cycle) within kMaxUrdfDepth joints. Each
+  // link is walked over once: depth[] is known (>= 0) once a walk reached a root through it;
+  // kOnWalk marks the links of the current walk.
+  constexpr long kUnknown = -1, kOnWalk = -2;
+  std::vector<long> depth(parent.size(), kUnknown);
+  std::vector<std::size_t> walk;
+  auto nameOf = [&index](std::size_t i) {
+    for (const auto& [n, k] : index) {
+      if (k == i) return n;
+    }
+    return std::string();
+  };
+  for (std::size_t start = 0; start < parent.size(); ++start) {
+    walk.clear();
+    std::size_t i = start;
+    while (i != kNone && depth[i] == kUnknown) {
+      depth[i] = kOnWalk;
+      walk.push_back(i);
+      i = parent[i];
+    }
+    if (i != kNone && depth[i] == kOnWalk) {
+      return "URDF joints form a cycle (through link " + quoteInput(nameOf(i)) + ")";
+    }
+    long d = i == kNone ? -1 : depth[i];  // the depth of the link above the walk
+    for (auto k = walk.rbegin(); k != walk.rend(); ++k) {
+      depth[*k] = ++d;
+      if (static_cast<std::size_t>(d) > kMaxUrdfDepth) {
+        return "URDF link " + quoteInput(nameOf(*k)) + " is more than " +
+               std::to_string(kMaxUrdfDepth) +
+               " joints below its root link (tf2 resolves at most that many)";
+      }
+    }
+  }
+  return {};
+}
 
 Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding,
                                      const Limits& limits, const MeshLoader& load_mesh) {
+  const std::string refused = checkUrdfStructure(urdf_xml);
+  if (!refused.empty()) return Error{refused};
   urdf::ModelInterfaceSharedPtr model;
+  const FlattenOnExit flatten{&model};
   try {
     model = urdf::parseURDF(urdf_xml);
   } catch (const std::exception& e) {
@@ -104,22 +215,43 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
   }
 
   // Adjacency: each body with its nearest ancestor that has collision geometry (whether or not
-  // it loaded: a refused link still counts as the physical neighbour).
-  std::set<std::string> with_geometry;
-  for (const auto& [name, link] : model->links_) {
-    if (link && (!link->collision_array.empty() || link->collision)) with_geometry.insert(name);
-  }
+  // it loaded: a refused link still counts as the physical neighbour). Memoised, so that many
+  // bodies below one long geometry-less stretch walk it once; at most one step per link (no
+  // cycles: checkUrdfStructure).
+  auto has_geometry = [](const urdf::Link* l) {
+    return !l->collision_array.empty() || l->collision;
+  };
+  std::unordered_map<const urdf::Link*, const urdf::Link*> nearest;  // link -> ancestor or null
+  std::vector<const urdf::Link*> walk;
+  auto nearestAncestor = [&](const urdf::Link* link) -> const urdf::Link* {
+    walk.clear();
+    const urdf::Link* found = nullptr;
+    for (std::size_t steps = 0; link && steps <= model->links_.size(); ++steps) {
+      auto memo = nearest.find(link);
+      if (memo != nearest.end()) {
+        found = memo->second;
+        break;
+      }
+      walk.push_back(link);
+      const urdf::Link* parent = link->getParent().get();
+      if (parent && has_geometry(parent)) {
+        found = parent;
+        break;
+      }
+      link = parent;
+    }
+    for (const urdf::Link* l : walk)
+      nearest[l] = found;
+    return found;
+  };
   std::set<IdPair> seen;
   for (const auto& body : out.bodies) {
     urdf::LinkConstSharedPtr link = model->getLink(body.id);
-    for (auto parent = link ? link->getParent() : nullptr; parent; parent = parent->getParent()) {
-      if (with_geometry.count(parent->name)) {
-        IdPair p =
-            parent->name < body.id ? IdPair{parent->name, body.id} : IdPair{body.id, parent->name};
-        if (seen.insert(p).second) out.adjacent.push_back(p);
-        break;
-      }
-    }
+    const urdf::Link* parent = link ? nearestAncestor(link.get()) : nullptr;
+    if (parent == nullptr) continue;
+    IdPair p =
+        parent->name < body.id ? IdPair{parent->name, body.id} : IdPair{body.id, parent->name};
+    if (seen.insert(p).second) out.adjacent.push_back(p);
   }
   return out;
 }

@@ -1,5 +1,7 @@
 // Plain gtests (no master) of URDF -> bodies and SRDF parsing on the real Panda and PR2
 // descriptions of example-robot-data (CM_ROBOT_DATA, default ../shared/data).
+#include <pthread.h>
+
 #include <algorithm>
 #include <cstdlib>
 #include <fstream>
@@ -149,4 +151,180 @@ TEST(Srdf, MalformedAndPartial) {
   ASSERT_TRUE(p) << p.error();
   ASSERT_EQ(p->size(), 1u);
   EXPECT_EQ((*p)[0], IdPair("a", "b"));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Hostile structure: deep chains, deep XML, cycles, duplicates (checkUrdfStructure).
+
+namespace {
+
+/// A chain of `n` links l0 -> l1 -> ..., every link with a box when `geometry`.
+std::string chainUrdf(std::size_t n, bool geometry = true) {
+  std::string xml = "<robot name=\"chain\">\n";
+  for (std::size_t i = 0; i < n; ++i) {
+    xml += "<link name=\"l" + std::to_string(i) + "\">";
+    if (geometry)
+      xml += "<collision><geometry><box size=\"0.02 0.02 0.1\"/></geometry></collision>";
+    xml += "</link>\n";
+  }
+  for (std::size_t i = 1; i < n; ++i) {
+    xml += "<joint name=\"j" + std::to_string(i) + "\" type=\"fixed\"><parent link=\"l" +
+           std::to_string(i - 1) + "\"/><child link=\"l" + std::to_string(i) +
+           "\"/><origin xyz=\"0 0 0.1\"/></joint>\n";
+  }
+  return xml + "</robot>\n";
+}
+
+/// Runs `f` on a thread with a `stack_bytes` stack (pthread): a recursion per link would
+/// overflow it.
+void onSmallStack(std::size_t stack_bytes, void (*f)(void*), void* arg) {
+  struct Call {
+    void (*f)(void*);
+    void* arg;
+  } call{f, arg};
+  pthread_attr_t attr;
+  pthread_attr_init(&attr);
+  pthread_attr_setstacksize(&attr, stack_bytes);
+  pthread_t t;
+  ASSERT_EQ(pthread_create(
+                &t, &attr,
+                [](void* c) -> void* {
+                  auto* k = static_cast<Call*>(c);
+                  k->f(k->arg);
+                  return nullptr;
+                },
+                &call),
+            0);
+  pthread_join(t, nullptr);
+  pthread_attr_destroy(&attr);
+}
+
+}  // namespace
+
+TEST(UrdfHostile, ChainAtTheDepthLimitLoadsOnASmallStack) {
+  // kMaxUrdfDepth joints (tf2's limit). Unflattened, urdfdom frees this chain with one nested
+  // destructor per link (~100 kB of stack); bodiesFromUrdf releases the child pointers first.
+  struct Out {
+    std::string xml;
+    Expected<RobotBodies> robot;
+  } out{chainUrdf(kMaxUrdfDepth + 1), Error{"not run"}};
+  onSmallStack(
+      64 * 1024,
+      [](void* p) {
+        auto* o = static_cast<Out*>(p);
+        o->robot = bodiesFromUrdf(o->xml, 0.0, Limits(), MeshLoader());
+      },
+      &out);
+  ASSERT_TRUE(out.robot) << out.robot.error();
+  EXPECT_EQ(out.robot->bodies.size(), kMaxUrdfDepth + 1);
+  EXPECT_EQ(out.robot->adjacent.size(), kMaxUrdfDepth);
+  EXPECT_EQ(out.robot->root_link, "l0");
+  EXPECT_TRUE(hasPair(out.robot->adjacent, "l999", "l1000"));
+}
+
+TEST(UrdfHostile, DeeperChainsRefused) {
+  auto robot = bodiesFromUrdf(chainUrdf(kMaxUrdfDepth + 2), 0.0, Limits(), MeshLoader());
+  ASSERT_FALSE(robot);
+  EXPECT_EQ(robot.error(),
+            "URDF link 'l1001' is more than 1000 joints below its root link (tf2 resolves at most "
+            "that many)");
+  robot = bodiesFromUrdf(chainUrdf(kMaxUrdfLinks), 0.0, Limits(), MeshLoader());
+  ASSERT_FALSE(robot);
+  EXPECT_NE(robot.error().find("more than 1000 joints below its root link"), std::string::npos);
+}
+
+TEST(UrdfHostile, TenThousandLinksWideLoadMoreRefused) {
+  // A root with kMaxUrdfLinks - 1 children: within both limits.
+  auto star = [](std::size_t n) {
+    std::string xml = "<robot name=\"star\">";
+    for (std::size_t i = 0; i < n; ++i) {
+      xml += "<link name=\"l" + std::to_string(i) +
+             "\"><collision><geometry><sphere radius=\"0.1\"/></geometry></collision></link>";
+    }
+    for (std::size_t i = 1; i < n; ++i) {
+      xml += "<joint name=\"j" + std::to_string(i) +
+             "\" type=\"fixed\"><parent link=\"l0\"/><child link=\"l" + std::to_string(i) +
+             "\"/></joint>";
+    }
+    return xml + "</robot>";
+  };
+  auto robot = bodiesFromUrdf(star(kMaxUrdfLinks), 0.0, Limits(), MeshLoader());
+  ASSERT_TRUE(robot) << robot.error();
+  EXPECT_EQ(robot->bodies.size(), kMaxUrdfLinks);
+  EXPECT_EQ(robot->adjacent.size(), kMaxUrdfLinks - 1);
+  robot = bodiesFromUrdf(star(kMaxUrdfLinks + 1), 0.0, Limits(), MeshLoader());
+  ASSERT_FALSE(robot);
+  EXPECT_EQ(robot.error(), "URDF has more than 10000 links");
+}
+
+TEST(UrdfHostile, DeepXmlRefusedBeforeUrdfdom) {
+  // TinyXML (urdfdom) parses and frees elements recursively: 200,000 nested elements overflow an
+  // 8 MB stack there. tinyxml2 stops at depth 100.
+  std::string xml = "<robot name=\"r\"><link name=\"a\"/>";
+  for (int i = 0; i < 200000; ++i)
+    xml += "<x>";
+  for (int i = 0; i < 200000; ++i)
+    xml += "</x>";
+  xml += "</robot>";
+  auto robot = bodiesFromUrdf(xml, 0.0, Limits(), MeshLoader());
+  ASSERT_FALSE(robot);
+  EXPECT_EQ(robot.error(), "URDF nests XML elements more than 100 deep");
+}
+
+TEST(UrdfHostile, CyclesAndDuplicatesRefused) {
+  const std::string links =
+      "<link name=\"r\"/><link name=\"a\"/>"
+      "<link name=\"b\"><collision><geometry><sphere radius=\"1\"/></geometry></collision></link>";
+  auto joint = [](const char* name, const char* p, const char* c) {
+    return std::string("<joint name=\"") + name + "\" type=\"fixed\"><parent link=\"" + p +
+           "\"/><child link=\"" + c + "\"/></joint>";
+  };
+  auto refused = [](const std::string& body) {
+    auto robot =
+        bodiesFromUrdf("<robot name=\"c\">" + body + "</robot>", 0.0, Limits(), MeshLoader());
+    return robot ? std::string("loaded") : robot.error();
+  };
+  // a -> b -> a below the root r: urdfdom accepts it (and leaks the cycle); walking up from b
+  // would never end.
+  EXPECT_EQ(refused(links + joint("j0", "r", "a") + joint("j1", "a", "b") + joint("j2", "b", "a")),
+            "URDF link 'a' is the child of more than one joint (joint 'j2')");
+  EXPECT_EQ(refused(links + joint("j1", "a", "b") + joint("j2", "b", "a")),
+            "URDF joints form a cycle (through link 'a')");
+  EXPECT_EQ(refused(links + joint("j1", "a", "a")), "URDF joint 'j1' joins link 'a' to itself");
+  EXPECT_EQ(refused(links + "<link name=\"a\"/>"), "URDF declares link 'a' more than once");
+  EXPECT_EQ(refused(links + joint("j1", "r", "a") + joint("j1", "a", "b")),
+            "URDF declares joint 'j1' more than once");
+  EXPECT_EQ(refused(links + joint("j1", "r", "a") + joint("j2", "a", "b")), "loaded");
+}
+
+TEST(UrdfHostile, AdjacencyThroughALongGeometryLessStretch) {
+  // root (geometry) -> 999 links without geometry -> 5,000 leaves with geometry: every leaf is
+  // adjacent to the root (and the stretch is walked once, not once per leaf).
+  std::string xml =
+      "<robot name=\"s\"><link name=\"root\"><collision><geometry><sphere radius=\"1\"/>"
+      "</geometry></collision></link>";
+  const int stretch = 999, leaves = 5000;
+  for (int i = 0; i < stretch; ++i)
+    xml += "<link name=\"s" + std::to_string(i) + "\"/>";
+  for (int i = 0; i < leaves; ++i) {
+    xml += "<link name=\"leaf" + std::to_string(i) +
+           "\"><collision><geometry><sphere radius=\"1\"/></geometry></collision></link>";
+  }
+  for (int i = 0; i < stretch; ++i) {
+    xml += "<joint name=\"js" + std::to_string(i) + "\" type=\"fixed\"><parent link=\"" +
+           (i ? "s" + std::to_string(i - 1) : std::string("root")) + "\"/><child link=\"s" +
+           std::to_string(i) + "\"/></joint>";
+  }
+  for (int i = 0; i < leaves; ++i) {
+    xml += "<joint name=\"jl" + std::to_string(i) + "\" type=\"fixed\"><parent link=\"s" +
+           std::to_string(stretch - 1) + "\"/><child link=\"leaf" + std::to_string(i) +
+           "\"/></joint>";
+  }
+  xml += "</robot>";
+  auto robot = bodiesFromUrdf(xml, 0.0, Limits(), MeshLoader());
+  ASSERT_TRUE(robot) << robot.error();
+  EXPECT_EQ(robot->bodies.size(), static_cast<std::size_t>(leaves + 1));
+  ASSERT_EQ(robot->adjacent.size(), static_cast<std::size_t>(leaves));
+  for (const auto& [a, b] : robot->adjacent)
+    EXPECT_TRUE(a == "root" || b == "root") << a << " " << b;
 }
