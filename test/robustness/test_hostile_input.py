@@ -6,19 +6,28 @@ truncated serializations with 0xFFFFFFFF length prefixes) through the real node,
 alive, answers ~list_bodies, the bodies tracked before the storm are all there with unchanged
 ~get_distance answers, /diagnostics counted the rejections. Then a 10-million-vertex Body, a
 100 MB mesh path, and 100,000 bodies: refused, with the node's resident memory measured
-(/proc/<pid>/status). CM_STORM (default 3000) sets the storm size; figures go to stdout and to
+(/proc/<pid>/status). Then hostile URDFs, each given to a second node process started by the test
+(a 1,000-joint chain at the depth limit loads; 10,000- and 100,000-link chains, 200,000 nested XML
+elements and a joint cycle are refused with a clear error): start-up time and peak RSS. CM_STORM (default 3000) sets the storm size; figures go to stdout and to
 $CM_ARTIFACTS/hostile_input.txt when set."""
 import math
 import os
 import random
+import re
+import signal
+import subprocess
 import sys
+import tempfile
 import time
 import unittest
 
+import rosgraph
+import roslib.packages
 import rospy
 import rostest
 import tf2_ros
 from collision_monitor.msg import Body, BodyPoses, Shape
+from collision_monitor.srv import GetDistance, ListBodies
 from geometry_msgs.msg import Pose, Twist, TransformStamped
 
 from robust_util import (alive, body_bytes, node_pid, proc_status_kb, raw_class, shape_bytes)
@@ -174,6 +183,28 @@ def raw_bad_body(rng):
         good = body_bytes('raw', 'world', [shape_bytes(Shape.SPHERE, [0.1])])
         return good[:rng.randrange(len(good))]  # truncated
     return bytes(rng.randrange(256) for _ in range(rng.randrange(1, 200)))  # garbage
+
+
+def chain_urdf(n):
+    """A chain of n links l0 -> l1 -> ... (fixed joints), each with a small box."""
+    links = ''.join('<link name="l%d"><collision><origin xyz="0 0 0.05"/><geometry><box size="0.02 '
+                    '0.02 0.1"/></geometry></collision></link>\n' % i for i in range(n))
+    joints = ''.join('<joint name="j%d" type="fixed"><parent link="l%d"/><child link="l%d"/>'
+                     '<origin xyz="0 0 0.1"/></joint>\n' % (i, i - 1, i) for i in range(1, n))
+    return '<?xml version="1.0"?>\n<robot name="chain%d">\n%s%s</robot>\n' % (n, links, joints)
+
+
+def nested_urdf(depth):
+    return ('<robot name="nested"><link name="a"/>' + '<x>' * depth + '</x>' * depth +
+            '</robot>')
+
+
+CYCLE_URDF = """<robot name="cycle"><link name="r"/><link name="a"/><link name="b"/>
+<link name="c"><collision><geometry><sphere radius="0.1"/></geometry></collision></link>
+<joint name="j0" type="fixed"><parent link="r"/><child link="a"/></joint>
+<joint name="j1" type="fixed"><parent link="a"/><child link="b"/></joint>
+<joint name="j2" type="fixed"><parent link="b"/><child link="a"/></joint>
+<joint name="j3" type="fixed"><parent link="b"/><child link="c"/></joint></robot>"""
 
 
 class HostileInput(unittest.TestCase):
@@ -357,6 +388,80 @@ class HostileInput(unittest.TestCase):
         self.assertIn('max_bodies', last)
         self.assert_world_intact('after 100,000 bodies')
         self.assertLess(hwm, 2 * 1024 * 1024, 'node peak RSS above 2 GB')
+
+    def start_node_with_urdf(self, ns, urdf):
+        """Puts `urdf` on <ns>/robot_description and starts a second monitor in <ns> (name
+        deep_monitor: its /diagnostics do not mix with the main node's). Returns the process, its
+        log file, the seconds until its services answered and its peak RSS then (kB)."""
+        rosgraph.Master('/test_hostile_input').setParam(ns + '/robot_description', urdf)
+        exe = roslib.packages.find_node('collision_monitor', 'collision_monitor_node')[0]
+        log = tempfile.NamedTemporaryFile(prefix='deep_monitor_', suffix='.log', delete=False)
+        t0 = time.monotonic()
+        proc = subprocess.Popen([exe, '__ns:=' + ns, '__name:=deep_monitor', '_rate:=5.0',
+                                 '_publish_markers:=false'], stdout=log, stderr=log)
+        srv = ns + '/deep_monitor/list_bodies'
+        up = None
+        while time.monotonic() - t0 < 120.0 and proc.poll() is None:
+            try:
+                rospy.wait_for_service(srv, timeout=0.05)
+                up = time.monotonic() - t0
+                break
+            except rospy.ROSException:
+                pass
+        hwm = proc_status_kb(proc.pid, 'VmHWM')
+        return proc, log.name, up, hwm
+
+    def stop_node(self, proc):
+        proc.send_signal(signal.SIGINT)
+        try:
+            return proc.wait(timeout=30.0)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+            return None
+
+    def test_5_hostile_urdf(self):
+        cases = [  # (name, URDF, bodies expected, error expected in the node's log)
+            ('1,000-joint chain (1,001 links, the depth limit)', chain_urdf(1001), 1001, None),
+            ('10,000-link chain', chain_urdf(10000), 0,
+             "URDF link 'l1001' is more than 1000 joints below its root link"),
+            ('100,000-link chain', chain_urdf(100000), 0, 'URDF has more than 10000 links'),
+            ('200,000 nested XML elements', nested_urdf(200000), 0,
+             'URDF nests XML elements more than 100 deep'),
+            ('a joint cycle below the root', CYCLE_URDF, 0,
+             "URDF link 'a' is the child of more than one joint (joint 'j2')"),
+        ]
+        for k, (name, urdf, n_bodies, error) in enumerate(cases):
+            ns = '/deep_urdf_%d' % k
+            proc, log, up, hwm = self.start_node_with_urdf(ns, urdf)
+            try:
+                self.assertIsNotNone(up, '%s: the node did not come up (exit code %s)'
+                                     % (name, proc.poll()))
+                ids = rospy.ServiceProxy(ns + '/deep_monitor/list_bodies', ListBodies)().ids
+                if n_bodies:
+                    # Adjacent links are never checked: the chain's pairs were set up.
+                    r = rospy.ServiceProxy(ns + '/deep_monitor/get_distance', GetDistance)(
+                        'l999', 'l1000', '')
+                    self.assertFalse(r.success)
+                    self.assertIn('adjacent links', r.message)
+            finally:
+                code = self.stop_node(proc)
+            with open(log, errors='replace') as f:
+                text = f.read()
+            os.unlink(log)
+            line = next((re.sub(r'\x1b\[[0-9;]*m', '', x) for x in text.splitlines()
+                         if 'URDF' in x and 'ERROR' in x), '')
+            figure('URDF with %s (%.1f MB): node up in %.2f s, %d bodies, peak RSS %d kB%s'
+                   % (name, len(urdf) / 1e6, up, len(ids), hwm,
+                      '; ' + line[line.find('URDF'):][:160] if line else ''))
+            self.assertEqual(len(ids), n_bodies, name)
+            if error:
+                self.assertIn(error, text, name)
+            else:
+                self.assertNotIn('URDF', line, name)
+            self.assertEqual(code, 0, '%s: the node did not exit cleanly on SIGINT' % name)
+            self.assertLess(hwm, 1024 * 1024, '%s: peak RSS above 1 GB' % name)
+            self.assert_world_intact('while a second node loaded a URDF with ' + name)
 
     @classmethod
     def tearDownClass(cls):
