@@ -270,9 +270,15 @@ std::shared_ptr<const Polytope<3>> extractSolid(Qhull& q, const std::vector<Vec3
   };
   facetT* facet;
   FORALLfacets {
-    const bool has_ridges = facet->ridges != nullptr && qh_setsize(qh, facet->ridges) > 0;
-    if (has_ridges) {
-      // Ridges are the real edges between distinct (possibly merged, non-triangular) facets.
+    // qhull keeps complete ridge sets only for non-simplicial (merged) facets; a simplicial
+    // facet may hold some of its ridges or none (found by fuzz_core: a tetrahedron from input
+    // with a duplicate point had three facets with one ridge each, and the edge walk lost a
+    // vertex). So: ridges for merged facets, the three vertex pairs for simplicial ones.
+    if (!facet->simplicial && facet->ridges != nullptr) {
+      // Ridges are the real edges between distinct (merged, non-triangular) facets. Every
+      // vertex is taken from the facet itself, so none depends on the ridges being complete.
+      vertexT *vertex, **vertexp;
+      FOREACHvertex_(facet->vertices) index(vertex);
       ridgeT *ridge, **ridgep;
       FOREACHridge_(facet->ridges) {
         vertexT* v0 = static_cast<vertexT*>(SETfirst_(ridge->vertices));
@@ -280,7 +286,7 @@ std::shared_ptr<const Polytope<3>> extractSolid(Qhull& q, const std::vector<Vec3
         if (v0 != nullptr && v1 != nullptr) addEdge(index(v0), index(v1));
       }
     } else {
-      // Simplicial facet without ridges: its three vertices are pairwise hull edges.
+      // Simplicial facet: its three vertices are pairwise hull edges.
       std::vector<int> fv;
       vertexT *vertex, **vertexp;
       FOREACHvertex_(facet->vertices) fv.push_back(index(vertex));
