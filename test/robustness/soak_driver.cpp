@@ -44,7 +44,6 @@
 #include <cstdint>
 #include <cstdio>
 #include <functional>
-#include <map>
 #include <mutex>
 #include <sstream>
 #include <string>
@@ -277,7 +276,6 @@ class Driver {
   std::string first_violation_;
   std::vector<double> compute_time_, state_age_;
   std::size_t events_total_ = 0, events_other_pairs_ = 0;
-  std::map<int, std::size_t> events_by_type_;
   std::string first_other_event_;
   ServiceStats distance_stats_, check_stats_, list_stats_;
   std::size_t list_min_ = 0;
@@ -663,7 +661,6 @@ void Driver::onEvent(const CollisionEvent::ConstPtr& msg) {
   const double recv = ros::Time::now().toSec();
   std::lock_guard<std::mutex> lock(mutex_);
   ++events_total_;
-  ++events_by_type_[msg->type];
   auto it = pair_index_.find(key(msg->pair.body_a, msg->pair.body_b));
   if (it == pair_index_.end()) {
     ++events_other_pairs_;
