@@ -431,7 +431,22 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, double stamp,
                          const std::string& source) {
   std::vector<std::string> unknown, attached;
   {
-    std::lock_guard<std::mutex> lock(world_mutex_);
+    std::unique_lock<std::mutex> lock(world_mutex_);
+    // A pose from the future of ROS time would count as fresh until the clock caught up with it:
+    // data from before a time jump still in flight, ROS time 0 (simulated time before the first
+    // /clock), or clocks out of sync. Read under the lock that runCycle clears the poses with.
+    const double now = ros::Time::now().toSec();
+    if (stamp > now + kTimeJumpTolerance) {
+      std::ostringstream os;
+      os.setf(std::ios::fixed);
+      os.precision(3);
+      os << source << " refused: stamped " << stamp << " s, " << stamp - now
+         << " s after the current ROS time " << now
+         << " (data from before a time jump, no /clock yet, or unsynchronised clocks)";
+      lock.unlock();
+      reject(source, os.str());
+      return;
+    }
     bool applied = false;
     for (const auto& u : updates) {
       auto it = tracked_.find(u.id);
@@ -771,16 +786,25 @@ void Monitor::loopThread() {
 
 void Monitor::runCycle() {
   const ros::Time stamp_now = ros::Time::now();
-  if (stamp_now.isZero()) return;  // simulated time not started yet
   const double now = stamp_now.toSec();
-  if (last_now_ > 0.0 && now + 1.0 < last_now_) {
+  const auto steady_now = std::chrono::steady_clock::now();
+  if (last_now_ > 0.0 && now + kTimeJumpTolerance < last_now_) {
+    // Bag loop, simulation reset: poses and transforms from before the jump would look fresh
+    // (stamped ahead of ROS time), and tf2 would refuse the new ones as older than its cache.
     ROS_WARN_STREAM(name_ << ": time jumped backwards by " << last_now_ - now
                           << " s: forgetting every pose and the TF buffer");
     tf_buffer_->clear();
-    std::lock_guard<std::mutex> lock(world_mutex_);
-    world_->clearPoses();
+    {
+      std::lock_guard<std::mutex> lock(world_mutex_);
+      world_->clearPoses();
+    }
+    tf_clear_until_ = steady_now + std::chrono::seconds(kTfClearWindow);
+    // diagnostic_updater waits for the ROS time of its next report, now in the future: publish
+    // now, which also schedules the next report from the new time.
+    diagnostics_->force_update();
   }
   last_now_ = now;
+  if (stamp_now.isZero()) return;  // simulated time not started yet (or reset to 0)
 
   // TF lookups outside the world lock: one per distinct frame.
   std::vector<std::pair<std::string, std::string>> attached;  // id, frame
@@ -791,6 +815,7 @@ void Monitor::runCycle() {
     }
   }
   std::map<std::string, std::optional<std::pair<Transform3, double>>> frames;
+  std::vector<std::string> future_frames;
   for (const auto& [id, frame] : attached) {
     if (frames.count(frame)) continue;
     if (frame == fixed_frame_) {
@@ -799,10 +824,28 @@ void Monitor::runCycle() {
     }
     try {
       const auto tf = tf_buffer_->lookupTransform(fixed_frame_, frame, ros::Time(0));
-      frames[frame] = std::make_pair(toTransform3(tf.transform), tf.header.stamp.toSec());
+      const double stamp = tf.header.stamp.toSec();
+      if (stamp > now + kTimeJumpTolerance) {
+        // From the future of ROS time: not fresh data (it would stay "fresh" until the clock
+        // caught up). Right after a backward jump it is data from before the jump that arrived
+        // after the buffer was cleared, and it blocks the new data (tf2 refuses data older than
+        // its cache behind the latest): clear again.
+        frames[frame] = std::nullopt;
+        future_frames.push_back(frame + " (" + std::to_string(stamp - now) + " s ahead)");
+      } else {
+        frames[frame] = std::make_pair(toTransform3(tf.transform), stamp);
+      }
     } catch (const tf2::TransformException&) {
       frames[frame] = std::nullopt;
     }
+  }
+  if (!future_frames.empty()) {
+    const bool clear = steady_now < tf_clear_until_;
+    ROS_WARN_STREAM_THROTTLE(
+        1.0, name_ << ": TF stamped more than " << kTimeJumpTolerance
+                   << " s after the current ROS time, frames unresolved: " << joined(future_frames)
+                   << (clear ? "; cleared the TF buffer (time jumped back)" : ""));
+    if (clear) tf_buffer_->clear();
   }
 
   world::CycleResult cycle;

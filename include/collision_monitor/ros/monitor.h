@@ -11,6 +11,7 @@
 #pragma once
 
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <map>
 #include <memory>
@@ -178,7 +179,15 @@ class Monitor {
   std::condition_variable loop_cv_;
   bool triggered_ = false;
   bool stop_ = false;
-  double last_now_ = 0.0;
+  double last_now_ = 0.0;  ///< ROS time of the previous check (loop thread)
+  /// ROS time going back by more than this (s) is a time jump (bag loop, simulation reset): every
+  /// pose and the TF buffer are forgotten. Poses stamped more than this after ROS time are
+  /// refused, and TF that far ahead leaves its frame unresolved.
+  static constexpr double kTimeJumpTolerance = 1.0;
+  /// For this long (s, steady clock) after a backward jump, TF from the future (data from before
+  /// the jump that arrived after the buffer was cleared) clears the TF buffer again.
+  static constexpr int kTfClearWindow = 10;
+  std::chrono::steady_clock::time_point tf_clear_until_;  ///< loop thread
 };
 
 }  // namespace ros_layer

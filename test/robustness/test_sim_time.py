@@ -1,0 +1,366 @@
+#!/usr/bin/python3
+"""rostest: the node under simulated time (/use_sim_time true); this test is the simulator: it
+publishes /clock and, stamped with that clock, TF world -> moving_frame ('tf_body'), ~body_poses
+('posed') and the pose_topic of 'tracked'. 'fixed' hangs on a static frame. Rules checked
+(docs/node.md, "Poses" and "Simulated time"):
+  0. Before the first /clock (ROS time 0): no check runs (no ~state), no body has a pose, and a
+     pose stamped 100 s ahead of ROS time is refused (it stays refused once /clock starts).
+  1. Normal operation at half real time: exact distances; a stream that stops turns its pairs
+     UNKNOWN after pose_timeout of *simulated* time (twice that in wall time).
+  2. /clock paused (and the simulator with it): the heartbeat goes on, nothing turns stale, no
+     event; the clock resumes without data: UNKNOWN after pose_timeout; data resumes: recovery.
+  3. /clock jumps back 100 s -> 10 s (bag loop): at the first check after the jump every pose is
+     forgotten (UNKNOWN, never data from before the jump shown as fresh); TF and poses stamped
+     before the jump that arrive after it (in flight) are not used; TF and poses at the new
+     times bring every pair back (tf buffer reset: tf2 would otherwise refuse them as too old).
+  4. /clock jumps forward: everything stale at once, then recovers. TF and pose stamps jump back
+     while /clock runs on (a replayed link): held poses are not replaced by older ones and age
+     out: UNKNOWN after pose_timeout, no flapping; current stamps recover.
+Figures go to stdout and to $CM_ARTIFACTS/sim_time.txt when set."""
+import os
+import sys
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+import tf2_ros
+from collision_monitor.msg import BodyPoses, CollisionEvent, CollisionState, PairState
+from collision_monitor.srv import GetDistance, ListBodies
+from geometry_msgs.msg import PoseStamped, TransformStamped
+from rosgraph_msgs.msg import Clock
+
+import robust_util  # noqa: F401  (puts test/ros on the path)
+from cm_test_util import NS, Monitor, pose, wait_for
+
+E = CollisionEvent
+FIGURES = []
+DYNAMIC = ('tf_body', 'posed', 'tracked')
+EXPECTED = {'tf_body': 1.0 - 0.5, 'posed': 1.0 - 0.3, 'tracked': 1.0 - 0.3}  # from 'fixed'
+
+
+def figure(line):
+    FIGURES.append(line)
+    print('[sim_time] ' + line, flush=True)
+
+
+class Simulator:
+    """Publishes /clock at 100 Hz (advancing by `factor` x wall time while running) and every 5th
+    tick the three pose streams stamped with the clock plus `stamp_offset` (per stream)."""
+
+    def __init__(self, poses_pub, factor=0.5):
+        self.clock_pub = rospy.Publisher('/clock', Clock, queue_size=10, tcp_nodelay=True)
+        self.tf = tf2_ros.TransformBroadcaster()
+        self.poses_pub = poses_pub
+        self.tracked_pub = rospy.Publisher('/tracked_pose', PoseStamped, queue_size=10,
+                                           tcp_nodelay=True)
+        self.lock = threading.Lock()
+        self.t = None           # simulated time (s); None: no /clock published yet
+        self.running = False
+        self.factor = factor
+        self.streams = set()    # streams publishing: subset of DYNAMIC
+        self.offset = {k: 0.0 for k in DYNAMIC}
+        assert wait_for(lambda: self.clock_pub.get_num_connections() > 0
+                        and self.tracked_pub.get_num_connections() > 0, 10.0)
+        threading.Thread(target=self._run, daemon=True).start()
+
+    def now(self):
+        with self.lock:
+            return self.t
+
+    def set_time(self, t, running=True):
+        with self.lock:
+            self.t = t
+            self.running = running
+            self.clock_pub.publish(Clock(clock=rospy.Time.from_sec(t)))
+
+    def set(self, running=None, streams=None):
+        with self.lock:
+            if running is not None:
+                self.running = running
+            if streams is not None:
+                self.streams = set(streams)
+
+    def publish(self, stream, stamp):
+        """One message of `stream` stamped `stamp` (s): the body's pose of EXPECTED."""
+        st = rospy.Time.from_sec(stamp)
+        if stream == 'tf_body':
+            t = TransformStamped()
+            t.header.stamp = st
+            t.header.frame_id = 'world'
+            t.child_frame_id = 'moving_frame'
+            t.transform.translation.x = 1.0
+            t.transform.rotation.w = 1.0
+            self.tf.sendTransform(t)
+        elif stream == 'posed':
+            m = BodyPoses(ids=['posed'], poses=[pose(y=1.0)])
+            m.header.stamp = st
+            m.header.frame_id = 'world'
+            self.poses_pub.publish(m)
+        else:
+            m = PoseStamped(pose=pose(y=-1.0))
+            m.header.stamp = st
+            m.header.frame_id = 'world'
+            self.tracked_pub.publish(m)
+
+    def _run(self):
+        tick, last = 0, time.monotonic()
+        while not rospy.is_shutdown():
+            time.sleep(0.01)
+            now = time.monotonic()
+            try:
+                with self.lock:
+                    if self.running and self.t is not None:
+                        self.t += (now - last) * self.factor
+                        self.clock_pub.publish(Clock(clock=rospy.Time.from_sec(self.t)))
+                        tick += 1
+                        if tick % 5 == 0:
+                            for s in sorted(self.streams):
+                                self.publish(s, self.t + self.offset[s])
+            except rospy.ROSException:  # shutting down
+                return
+            last = now
+
+
+class SimTime(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_sim_time')
+        cls.static_tf = tf2_ros.StaticTransformBroadcaster()
+        t = TransformStamped()
+        t.header.frame_id = 'world'
+        t.child_frame_id = 'fixed_frame'
+        t.transform.rotation.w = 1.0
+        cls.static_tf.sendTransform([t])
+        cls.states = []  # (wall time, CollisionState)
+        rospy.Subscriber(NS + 'state', CollisionState,
+                         lambda m: cls.states.append((time.monotonic(), m)), queue_size=100)
+        for s in ('get_distance', 'list_bodies'):
+            rospy.wait_for_service(NS + s, timeout=30.0)
+        list_bodies = rospy.ServiceProxy(NS + 'list_bodies', ListBodies)
+        get_distance = rospy.ServiceProxy(NS + 'get_distance', GetDistance)
+        poses_pub = rospy.Publisher(NS + 'body_poses', BodyPoses, queue_size=10)
+        assert wait_for(lambda: poses_pub.get_num_connections() > 0, 10.0)
+        # 0. ROS time 0: no /clock yet. A pose stamped 100 s (what the clock will say) arrives.
+        cls.sim = Simulator(poses_pub)
+        cls.sim.publish('posed', 100.0)
+        time.sleep(1.5)
+        cls.zero = {'states': len(cls.states), 'bodies': list_bodies(),
+                    'distance': get_distance('fixed', 'tf_body', '')}
+        cls.sim.set_time(100.0)
+        cls.m = Monitor()  # needs ~state: after the clock started
+        cls.m.poses_pub = poses_pub
+        cls.rate = rospy.get_param(NS + 'rate')
+        cls.pose_timeout = rospy.get_param(NS + 'pose_timeout')
+
+    def setUp(self):
+        # Every test starts with the simulation running and every stream at current stamps.
+        with self.sim.lock:
+            self.sim.offset = {k: 0.0 for k in DYNAMIC}
+        self.sim.set(running=True, streams=DYNAMIC if self.id().split('.')[-1] != 'test_0_time_zero'
+                     else ())
+
+    def rejected(self):
+        v = self.m.diag_value('rejected inputs (total)')
+        return int(v) if v is not None else 0
+
+    def distance(self, a, b):
+        r = self.m.get_distance(a, b, '')
+        return r.result.distance if r.success else None
+
+    def state_after(self, wall, pred=lambda s: True, timeout=5.0):
+        """The first ~state received after wall time `wall` satisfying pred."""
+        def find():
+            for t, s in list(self.states):
+                if t > wall and pred(s):
+                    return s
+            return None
+        return wait_for(find, timeout)
+
+    def all_fresh(self, timeout=5.0):
+        """Waits until every dynamic body is fresh with its exact distance from 'fixed'."""
+        def ok():
+            s = self.m.state
+            if s is None or s.stale_bodies:
+                return False
+            return all(self.distance('fixed', b) is not None and
+                       abs(self.distance('fixed', b) - d) < 1e-9 for b, d in EXPECTED.items())
+        return wait_for(ok, timeout, 0.02)
+
+    def unknown_events(self, since, bodies=DYNAMIC, timeout=5.0):
+        """UNKNOWN_BEGIN events of ('fixed', b) received after `since` (wall), by body."""
+        out = {}
+        for b in bodies:
+            ev = self.m.wait_event(E.UNKNOWN_BEGIN, 'fixed', b, timeout=timeout, since=since)
+            self.assertIsNotNone(ev, 'no UNKNOWN_BEGIN for fixed-%s' % b)
+            out[b] = ev
+        return out
+
+    def test_0_time_zero(self):
+        figure('before the first /clock: %d ~state messages in 1.5 s; list_bodies stale %s; '
+               'get_distance: %s' % (self.zero['states'], list(self.zero['bodies'].stale),
+                                     self.zero['distance'].message))
+        self.assertEqual(self.zero['states'], 0, 'a check ran at ROS time 0')
+        self.assertEqual(sorted(self.zero['bodies'].ids), sorted(('fixed',) + DYNAMIC))
+        self.assertTrue(all(self.zero['bodies'].stale))
+        self.assertFalse(self.zero['distance'].success)
+        # The pose stamped 100 s was refused (100 s after ROS time 0): 'posed' has no pose now
+        # that the clock says 100 (its stream is still off).
+        s = self.state_after(0.0, lambda s: s.header.stamp.to_sec() >= 100.0)
+        self.assertIsNotNone(s)
+        self.assertIn('posed', s.stale_bodies)
+        self.assertIn('no pose yet', self.m.get_distance('fixed', 'posed', '').message)
+        self.assertTrue(wait_for(lambda: 'after the current ROS time' in
+                                 (self.m.diag_value('last rejection') or ''), 5.0),
+                        self.m.diag_value('last rejection'))
+        figure('a pose stamped 100 s at ROS time 0: %s' % self.m.diag_value('last rejection'))
+
+    def test_1_normal_operation(self):
+        self.sim.set(running=True, streams=DYNAMIC)
+        self.assertTrue(self.all_fresh(), 'not every body fresh under simulated time')
+        s = self.m.state
+        self.assertGreaterEqual(s.header.stamp.to_sec(), 100.0)
+        self.assertLessEqual(s.header.stamp.to_sec(), self.sim.now() + 0.05)
+        # One stream stops: UNKNOWN after pose_timeout of simulated time (the clock runs at half
+        # speed, so twice that in wall time: the node does not use wall time).
+        t_sim, t_wall = self.sim.now(), time.monotonic()
+        self.sim.set(streams=('tf_body', 'tracked'))
+        ev = self.unknown_events(t_wall, ('posed',))['posed']
+        sim_latency = ev[1].header.stamp.to_sec() - t_sim
+        wall_latency = ev[0] - t_wall
+        figure('clock at 0.5x: ~body_poses stopped -> UNKNOWN_BEGIN after %.3f s simulated, '
+               '%.3f s wall (pose_timeout %.2f s)' % (sim_latency, wall_latency,
+                                                      self.pose_timeout))
+        period = 5 * 0.01 * self.sim.factor  # of the streams, simulated
+        self.assertGreaterEqual(sim_latency, self.pose_timeout - period - 0.01)
+        self.assertLessEqual(sim_latency, self.pose_timeout + self.sim.factor / self.rate + 0.05)
+        self.assertGreater(wall_latency, (self.pose_timeout - period) / self.sim.factor - 0.05)
+        self.sim.set(streams=DYNAMIC)
+        self.assertTrue(self.all_fresh())
+
+    def test_2_clock_paused(self):
+        self.assertTrue(self.all_fresh())
+        t_wall = time.monotonic()
+        t_sim = self.sim.now()
+        self.sim.set(running=False, streams=())  # the simulator pauses: no clock, no data
+        time.sleep(4 * self.pose_timeout / self.sim.factor)
+        during = [s for t, s in list(self.states) if t > t_wall + 0.1]
+        events = [e for t, e in list(self.m.events) if t > t_wall]
+        stamps = sorted(set(round(s.header.stamp.to_sec(), 6) for s in during))
+        figure('clock paused %.1f s (wall): %d ~state messages, stamps %s, stale %s, %d events'
+               % (4 * self.pose_timeout / self.sim.factor, len(during), stamps,
+                  sorted(set(b for s in during for b in s.stale_bodies)), len(events)))
+        self.assertGreater(len(during), self.rate)  # the heartbeat goes on (steady clock)
+        self.assertEqual(len(stamps), 1)
+        self.assertLessEqual(stamps[0], t_sim + 1e-6)
+        self.assertEqual([s for s in during if s.stale_bodies], [])
+        self.assertEqual(events, [])
+        for b, d in EXPECTED.items():
+            self.assertAlmostEqual(self.distance('fixed', b), d, delta=1e-9)
+        # The clock resumes, the data does not: stale after pose_timeout (simulated).
+        t_wall = time.monotonic()
+        self.sim.set(running=True)
+        evs = self.unknown_events(t_wall)
+        lat = max(e[1].header.stamp.to_sec() for e in evs.values()) - t_sim
+        figure('clock resumed without data: UNKNOWN_BEGIN %.3f s (simulated) after the pause'
+               % lat)
+        self.assertLessEqual(lat, self.pose_timeout + self.sim.factor / self.rate + 0.05)
+        self.sim.set(streams=DYNAMIC)
+        self.assertTrue(self.all_fresh())
+
+    def test_3_clock_jumps_back(self):
+        self.assertTrue(self.all_fresh())
+        t_before = self.sim.now()
+        self.assertGreater(t_before, 100.0)
+        t_wall = time.monotonic()
+        self.sim.set(streams=())
+        self.sim.set_time(10.0, running=True)   # bag loop: 10 s
+        s = self.state_after(t_wall, lambda s: s.header.stamp.to_sec() < 50.0)
+        self.assertIsNotNone(s, 'no ~state after the jump')
+        figure('/clock %.2f -> 10 s: first ~state after the jump (stamp %.3f): stale %s, '
+               'UNKNOWN pairs %s' % (t_before, s.header.stamp.to_sec(), s.stale_bodies,
+                                     sorted((p.body_a, p.body_b) for p in s.pairs
+                                            if p.status == PairState.UNKNOWN)))
+        self.assertEqual(sorted(s.stale_bodies), sorted(DYNAMIC))
+        unknown = set(frozenset((p.body_a, p.body_b)) for p in s.pairs
+                      if p.status == PairState.UNKNOWN)
+        for b in DYNAMIC:
+            self.assertIn(frozenset(('fixed', b)), unknown)
+        self.unknown_events(t_wall)
+        for b in DYNAMIC:
+            self.assertIsNone(self.distance('fixed', b))
+        # In flight: TF and poses stamped before the jump arrive after it.
+        rej0 = self.rejected()
+        for k in range(3):
+            for b in DYNAMIC:
+                self.sim.publish(b, t_before - 0.05 + 0.01 * k)
+        t_wall = time.monotonic()
+        time.sleep(0.5 / self.sim.factor)
+        late = [st for t, st in list(self.states) if t > t_wall]
+        fresh_again = [st for st in late if set(DYNAMIC) - set(st.stale_bodies)]
+        # The 6 pose messages are refused (and counted); /diagnostics come every simulated second.
+        counted = wait_for(lambda: self.rejected() >= rej0 + 6 and self.rejected(), 5.0)
+        last = self.m.diag_value('last rejection') or ''
+        figure('TF and poses stamped %.2f s arriving after the jump: %d ~state, %d with one of '
+               'them fresh; %s pose messages refused; last rejection: %s'
+               % (t_before, len(late), len(fresh_again), counted and counted - rej0, last[:160]))
+        self.assertTrue(counted, 'the in-flight poses were not refused')
+        self.assertIn('after the current ROS time', last)
+        self.assertGreater(len(late), 0)
+        self.assertEqual(fresh_again, [], 'data from before the jump shown as fresh')
+        for b in DYNAMIC:
+            self.assertIsNone(self.distance('fixed', b))
+        # The simulation goes on at the new times: every pair comes back.
+        t_wall = time.monotonic()
+        self.sim.set(streams=DYNAMIC)
+        ok = self.all_fresh()
+        figure('TF and poses at the new times: all fresh again after %.3f s (wall)'
+               % (time.monotonic() - t_wall))
+        self.assertTrue(ok, 'no recovery after the jump (stale: %s)' % self.m.state.stale_bodies)
+        self.assertLess(self.m.state.header.stamp.to_sec(), 50.0)
+
+    def test_4_stamps_jump_back_while_clock_runs(self):
+        # Forward first (simulation restarted ahead): every held pose is 190 s old at once.
+        self.assertTrue(self.all_fresh())
+        t_wall = time.monotonic()
+        self.sim.set(streams=())
+        self.sim.set_time(200.0)
+        self.unknown_events(t_wall)
+        self.sim.set(streams=DYNAMIC)
+        ok = self.all_fresh()
+        figure('/clock jumped forward to 200 s: UNKNOWN at once, all fresh again after %.3f s '
+               '(wall)' % (time.monotonic() - t_wall))
+        self.assertTrue(ok)
+        for back in (30.0, 5.0):  # beyond tf2's 10 s cache, and within it (> pose_timeout)
+            t_sim, t_wall = self.sim.now(), time.monotonic()
+            with self.sim.lock:
+                for b in DYNAMIC:
+                    self.sim.offset[b] = -back
+            evs = self.unknown_events(t_wall)
+            lat = max(e[1].header.stamp.to_sec() for e in evs.values()) - t_sim
+            # They stay UNKNOWN while the old stamps keep coming (no flapping back to fresh).
+            t_wall2 = time.monotonic()
+            time.sleep(0.5)
+            flapped = [e for t, e in list(self.m.events)
+                       if t > t_wall2 and e.type == E.UNKNOWN_END]
+            figure('stamps %.1f s behind /clock: UNKNOWN_BEGIN %.3f s (simulated) after the '
+                   'switch; %d UNKNOWN_END while they kept coming' % (back, lat, len(flapped)))
+            self.assertLessEqual(lat, self.pose_timeout + self.sim.factor / self.rate + 0.05)
+            self.assertEqual(flapped, [])
+            with self.sim.lock:
+                for b in DYNAMIC:
+                    self.sim.offset[b] = 0.0
+            self.assertTrue(self.all_fresh(), 'no recovery with current stamps')
+
+    @classmethod
+    def tearDownClass(cls):
+        out = os.environ.get('CM_ARTIFACTS')
+        if out:
+            os.makedirs(out, exist_ok=True)
+            with open(os.path.join(out, 'sim_time.txt'), 'w') as f:
+                f.write('\n'.join(FIGURES) + '\n')
+
+
+if __name__ == '__main__':
+    rostest.rosrun('collision_monitor', 'sim_time', SimTime, sys.argv)
