@@ -40,8 +40,17 @@ namespace collision_monitor {
 namespace core {
 namespace {
 
+/// Support calls of one query, both bodies (see CcdOptions::max_support_calls).
+struct CcdBudget {
+  unsigned long calls = 0;
+  unsigned long limit = 0;
+  bool exhausted = false;
+};
+
 /// One body as libccd sees it: the full shape (core + radius) posed in A's frame, scaled.
 struct CcdBody {
+  CcdBudget* budget = nullptr;
+  bool first = false;  ///< libccd's obj1 (support1)
   const ConvexShape* shape = nullptr;
   Transform3 pose;         ///< shape frame -> A's frame
   double scale = 1.0;      ///< libccd coordinates = scale * A's-frame coordinates
@@ -80,6 +89,18 @@ Vec3 interiorPoint(const ConvexShape& s) {
 
 void support(const void* obj, const ccd_vec3_t* dir, ccd_vec3_t* out) {
   const CcdBody* body = static_cast<const CcdBody*>(obj);
+  if (++body->budget->calls > body->budget->limit) {
+    // Out of budget. libccd 2.1's EPA asks for the support along the nearest element's witness
+    // w and stops when (s1(w) - s2(-w)) . w - |w|^2 < epa_tolerance: answering s1 = w, s2 = 0
+    // makes that 0, so EPA ends on its current polytope; GJK/MPR end on max_iterations anyway.
+    body->budget->exhausted = true;
+    if (body->first) {
+      *out = *dir;
+    } else {
+      ccdVec3Set(out, 0.0, 0.0, 0.0);
+    }
+    return;
+  }
   const Vec3 d_local = body->pose.R.transpose() * toEigen(dir);
   const Vec3 s =
       body->core_only ? body->shape->coreSupport(d_local) : body->shape->support(d_local);
@@ -101,7 +122,10 @@ void firstDir(const void* o1, const void* o2, ccd_vec3_t* dir) {
 struct CcdPair {
   CcdBody a, b;
   ccd_t ccd;
-  double size = 1.0;  ///< boundingRadius(A) + boundingRadius(B), m
+  double size = 1.0;         ///< boundingRadius(A) + boundingRadius(B), m
+  mutable CcdBudget budget;  ///< a and b point here: not copyable
+  CcdPair(const CcdPair&) = delete;
+  CcdPair& operator=(const CcdPair&) = delete;
 
   CcdPair(const ConvexShape& sa, const Transform3& pose_a, const ConvexShape& sb,
           const Transform3& pose_b, const CcdOptions& o) {
@@ -117,6 +141,9 @@ struct CcdPair {
     b.pose = pose_a.inverse() * pose_b;
     a.scale = b.scale = s;
     a.core_only = b.core_only = o.cores_only;
+    budget.limit = o.max_support_calls;
+    a.budget = b.budget = &budget;
+    a.first = true;
     a.centre = s * interiorPoint(sa);
     b.centre = s * (b.pose * interiorPoint(sb));
     CCD_INIT(&ccd);
@@ -230,16 +257,16 @@ bool ccdPenetration(const ConvexShape& a, const Transform3& pose_a, const Convex
   const int rc = options.penetration == CcdAlgorithm::Mpr
                      ? ccdMPRPenetration(&p.a, &p.b, &p.ccd, &depth, &dir, &pos)
                      : ccdGJKPenetration(&p.a, &p.b, &p.ccd, &depth, &dir, &pos);
-  if (rc == -1) return false;  // apart
   ContactResult r;
   r.gjk_iterations = 0;
   r.epa_iterations = 0;
-  if (rc != 0) {  // -2: out of memory inside libccd
+  if (p.budget.exhausted || (rc != 0 && rc != -1)) {  // -2: out of memory inside libccd
     r.status = Status::FailedToConverge;
     r.distance = 0.0;
     *out = r;
     return true;
   }
+  if (rc == -1) return false;  // apart
   // Back to A's frame and metres.
   Vec3 n = toEigen(&dir);
   const double n_len = n.norm();

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
@@ -135,6 +136,34 @@ TEST(CoreHostile, LibccdFalseContactOnThinLongPair) {
     const cm::ContactResult theirs = libccd->signedDistance(needle, pa, disc, pb, nullptr);
     EXPECT_NEAR(theirs.distance, ours.distance, 1e-12) << "th " << th;
   }
+}
+
+TEST(CoreHostile, LibccdEpaEnds) {
+  // Bug (found by fuzz_core): a capsule (core: a 3.2 m segment) and a flat box (1.6 x 3 x 0 m),
+  // both padded, at the same place 2.8e6 m out: libccd's EPA did not return within 30 s (it has
+  // no iteration bound). The backend bounds the support calls and then answers with our GJK/EPA.
+  // Child process with an alarm: a hang fails this test instead of the suite's timeout.
+  const ConvexShape capsule = ConvexShape::capsule(3.234375, 3.25).padded(2.40625);
+  const ConvexShape flat = ConvexShape::box(Vec3(1.5625, 3, 0)).padded(1);
+  Transform3 pa = at(1015625, -2578125, 1.0312499999999999e-06);
+  pa.R << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  Transform3 pb = pa;
+  pb.R << 0.99999999999999944, -2.429207446274258e-08, 2.378855015120866e-08, 2.429207446274258e-08,
+      0.99999999999999967, 2.8893661581692358e-16, -2.378855015120866e-08, 2.8893661581692358e-16,
+      0.99999999999999967;
+  const cm::ContactResult ours =
+      cm::makeNarrowPhase(cm::BackendType::Gjk)->signedDistance(capsule, pa, flat, pb, nullptr);
+  ASSERT_EQ(ours.status, cm::Status::Penetrating);
+  EXPECT_EXIT(
+      {
+        alarm(20);
+        const auto libccd = cm::makeNarrowPhase(cm::BackendType::Libccd);
+        const cm::ContactResult r = libccd->signedDistance(capsule, pa, flat, pb, nullptr);
+        const bool hit = libccd->intersect(capsule, pa, flat, pb, nullptr);
+        std::exit(hit && std::abs(r.distance - ours.distance) <= 1e-9 ? 0 : 3);
+      },
+      ::testing::ExitedWithCode(0), "")
+      << "libccd backend hung or disagreed (ours: " << ours.distance << " m)";
 }
 
 TEST(CoreHostile, LibccdFlatBoxDepth) {

@@ -50,6 +50,12 @@ struct CcdOptions {
   double dist_tolerance = 1e-12;
   /// ccd_t::max_iterations: GJK and MPR iteration bound (libccd's EPA has none of its own).
   unsigned long max_iterations = 500;
+  /// Bound on support calls per body and query, which bounds libccd's EPA: it can loop for ever
+  /// (found by fuzz_core: a capsule core and a flat box at the same place, > 30 s). Past it the
+  /// support functions answer so that EPA's progress test stops it, and the query reports
+  /// FailedToConverge (the backend then answers with our GJK/EPA). Most used by a converging
+  /// query in test_ccd_backend and the oracle sweep: 2,490 (curved cores at epa_tolerance 1e-10).
+  unsigned long max_support_calls = 4000;
 };
 
 /// libccd's intersection test of the full shapes.
@@ -58,7 +64,8 @@ bool ccdIntersect(const ConvexShape& a, const Transform3& pose_a, const ConvexSh
 
 /// libccd's penetration query. Returns false when libccd reports the shapes apart (`out`
 /// untouched). On contact fills `out`: status Penetrating (Touching when the depth is within
-/// `query.touch_tolerance` of the size, FailedToConverge when libccd runs out of memory),
+/// `query.touch_tolerance` of the size, FailedToConverge when libccd runs out of memory or of
+/// `options.max_support_calls`),
 /// distance = -depth (m), normal (unit, common frame, A -> B: moving B along it by the depth
 /// separates the shapes), and witness points (common frame) derived from libccd's contact
 /// position `pos`: point_a = pos + depth/2 * normal, point_b = pos - depth/2 * normal, so that
