@@ -57,6 +57,8 @@ using cmc::Vec3;
 
 /// Largest magnitude for which results are checked (the decoder's tables reach 5e6).
 constexpr double kDomain = 1e7;
+/// Largest aspect ratio of a curved core (cylinder, cone, ellipsoid) whose results are checked.
+constexpr double kMaxCurvedAspect = 1e6;
 /// Relative tolerance of FailedToConverge estimates (curved cores only), see runCase().
 constexpr double kLooseTolerance = 1e-3;
 
@@ -261,6 +263,18 @@ inline bool inDomain(const ShapeSpec& s) {
   for (const Vec3& p : s.pts)
     ok = ok && p.cwiseAbs().maxCoeff() <= kDomain;
   if (s.padded) ok = ok && std::abs(s.padding) <= kDomain;
+  // Curved cores with an aspect ratio beyond 1e6 (a 1.4 m x 3.3e6 m cone: GJK put its centre
+  // 1.4e-4 m outside, 0.68 m off, 2e-7 of the size) are past what double-precision GJK resolves
+  // to 1e-9; dimensions below 1e-9 of the largest count as flat (exact), not as a ratio.
+  if (s.kind == ShapeSpec::Cylinder || s.kind == ShapeSpec::Cone ||
+      s.kind == ShapeSpec::Ellipsoid) {
+    const int n = s.kind == ShapeSpec::Ellipsoid ? 3 : 2;
+    const double big = s.dims.head(n).cwiseAbs().maxCoeff();
+    for (int k = 0; k < n; ++k) {
+      const double d = std::abs(s.dims[k]);
+      if (d > 1e-9 * big && big > kMaxCurvedAspect * d) ok = false;
+    }
+  }
   return ok;
 }
 

@@ -236,9 +236,12 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
     return r;
   }
   // Unconverged EPA still settles the answer when its upper bound on the depth is inside the
-  // touching band: the cores' signed distance is then within [-band, GJK tolerance].
-  const bool failed = e.status != EpaStatus::Converged &&
-                      !(e.depth_is_upper_bound && e.depth <= o.touch_tolerance * f.size);
+  // touching band: the cores' signed distance is then within [-band, GJK tolerance]. A bound
+  // below -(GJK tolerance) contradicts GJK's verdict (support rounding on extreme shapes, e.g. a
+  // 1.4 m x 3.3e6 m cone: fuzz_core) and settles nothing.
+  const bool settled = e.depth_is_upper_bound && e.depth <= o.touch_tolerance * f.size &&
+                       e.depth >= -es.abs_tolerance;
+  const bool failed = e.status != EpaStatus::Converged && !settled;
   finish(f, o, -e.depth, e.point_a, e.point_b, e.normal, failed, r);
   return r;
 }
