@@ -81,7 +81,10 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   };
 
   tf_buffer_ = std::make_shared<tf2_ros::Buffer>(ros::Duration(10.0));
-  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_, true);
+  // TCP_NODELAY: TF comes as many small messages; with Nagle's algorithm they arrived in bursts
+  // up to ~40 ms late (soak test: TF-pair event latency p50 21 ms, p99 47 ms; with it 2.2 / 5.9).
+  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_, true,
+                                                              ros::TransportHints().tcpNoDelay());
   if (check_on_tf_) {
     // New TF data is pose input for every TF-attached body (robot links): check promptly,
     // coalesced with other triggers by min_check_interval.
