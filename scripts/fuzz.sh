@@ -4,6 +4,8 @@
 # CM_FUZZ_SEED: libFuzzer's -seed (default 0: a new random seed each run). CI (scripts/test.sh)
 # fixes it, so that a CI failure is one a later run reproduces rather than a new random finding;
 # exploration is the job of the longer runs by hand.
+# CM_FUZZ_RUNS: stop after this many inputs (libFuzzer -runs; default: none, time only). With a
+# fixed seed and an empty corpus (a clean clone) the run is then the same on every machine.
 # Steps: build fuzz/ with clang in $CM_FUZZ_BUILD (default build-fuzz), replay every committed
 # crash input (fuzz/regressions/core) and the seed corpus, then fuzz for <seconds> from the seeds
 # (new inputs go to $CM_FUZZ_BUILD/corpus-core, never into the repository). A failing input is
@@ -31,7 +33,7 @@ rc=0
 PARALLEL=()
 if [ "$JOBS" -gt 1 ]; then PARALLEL=(-fork="$JOBS"); fi
 (cd "$B" && ./fuzz_core "$B/corpus-core" "$CM_ROOT/fuzz/corpus/core" "${PARALLEL[@]}" \
-  -seed="${CM_FUZZ_SEED:-0}" -max_total_time="$SECONDS_TO_RUN" -timeout=10 -rss_limit_mb=2048 -max_len=2048 \
+  -seed="${CM_FUZZ_SEED:-0}" -runs="${CM_FUZZ_RUNS:--1}" -max_total_time="$SECONDS_TO_RUN" -timeout=10 -rss_limit_mb=2048 -max_len=2048 \
   -artifact_prefix="$B/artifacts/" -print_final_stats=1 >"$B/fuzz.log" 2>&1) || rc=$?
 grep -E "^stat::(number_of_executed_units|average_exec_per_sec|peak_rss_mb)|^#[0-9]+.*DONE" "$B/fuzz.log" || true
 if [ "$rc" -ne 0 ]; then
