@@ -85,3 +85,12 @@ def body_bytes(body_id, frame, parts, claimed_parts=None, padding=0.0, pose_from
     out += _u32(len(parts) if claimed_parts is None else claimed_parts) + b''.join(parts)
     out += struct.pack('<d?', padding, pose_from_topic) + _str('')
     return out
+
+
+def save_figures(file_name, lines):
+    """Writes a test's figures, one per line, to $CM_ARTIFACTS/<file_name> if that is set."""
+    out = os.environ.get('CM_ARTIFACTS')
+    if out:
+        os.makedirs(out, exist_ok=True)
+        with open(os.path.join(out, file_name), 'w') as f:
+            f.write('\n'.join(lines) + '\n')

@@ -27,7 +27,7 @@ from collision_monitor.msg import Body, CollisionEvent, CollisionState, PairStat
 from collision_monitor.srv import GetDistance
 from geometry_msgs.msg import PoseStamped, TransformStamped
 
-from robust_util import alive, node_pid
+from robust_util import alive, node_pid, save_figures
 from cm_test_util import Monitor, PoseStreamer, pose, shape, wait_for
 
 E = CollisionEvent
@@ -290,11 +290,7 @@ class Faults(unittest.TestCase):
 
     @classmethod
     def tearDownClass(cls):
-        out = os.environ.get('CM_ARTIFACTS')
-        if out:
-            os.makedirs(out, exist_ok=True)
-            with open(os.path.join(out, 'faults.txt'), 'w') as f:
-                f.write('\n'.join(FIGURES) + '\n')
+        save_figures('faults.txt', FIGURES)
 
 
 if __name__ == '__main__':

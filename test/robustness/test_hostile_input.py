@@ -30,7 +30,8 @@ from collision_monitor.msg import Body, BodyPoses, Shape
 from collision_monitor.srv import GetDistance, ListBodies
 from geometry_msgs.msg import Pose, Twist, TransformStamped
 
-from robust_util import (alive, body_bytes, node_pid, proc_status_kb, raw_class, shape_bytes)
+from robust_util import (alive, body_bytes, node_pid, proc_status_kb, raw_class, save_figures,
+                         shape_bytes)
 from cm_test_util import Monitor, pose, shape, wait_for  # test/ros (path set by robust_util)
 
 NAN, INF = float('nan'), float('inf')
@@ -465,11 +466,7 @@ class HostileInput(unittest.TestCase):
 
     @classmethod
     def tearDownClass(cls):
-        out = os.environ.get('CM_ARTIFACTS')
-        if out:
-            os.makedirs(out, exist_ok=True)
-            with open(os.path.join(out, 'hostile_input.txt'), 'w') as f:
-                f.write('\n'.join(FIGURES) + '\n')
+        save_figures('hostile_input.txt', FIGURES)
 
 
 if __name__ == '__main__':

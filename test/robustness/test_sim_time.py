@@ -17,7 +17,6 @@ publishes /clock and, stamped with that clock, TF world -> moving_frame ('tf_bod
      while /clock runs on (a replayed link): held poses are not replaced by older ones and age
      out: UNKNOWN after pose_timeout, no flapping; current stamps recover.
 Figures go to stdout and to $CM_ARTIFACTS/sim_time.txt when set."""
-import os
 import sys
 import threading
 import time
@@ -31,7 +30,7 @@ from collision_monitor.srv import GetDistance, ListBodies
 from geometry_msgs.msg import PoseStamped, TransformStamped
 from rosgraph_msgs.msg import Clock
 
-import robust_util  # noqa: F401  (puts test/ros on the path)
+from robust_util import save_figures  # also puts test/ros on the path
 from cm_test_util import NS, Monitor, pose, wait_for
 
 E = CollisionEvent
@@ -355,11 +354,7 @@ class SimTime(unittest.TestCase):
 
     @classmethod
     def tearDownClass(cls):
-        out = os.environ.get('CM_ARTIFACTS')
-        if out:
-            os.makedirs(out, exist_ok=True)
-            with open(os.path.join(out, 'sim_time.txt'), 'w') as f:
-                f.write('\n'.join(FIGURES) + '\n')
+        save_figures('sim_time.txt', FIGURES)
 
 
 if __name__ == '__main__':

@@ -22,7 +22,7 @@ from geometry_msgs.msg import PoseStamped
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
-from robust_util import alive, body_bytes, node_pid, raw_class, shape_bytes
+from robust_util import alive, body_bytes, node_pid, raw_class, save_figures, shape_bytes
 from cm_test_util import Monitor, pose, shape, sphere_body, wait_for
 
 E = CollisionEvent
@@ -194,11 +194,7 @@ class Valgrind(unittest.TestCase):
 
     @classmethod
     def tearDownClass(cls):
-        out = os.environ.get('CM_ARTIFACTS')
-        if out:
-            os.makedirs(out, exist_ok=True)
-            with open(os.path.join(out, 'valgrind.txt'), 'w') as f:
-                f.write('\n'.join(FIGURES) + '\n')
+        save_figures('valgrind.txt', FIGURES)
 
 
 if __name__ == '__main__':
