@@ -36,7 +36,10 @@ namespace {
 struct PolytopeCore {
   const Polytope<3>* poly = nullptr;
   mutable int hint = -1;
-  Vec3 support(const Vec3& d) const { return poly->vertices()[poly->supportIndex(d, hint)]; }
+  CM_ALWAYS_INLINE Vec3 support(const Vec3& d) const {
+    return poly->vertices()[poly->supportIndex(d, hint)];
+  }
+  const Vec3& interiorPoint() const { return poly->interiorPoint(); }
 };
 
 template <class C>
@@ -94,16 +97,28 @@ struct PairFrame {
   bool finite;      ///< false when a pose has NaN/Inf entries (no query is run then)
 };
 
+/// 0 for finite x, NaN for NaN or +-Inf (0 * Inf = NaN): summed over a matrix, NaN propagates.
+template <class M>
+double nonFinite(const M& m) {
+  double s = 0.0;
+  for (int i = 0; i < m.size(); ++i)
+    s += 0.0 * m.data()[i];
+  return s;
+}
+
 PairFrame makeFrame(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                     const Transform3& pose_b) {
   PairFrame f;
   f.pose_a = &pose_a;
-  f.T_AB = pose_a.inverse() * pose_b;
+  // T_AB = T_A^-1 T_B = (R_A^T R_B, R_A^T (t_B - t_A)), written out (Eigen's products were calls).
+  for (int c = 0; c < 3; ++c)
+    f.T_AB.R.col(c) = mulTransposed<3>(pose_a.R, pose_b.R.col(c));
+  f.T_AB.t = mulTransposed<3>(pose_a.R, pose_b.t - pose_a.t);
   f.rA = a.radius();
   f.rB = b.radius();
   f.size = a.boundingRadius() + b.boundingRadius() + f.T_AB.t.norm();
-  f.finite =
-      pose_a.R.allFinite() && pose_a.t.allFinite() && f.T_AB.R.allFinite() && std::isfinite(f.size);
+  f.finite = nonFinite(pose_a.R) + nonFinite(pose_a.t) + nonFinite(f.T_AB.R) == 0.0 &&
+             std::isfinite(f.size);
   return f;
 }
 

