@@ -77,6 +77,31 @@ class Bytes {
   }
   /// In [-1, 1].
   double unit() { return static_cast<std::int8_t>(u8()) / 127.0; }
+  /// Three unit() reads in the order x, y, z. Reads never sit side by side in one argument list:
+  /// C++ leaves the order of argument evaluation unspecified, and g++ (right to left) and clang
+  /// (left to right) decoded the same input into different cases, so the g++ replay
+  /// (test_fuzz_regressions) did not run the cases the clang fuzzer had found.
+  Vec3 unitVec() {
+    const double x = unit();
+    const double y = unit();
+    const double z = unit();
+    return Vec3(x, y, z);
+  }
+  /// Two unit() reads (x, y) and z = 0.
+  Vec3 unitVecXY() {
+    const double x = unit();
+    const double y = unit();
+    return Vec3(x, y, 0.0);
+  }
+  /// Quaternion (w, x, y, z) from four reads of `read` in that order (not normalised).
+  template <class Read>
+  Eigen::Quaterniond quaternion(Read read) {
+    const double w = read();
+    const double x = read();
+    const double y = read();
+    const double z = read();
+    return Eigen::Quaterniond(w, x, y, z);
+  }
 
  private:
   const std::uint8_t* p_;
@@ -131,6 +156,14 @@ inline double coordinate(Bytes& in) {
   return negative ? -v : v;
 }
 
+/// Three coordinate() reads in the order x, y, z (see Bytes::unitVec()).
+inline Vec3 coordinates(Bytes& in) {
+  const double x = coordinate(in);
+  const double y = coordinate(in);
+  const double z = coordinate(in);
+  return Vec3(x, y, z);
+}
+
 struct ShapeSpec {
   enum Kind { Sphere, Box, Capsule, Cylinder, Cone, Ellipsoid, Point, Segment, Hull, kCount };
   Kind kind = Sphere;
@@ -167,28 +200,28 @@ inline ShapeSpec decodeShape(Bytes& in) {
       s.dims[1] = magnitude(in);
       break;
     case ShapeSpec::Point:
-      s.pts.emplace_back(coordinate(in), coordinate(in), coordinate(in));
+      s.pts.push_back(coordinates(in));
       break;
     case ShapeSpec::Segment:
       for (int i = 0; i < 2; ++i)
-        s.pts.emplace_back(coordinate(in), coordinate(in), coordinate(in));
+        s.pts.push_back(coordinates(in));
       break;
     case ShapeSpec::Hull: {
       const std::uint8_t h = in.u8();
       const int n = h % 65;
       const int layout = in.u8() % 8;
       const double scale = magnitude(in);
-      const Vec3 centre(coordinate(in), coordinate(in), coordinate(in));
-      const Vec3 dir = Vec3(in.unit(), in.unit(), in.unit()) + Vec3(1e-3, 0, 0);
+      const Vec3 centre = coordinates(in);
+      const Vec3 dir = in.unitVec() + Vec3(1e-3, 0, 0);
       for (int i = 0; i < n; ++i) {
         Vec3 p;
         switch (layout) {
           case 0:  // general position
           default:
-            p = scale * Vec3(in.unit(), in.unit(), in.unit());
+            p = scale * in.unitVec();
             break;
           case 1:  // coplanar
-            p = scale * Vec3(in.unit(), in.unit(), 0.0);
+            p = scale * in.unitVecXY();
             break;
           case 2:  // collinear
             p = scale * in.unit() * dir;
@@ -198,17 +231,17 @@ inline ShapeSpec decodeShape(Bytes& in) {
             break;
           case 4:  // near duplicates of a few points
             p = scale * Vec3((i % 4) == 1, (i % 4) == 2, (i % 4) == 3) +
-                scale * 1e-12 * Vec3(in.unit(), in.unit(), in.unit());
+                scale * 1e-12 * in.unitVec();
             break;
           case 5:  // every coordinate decoded (NaN, Inf, denormals, huge)
-            p = Vec3(coordinate(in), coordinate(in), coordinate(in));
+            p = coordinates(in);
             break;
           case 6:  // cube corners, slightly jittered
-            p = scale * (Vec3((i & 1) ? 1 : -1, (i & 2) ? 1 : -1, (i & 4) ? 1 : -1) +
-                         1e-9 * Vec3(in.unit(), in.unit(), in.unit()));
+            p = scale *
+                (Vec3((i & 1) ? 1 : -1, (i & 2) ? 1 : -1, (i & 4) ? 1 : -1) + 1e-9 * in.unitVec());
             break;
           case 7:  // mixed scales: one far point, the rest tiny
-            p = (i == 0 ? 1e6 : 1e-6) * scale * Vec3(in.unit(), in.unit(), in.unit());
+            p = (i == 0 ? 1e6 : 1e-6) * scale * in.unitVec();
             break;
         }
         s.pts.push_back(p + centre);
@@ -397,7 +430,7 @@ inline cmc::Transform3 decodePose(Bytes& in) {
       break;
     case 1:
     case 2:
-      q = Eigen::Quaterniond(in.unit(), in.unit(), in.unit(), in.unit());
+      q = in.quaternion([&in] { return in.unit(); });
       break;
     case 3: {  // multiples of 90 degrees about an axis
       const int axis = in.u8() % 3;
@@ -406,12 +439,12 @@ inline cmc::Transform3 decodePose(Bytes& in) {
       break;
     }
     case 4: {  // tiny rotation
-      const Vec3 axis = Vec3(in.unit(), in.unit(), in.unit()) + Vec3(0, 0, 1e-3);
+      const Vec3 axis = in.unitVec() + Vec3(0, 0, 1e-3);
       q = Eigen::AngleAxisd(1e-9 * (1 + in.u8()), axis.normalized());
       break;
     }
     case 5:
-      q = Eigen::Quaterniond(in.raw(), in.raw(), in.raw(), in.raw());
+      q = in.quaternion([&in] { return in.raw(); });
       break;
   }
   cmc::Transform3 T = cmc::Transform3::Identity();
@@ -509,11 +542,11 @@ inline Case decodeCase(const std::uint8_t* data, std::size_t len) {
   c.b.spec = decodeShape(in);
   c.a.pose = decodePose(in);
   c.b.pose = decodePose(in);
-  c.a.pose.t = Vec3(coordinate(in), coordinate(in), coordinate(in));
+  c.a.pose.t = coordinates(in);
   c.relative = flags & 1;
-  const Vec3 u_raw(in.unit(), in.unit(), in.unit());
+  const Vec3 u_raw = in.unitVec();
   c.factor = (flags & 2) ? 1.0 : in.u8() / 128.0;  // 0 .. 2 of the contact distance
-  const Vec3 b_abs(coordinate(in), coordinate(in), coordinate(in));
+  const Vec3 b_abs = coordinates(in);
   if (c.relative) {
     const double un = u_raw.norm();
     const Vec3 u = un > 1e-6 ? Vec3(u_raw / un) : Vec3::UnitX();

@@ -117,8 +117,9 @@ PairFrame makeFrame(const ConvexShape& a, const Transform3& pose_a, const Convex
   f.rA = a.radius();
   f.rB = b.radius();
   f.size = a.boundingRadius() + b.boundingRadius() + f.T_AB.t.norm();
-  f.finite = nonFinite(pose_a.R) + nonFinite(pose_a.t) + nonFinite(f.T_AB.R) == 0.0 &&
-             std::isfinite(f.size);
+  // A NaN or Inf in either pose reaches T_AB (0 * NaN and 0 * Inf are NaN): checking T_AB.R and
+  // the size (which holds |T_AB.t|) covers both poses.
+  f.finite = nonFinite(f.T_AB.R) == 0.0 && std::isfinite(f.size);
   return f;
 }
 

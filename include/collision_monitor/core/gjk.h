@@ -699,6 +699,31 @@ CM_ALWAYS_INLINE Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* s
   return s.v[0].w;
 }
 
+/// After a no-progress exit that the last support point does not certify (its lower bound v.w/|v|
+/// is below the upper bound |v| by more than the tolerance) on a 3D triangle: v = sum(lambda_i w_i)
+/// may have lost its direction by cancellation when |v| << |w_i| (two nearly coplanar flat
+/// polygons 1e-8 m apart: v 1.3e-7 rad off the triangle's normal, a wrong support point, and a
+/// "separated" verdict for shapes that overlap; fuzz/regressions/core/flat-hulls-nearly-coplanar).
+/// Sets v to the projection of the origin onto the triangle's plane (its direction is the normal
+/// to rounding; in exact arithmetic it is the same point, so the weights stand) and returns true,
+/// once per run (`retried`).
+template <int D>
+bool retryOnPlane(const Simplex<D>& s, Vec<D>& v, double& vv, bool& retried) {
+  if constexpr (D == 3) {
+    if (s.size != 3 || retried) return false;
+    const Vec3 n = (s.v[1].w - s.v[0].w).cross(s.v[2].w - s.v[0].w);
+    const double nn = n.squaredNorm();
+    if (!(nn > 0.0)) return false;
+    retried = true;
+    v = n * (s.v[0].w.dot(n) / nn);
+    vv = v.squaredNorm();
+    return true;
+  } else {
+    (void)s, (void)v, (void)vv, (void)retried;
+    return false;
+  }
+}
+
 template <int D>
 CM_ALWAYS_INLINE bool isDuplicate(const Simplex<D>& s, const Vec<D>& w, double tol2) {
   for (int i = 0; i < s.size; ++i)
@@ -723,6 +748,7 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st,
   const double tol = st.abs_tolerance;
   const double tol2 = tol * tol;
   int it = 0;
+  bool retried = false;
   for (;;) {
     if (s.size == D + 1 || vv <= tol2) {
       r.status = GjkStatus::Intersecting;
@@ -747,6 +773,9 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st,
     ++s.size;
     if (!detail::progress(s, v, vv)) {  // no progress (rounding): keep the better simplex, stop
       --s.size;
+      if (vv - vw > st.rel_tolerance * vv + tol * vn && detail::retryOnPlane(s, v, vv, retried)) {
+        continue;
+      }
       r.status = GjkStatus::Separated;
       break;
     }
@@ -777,6 +806,7 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
   const double tol = st.abs_tolerance;
   const double reach = margin + tol;
   int it = 0;
+  bool retried = false;
   bool result = true;
   for (;;) {
     if (s.size == D + 1 || vv <= reach * reach) {
@@ -803,6 +833,9 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
     ++s.size;
     if (!detail::progress(s, v, vv)) {
       --s.size;
+      if (vv - vw > st.rel_tolerance * vv + tol * vn && detail::retryOnPlane(s, v, vv, retried)) {
+        continue;
+      }
       result = vn <= reach;
       break;
     }

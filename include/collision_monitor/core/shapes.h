@@ -68,17 +68,21 @@ CM_ALWAYS_INLINE int scanBlocks(const double* c, int np, const double* d) {
       at[j] += 4.0;
     }
   }
-  int b = static_cast<int>(idx[0][0]);
+  // Reduce without branches: the larger value wins, a tie goes to the smaller index (first
+  // maximum). Vectors first, then the lanes of the survivor.
+  for (int j = 1; j < kN; ++j) {
+    const auto take = (best[j] > best[0]) | ((best[j] == best[0]) & (idx[j] < idx[0]));
+    best[0] = take ? best[j] : best[0];
+    idx[0] = take ? idx[j] : idx[0];
+  }
   double bv = best[0][0];
-  for (int j = 0; j < kN; ++j)
-    for (int l = 0; l < kW; ++l) {
-      const int il = static_cast<int>(idx[j][l]);
-      if (best[j][l] > bv || (best[j][l] == bv && il < b)) {
-        bv = best[j][l];
-        b = il;
-      }
-    }
-  return b;
+  double bi = idx[0][0];
+  for (int l = 1; l < kW; ++l) {
+    const bool take = best[0][l] > bv || (best[0][l] == bv && idx[0][l] < bi);
+    bv = take ? best[0][l] : bv;
+    bi = take ? idx[0][l] : bi;
+  }
+  return static_cast<int>(bi);
 }
 
 using V2d = double __attribute__((vector_size(16), aligned(8)));
@@ -200,7 +204,7 @@ template <int D>
 class Polytope {
  public:
   /// Below this many vertices the linear scan beats hill-climbing (measured: see docs/benchmarks).
-  static constexpr int kLinearScanMax = 24;
+  static constexpr int kLinearScanMax = 48;
 
   Polytope() = default;
   /// `adjacency_offsets` has size vertices.size() + 1; neighbours of vertex i are
