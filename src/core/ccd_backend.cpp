@@ -184,14 +184,26 @@ bool finitePoses(const Transform3& pose_a, const Transform3& pose_b) {
          pose_b.t.allFinite();
 }
 
+/// Pairs libccd is asked about: finite poses (libccd crashes on NaN) and a size (the bounding
+/// radii's sum) of at most 1e9 m. libccd works in a frame scaled to unit size with absolute
+/// epsilons; a box 8e165 m long by a 2.5 m box (fuzz/regressions/core/
+/// libccd-segv-8e165m-box-by-subnormal-box) is a segment in that frame and ccdGJKPenetration
+/// dereferenced a null pointer. No workspace is 1e9 m across; our GJK answers the rest.
+bool libccdCanAnswer(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
+                     const Transform3& pose_b) {
+  return finitePoses(pose_a, pose_b) && a.boundingRadius() + b.boundingRadius() <= 1e9;
+}
+
 class LibccdNarrowPhase final : public NarrowPhase {
  public:
   LibccdNarrowPhase(const QueryOptions& query, const CcdOptions& ccd) : query_(query), ccd_(ccd) {}
   BackendType type() const override { return BackendType::Libccd; }
   bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                  const Transform3& pose_b, PairCache* cache) const override {
-    // Non-finite poses: our defined (conservative) answer; libccd would crash.
-    if (!finitePoses(pose_a, pose_b)) return core::intersect(a, pose_a, b, pose_b, cache, query_);
+    // Non-finite poses or an astronomic size: our defined answer; libccd would crash.
+    if (!libccdCanAnswer(a, pose_a, b, pose_b)) {
+      return core::intersect(a, pose_a, b, pose_b, cache, query_);
+    }
     if (!ccdIntersect(a, pose_a, b, pose_b, ccd_)) return false;
     // libccd's GJK can claim contact for pairs that are apart (see contradicts()): contact is
     // confirmed by the penetration query, which checks libccd's answer against the supports
@@ -200,8 +212,8 @@ class LibccdNarrowPhase final : public NarrowPhase {
   }
   ContactResult signedDistance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                                const Transform3& pose_b, PairCache* cache) const override {
-    if (!finitePoses(pose_a, pose_b)) {
-      return core::signedDistance(a, pose_a, b, pose_b, cache, query_);  // FailedToConverge
+    if (!libccdCanAnswer(a, pose_a, b, pose_b)) {
+      return core::signedDistance(a, pose_a, b, pose_b, cache, query_);
     }
     // Radii stay out of libccd as out of our GJK: libccd's EPA is exact on polytope cores but
     // stops on wrong faces of curved (radius-swept) shapes. Cores overlapping: libccd's depth plus
