@@ -330,7 +330,9 @@ class Polytope {
         return b < 0 ? 0 : (b >= kCubeGrid ? kCubeGrid - 1 : b);
       };
       const int face = 2 * m + (d[m] < 0.0 ? 1 : 0);
-      return (face * kCubeGrid + bin(d[(m + 1) % 3])) * kCubeGrid + bin(d[(m + 2) % 3]);
+      const int j = m == 2 ? 0 : m + 1;  // (m + 1) % 3 without a division
+      const int k = m == 0 ? 2 : m - 1;  // (m + 2) % 3
+      return (face * kCubeGrid + bin(d[j])) * kCubeGrid + bin(d[k]);
     } else {
       const double m = d.cwiseAbs().maxCoeff();
       if (!(m > 0.0) || !(m < kInf)) return 0;
