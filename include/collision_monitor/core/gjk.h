@@ -11,7 +11,10 @@
 /// for D = 2 and D = 3; for other D a projection onto the affine hull with recursion into the
 /// facets whose barycentric weight is <= 0 (the closest point lies on such a facet). Both accept
 /// any simplex (not only the ones GJK builds, so warm-start seeds are safe) and degenerate ones
-/// (flat, collinear, duplicate vertices) and never produce NaN.
+/// (flat, collinear, duplicate vertices) and never produce NaN. Inside the 3D loop the same
+/// signed-volume arithmetic runs only on the features that hold the newest support point
+/// (detail::closestInLoop); a cold run starts at an interior point cA - cB when the shapes have
+/// one (gjkStart).
 ///
 /// Termination (van den Bergen 1999, "A fast and robust GJK implementation for collision detection
 /// of convex objects", J. Graphics Tools 4(2)): |v|^2 - v.w <= eps_rel |v|^2 (with an absolute
