@@ -46,5 +46,14 @@ if(NOT COLLISION_MONITOR_CORE_ONLY AND CATKIN_ENABLE_TESTING)
   if(TEST ${_cm_soak})
     set_tests_properties(${_cm_soak} PROPERTIES RUN_SERIAL TRUE)
   endif()
+  # The node under valgrind memcheck: ~20 s (node up in ~8 s, exit ~1 s after SIGINT). A node that
+  # does not exit fails the test after 90 s (with thread states and stacks in the log); CTest's
+  # limit is a backstop above rostest's time-limit (170 s). The Panda comes from CM_ROBOT_DATA, as
+  # for the tests in test/ros.
+  set(_cm_valgrind _ctest_${PROJECT_NAME}_rostest_test_robustness_valgrind.test)
+  if(TEST ${_cm_valgrind})
+    set_tests_properties(${_cm_valgrind} PROPERTIES TIMEOUT 300
+      ENVIRONMENT "CM_ROBOT_DATA=${CM_ROBOT_DATA_DIR}")
+  endif()
 endif()
 

@@ -10,6 +10,7 @@ import math
 import os
 import re
 import signal
+import subprocess
 import sys
 import threading
 import time
@@ -52,6 +53,39 @@ def joint_states():
         except rospy.ROSException:
             return
         time.sleep(0.05)
+
+
+def dump_threads(pid):
+    """Where a hung node sits: each thread's state and kernel wait channel, then the guest stacks
+    through valgrind's gdbserver (vgdb), for the CI log."""
+    try:
+        tasks = sorted(os.listdir('/proc/%d/task' % pid), key=int)
+    except OSError:
+        tasks = []
+    for task in tasks:
+        try:
+            with open('/proc/%d/task/%s/stat' % (pid, task)) as f:
+                stat = f.read().split()
+            with open('/proc/%d/task/%s/wchan' % (pid, task)) as f:
+                wchan = f.read()
+            with open('/proc/%d/task/%s/syscall' % (pid, task)) as f:
+                sc = f.read().strip()
+        except OSError as e:
+            stat, wchan, sc = ['?'] * 3, str(e), ''
+        print('[valgrind] task %s %s state %s utime %s ticks, wchan %s, syscall %s'
+              % (task, stat[1], stat[2], stat[13] if len(stat) > 13 else '?', wchan, sc),
+              flush=True)
+    try:
+        with open('/proc/%d/cmdline' % pid, 'rb') as f:
+            exe = [a.decode() for a in f.read().split(b'\0')
+                   if a.endswith(b'collision_monitor_node')]
+        out = subprocess.run(['gdb', '-batch', '-nx'] + exe[:1] +
+                             ['-ex', 'target remote | vgdb --pid=%d' % pid, '-ex', 'info threads',
+                              '-ex', 'thread apply all bt 30'],
+                             capture_output=True, text=True, timeout=120)
+        print(out.stdout[-30000:], out.stderr[-3000:], flush=True)
+    except (OSError, subprocess.SubprocessError) as e:
+        print('[valgrind] gdb/vgdb: %s' % e, flush=True)
 
 
 def memcheck_summary(text):
@@ -177,6 +211,8 @@ class Valgrind(unittest.TestCase):
         os.kill(self.pid, signal.SIGINT)
         exited = wait_for(lambda: not alive(self.pid), 90.0, 0.2)
         t_exit = time.monotonic() - t0
+        if not exited:
+            dump_threads(self.pid)
         self.assertTrue(exited, 'the node did not exit within 90 s of SIGINT')
         with open(self.log, errors='replace') as f:
             text = f.read()
