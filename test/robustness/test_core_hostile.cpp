@@ -6,6 +6,7 @@
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -135,6 +136,60 @@ TEST(CoreHostile, LibccdFalseContactOnThinLongPair) {
     EXPECT_FALSE(libccd->intersect(needle, pa, disc, pb, nullptr)) << "th " << th;
     const cm::ContactResult theirs = libccd->signedDistance(needle, pa, disc, pb, nullptr);
     EXPECT_NEAR(theirs.distance, ours.distance, 1e-12) << "th " << th;
+  }
+}
+
+TEST(CoreHostile, CapsuleByLongThinBoxNormal) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-capsule-by-flat-4900km-box-normal-off): a
+  // capsule 0.26 m from a 0.11 m x 1 um x 4.9e6 m box. GJK ended on a duplicate support point
+  // that did not certify its v (v rounded 3.7e-6 rad off over 2.4e6 m vertices): the normal was
+  // 9 m short of realising the distance along the box. Oracle: the box is a prism along world x
+  // far past the capsule, so the distance is the 2D one between the capsule axis projected onto
+  // the y-z plane and the box's cross-section, minus the radius, and the normal has no x part.
+  Transform3 pa;
+  pa.R << -0.98652186020607102, -0.12620439988861043, 0.10414926204399889, 0.12620439988861043,
+      -0.18173210804789774, 0.97521581732108065, -0.10414926204399889, 0.97521581732108065,
+      0.19521024784182672;
+  Transform3 pb = at(0, 0, -2.9500665732246723);
+  pb.R << 0, 0, -1, 0, 1, 0, 1, 0, 0;
+  const double length = 3.234375, radius = 2.578125;
+  const Vec3 sides(0.1125, 1.0156249999999999e-06, 4890625);
+  const ConvexShape capsule = ConvexShape::capsule(length, radius);
+  const ConvexShape box = ConvexShape::box(sides);
+  // 2D oracle in (y, z): segment p0-p1 against the rectangle [-hy, hy] x [cz - hz, cz + hz].
+  using V2 = Eigen::Vector2d;
+  const Vec3 e0 = pa.R * Vec3(0, 0, -length / 2), e1 = pa.R * Vec3(0, 0, length / 2);
+  const V2 p0(e0.y(), e0.z()), p1(e1.y(), e1.z());
+  const double hy = sides.y() / 2, hz = sides.x() / 2, cz = pb.t.z();
+  const auto toRect = [&](const V2& p) {
+    const V2 c(std::clamp(p.x(), -hy, hy), std::clamp(p.y(), cz - hz, cz + hz));
+    return (p - c).norm();
+  };
+  const auto toSegment = [&](const V2& q) {
+    const V2 d = p1 - p0;
+    const double t = std::clamp((q - p0).dot(d) / d.squaredNorm(), 0.0, 1.0);
+    return (q - (p0 + t * d)).norm();
+  };
+  double core = std::min(toRect(p0), toRect(p1));
+  for (const double y : {-hy, hy})
+    for (const double z : {cz - hz, cz + hz})
+      core = std::min(core, toSegment(V2(y, z)));
+  const double expected = core - radius;
+  ASSERT_NEAR(expected, 0.2594, 1e-4);  // the case is what it claims to be
+  for (const bool swapped : {false, true}) {
+    const cm::ContactResult r = swapped ? cm::signedDistance(box, pb, capsule, pa)
+                                        : cm::signedDistance(capsule, pa, box, pb);
+    EXPECT_EQ(r.status, cm::Status::Separated) << "swapped " << swapped;
+    // GJK's tolerance is 1e-12 of the size (4.9e-6 m here); measured: 5e-12 m (A, B) and 1e-7 m
+    // (B, A), both before and after the fix. The normal is what went wrong.
+    EXPECT_NEAR(r.distance, expected, 1e-12 * sides.z()) << "swapped " << swapped;
+    EXPECT_LT(std::abs(r.normal.x()), 1e-9) << "swapped " << swapped;
+    // The normal realises the distance: the supports' gap along it (the box's 2.4e6 m half
+    // length is the lever that made a 3.7e-6 rad error cost 9 m).
+    const Vec3 n = swapped ? Vec3(-r.normal) : r.normal;
+    const double gap = n.dot(pb * box.support(pb.R.transpose() * -n)) -
+                       n.dot(pa * capsule.support(pa.R.transpose() * n));
+    EXPECT_NEAR(gap, expected, 1e-6) << "swapped " << swapped;
   }
 }
 

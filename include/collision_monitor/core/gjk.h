@@ -702,11 +702,14 @@ CM_ALWAYS_INLINE Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* s
   return s.v[0].w;
 }
 
-/// After a no-progress exit that the last support point does not certify (its lower bound v.w/|v|
-/// is below the upper bound |v| by more than the tolerance) on a 3D triangle: v = sum(lambda_i w_i)
-/// may have lost its direction by cancellation when |v| << |w_i| (two nearly coplanar flat
-/// polygons 1e-8 m apart: v 1.3e-7 rad off the triangle's normal, a wrong support point, and a
-/// "separated" verdict for shapes that overlap; fuzz/regressions/core/flat-hulls-nearly-coplanar).
+/// After a no-progress or duplicate-support exit that the last support point does not certify (its
+/// lower bound v.w/|v| is below the upper bound |v| by more than the tolerance) on a 3D triangle:
+/// v = sum(lambda_i w_i) may have lost its direction by cancellation when |v| << |w_i| (two nearly
+/// coplanar flat polygons 1e-8 m apart: v 1.3e-7 rad off the triangle's normal, a wrong support
+/// point, and a "separated" verdict for shapes that overlap; fuzz/regressions/core/flat-hulls-
+/// nearly-coplanar. A capsule 0.26 m from a 0.11 m x 1 um x 4.9e6 m box: the support along v was a
+/// vertex of the simplex 9 m short of certifying it, v 3.7e-6 rad off, and the normal 9 m short of
+/// realising the distance; fuzz/regressions/core/gjk-capsule-by-flat-4900km-box-normal-off).
 /// Sets v to the projection of the origin onto the triangle's plane (its direction is the normal
 /// to rounding; in exact arithmetic it is the same point, so the weights stand) and returns true,
 /// once per run (`retried`).
@@ -769,16 +772,16 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st,
     const double vw = v.dot(w.w);
     const double vn = std::sqrt(vv);
     // van den Bergen: upper bound |v| and lower bound v.w/|v| agree (plus an absolute floor).
-    if (vv - vw <= st.rel_tolerance * vv + tol * vn || detail::isDuplicate(s, w.w, tol2)) {
+    const bool certified = vv - vw <= st.rel_tolerance * vv + tol * vn;
+    if (certified || detail::isDuplicate(s, w.w, tol2)) {
+      if (!certified && detail::retryOnPlane(s, v, vv, retried)) continue;
       r.status = GjkStatus::Separated;
       break;
     }
     ++s.size;
     if (!detail::progress(s, v, vv)) {  // no progress (rounding): keep the better simplex, stop
       --s.size;
-      if (vv - vw > st.rel_tolerance * vv + tol * vn && detail::retryOnPlane(s, v, vv, retried)) {
-        continue;
-      }
+      if (detail::retryOnPlane(s, v, vv, retried)) continue;  // not certified (see above)
       r.status = GjkStatus::Separated;
       break;
     }
@@ -829,16 +832,16 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
       result = false;
       break;
     }
-    if (vv - vw <= st.rel_tolerance * vv + tol * vn || detail::isDuplicate(s, w.w, tol * tol)) {
+    const bool certified = vv - vw <= st.rel_tolerance * vv + tol * vn;
+    if (certified || detail::isDuplicate(s, w.w, tol * tol)) {
+      if (!certified && detail::retryOnPlane(s, v, vv, retried)) continue;
       result = vn <= reach;  // converged: the distance is |v|
       break;
     }
     ++s.size;
     if (!detail::progress(s, v, vv)) {
       --s.size;
-      if (vv - vw > st.rel_tolerance * vv + tol * vn && detail::retryOnPlane(s, v, vv, retried)) {
-        continue;
-      }
+      if (detail::retryOnPlane(s, v, vv, retried)) continue;  // not certified (see above)
       result = vn <= reach;
       break;
     }
