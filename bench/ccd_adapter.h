@@ -28,7 +28,8 @@ inline void ccdSupport(const void* obj, const ccd_vec3_t* dir, ccd_vec3_t* out) 
   const Vec3 d_local = body->pose->R.transpose() * d;
   Vec3 p;
   if (body->spec->kind == Kind::Hull) {
-    p = body->spec->hull->support(d_local, body->hint);
+    // The scalar lane reduction: the faster one for libccd (detail::scanBlocks); same index.
+    p = body->spec->hull->support<false>(d_local, body->hint);
   } else {
     p = body->spec->ours->support(d_local);
   }

@@ -501,6 +501,7 @@ TEST(ConvexHull, SupportFromDirectionTableAndAnyHintEqualsBruteForce) {
         }
       }
       EXPECT_EQ(poly->scanIndex(d), first) << "n " << n << " direction " << k;
+      EXPECT_EQ(poly->scanIndex<false>(d), first) << "n " << n << " direction " << k;
       const int sv = poly->startVertex(d);
       EXPECT_GE(sv, 0);
       EXPECT_LT(sv, m);
@@ -563,6 +564,25 @@ TEST(ConvexHull, DuplicatePointsLoseNoVertexAndNoEdge) {
         const int idx = poly->supportIndex(d, hint);
         EXPECT_EQ(poly->vertices()[idx].dot(d), best) << "n " << n << " trial " << trial;
       }
+    }
+  }
+}
+
+TEST(Polytope, ScanIndexFirstMaximumOnTies) {
+  // Both lane reductions of the scan (folded in vector registers, or scalar) must return the
+  // first maximum when several vertices tie, in whichever lanes they sit (and whatever the pad
+  // slots, copies of vertex 0, hold). Vertices i >= first with odd i - first lie on x = 1.
+  for (int n = 2; n <= 13; ++n) {
+    for (int first = 0; first < n; ++first) {
+      std::vector<Vec3> vs;
+      for (int i = 0; i < n; ++i) {
+        const bool top = i >= first && (i - first) % 2 == 0;
+        vs.emplace_back(top ? 1.0 : 0.25 * (i % 3), 0.1 * i, -0.05 * i);
+      }
+      const cm::Polytope<3> poly(vs);
+      const Vec3 d(1, 0, 0);
+      EXPECT_EQ(poly.scanIndex(d), first) << "n " << n;
+      EXPECT_EQ(poly.scanIndex<false>(d), first) << "n " << n;
     }
   }
 }
