@@ -193,6 +193,28 @@ TEST(CoreHostile, CapsuleByLongThinBoxNormal) {
   }
 }
 
+TEST(CoreHostile, SubnormalSegmentTouchingPointWitnesses) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-subnormal-segment-touching-point-witness):
+  // a segment from (-3.1e-212, 0, 0) to the origin and a point (radius-0 sphere) at the origin.
+  // GJK started at the interior point cA - cB, whose squared norm underflows to 0, so the run
+  // ended at once as a contact with the segment's midpoint as witness: half the segment off
+  // A's supporting plane x = 0. Now such a start falls back to a support point.
+  const double x = -3.1193138928696868e-212;
+  const ConvexShape segment = ConvexShape::segment(Vec3(x, 0, 0), Vec3::Zero());
+  const ConvexShape point = ConvexShape::sphere(0.0);
+  for (const bool depth : {false, true}) {
+    const cm::ContactResult r = depth ? cm::signedDistance(segment, at(0, 0, 0), point, at(0, 0, 0))
+                                      : cm::distance(segment, at(0, 0, 0), point, at(0, 0, 0));
+    EXPECT_EQ(r.status, cm::Status::Touching) << "depth " << depth;
+    EXPECT_EQ(r.distance, 0.0) << "depth " << depth;
+    // Witnesses on the supporting planes along the normal (exactly: every number is 0 or x).
+    const Vec3& n = r.normal;
+    EXPECT_EQ(n.dot(r.point_a), std::max(0.0, n.x() * x)) << "depth " << depth;
+    EXPECT_EQ(r.point_b, Vec3::Zero()) << "depth " << depth;
+  }
+  EXPECT_TRUE(cm::intersect(segment, at(0, 0, 0), point, at(0, 0, 0)));
+}
+
 TEST(CoreHostile, LibccdEpaEnds) {
   // Bug (found by fuzz_core): a capsule (core: a 3.2 m segment) and a flat box (1.6 x 3 x 0 m),
   // both padded, at the same place 2.8e6 m out: libccd's EPA did not return within 30 s (it has

@@ -683,22 +683,26 @@ struct StartsInside<MD, std::void_t<decltype(MD::kHasInterior)>>
 
 /// Start simplex: the (re-evaluated) seed when given; else the interior point cA - cB when the
 /// shapes have one (no support call: the first support then goes from the middle of A - B
-/// towards the origin, as MPR's first portal ray); else one support point.
+/// towards the origin, as MPR's first portal ray); else one support point. An interior point
+/// within `tol2` (squared length) of the origin would end the run at once with witness points
+/// inside the shapes, wrong for a contact (a 3e-212 m segment touching a point gave its midpoint
+/// as witness: fuzz/regressions/core/gjk-subnormal-segment-touching-point-witness): the run then
+/// starts from a support point instead.
 template <class MD>
 CM_ALWAYS_INLINE Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* seed,
-                                        Simplex<MD::kDim>& s) {
+                                        Simplex<MD::kDim>& s, double tol2) {
   constexpr int D = MD::kDim;
   if (seed != nullptr && seed->size > 0 && seed->size <= D + 1) {
     s = *seed;
     return solveSimplex<D>(s);
   }
   s.size = 1;
+  s.bary[0] = 1.0;
   if constexpr (StartsInside<MD>::value) {
     s.v[0] = md.interiorPoint();
-  } else {
-    s.v[0] = md.support(md.initialDirection());
+    if (s.v[0].w.squaredNorm() > tol2) return s.v[0].w;
   }
-  s.bary[0] = 1.0;
+  s.v[0] = md.support(md.initialDirection());
   return s.v[0].w;
 }
 
@@ -749,10 +753,10 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st,
   constexpr int D = MD::kDim;
   GjkResult<D> r;
   Simplex<D>& s = r.simplex;
-  Vec<D> v = detail::gjkStart(md, seed, s);
-  double vv = v.squaredNorm();
   const double tol = st.abs_tolerance;
   const double tol2 = tol * tol;
+  Vec<D> v = detail::gjkStart(md, seed, s, tol2);
+  double vv = v.squaredNorm();
   int it = 0;
   bool retried = false;
   for (;;) {
@@ -807,10 +811,10 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
                   Simplex<MD::kDim>* simplex = nullptr, int* iterations = nullptr) {
   constexpr int D = MD::kDim;
   Simplex<D> s;
-  Vec<D> v = detail::gjkStart(md, simplex, s);
-  double vv = v.squaredNorm();
   const double tol = st.abs_tolerance;
   const double reach = margin + tol;
+  Vec<D> v = detail::gjkStart(md, simplex, s, tol * tol);
+  double vv = v.squaredNorm();
   int it = 0;
   bool retried = false;
   bool result = true;
