@@ -4,6 +4,7 @@
 #include "collision_monitor/core/query.h"
 
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <type_traits>
 #include <variant>
@@ -176,6 +177,16 @@ void storeCache(const MD& md, const Simplex<3>& s, PairCache* cache) {
   }
 }
 
+/// x / |x|, or `fallback` when x is 0 or not finite. Scaled by its largest component first, so
+/// that |x|^2 neither underflows nor overflows (a 3.4e-161 m offset gave a "unit" normal of length
+/// 0.9987: fuzz/regressions/core/distance-normal-subnormal-offset).
+Vec3 unitOr(const Vec3& x, const Vec3& fallback) {
+  const double m = x.cwiseAbs().maxCoeff();
+  if (!(m > 0.0) || !(m < std::numeric_limits<double>::infinity())) return fallback;
+  const Vec3 s = x / m;
+  return s / s.norm();
+}
+
 /// Normal (A's frame, A towards B) for cores whose Minkowski difference is flat and contains the
 /// origin: every direction out of the flat set gives depth 0 for the cores, so depth rA + rB for
 /// the full shapes. Ties are broken towards B's origin (t_AB); never NaN.
@@ -186,11 +197,9 @@ Vec3 flatNormal(const EpaResult<3>& e, const Vec3& t_AB) {
   if (e.flat_dimension == 1) {
     const Vec3& u = e.flat_direction;
     const Vec3 c = t_AB - t_AB.dot(u) * u;
-    const double cn = c.norm();
-    return cn > 0.0 ? Vec3(c / cn) : Vec3(u.unitOrthogonal());
+    return unitOr(c, u.unitOrthogonal());
   }
-  const double tn = t_AB.norm();
-  return tn > 0.0 ? Vec3(t_AB / tn) : Vec3(Vec3::UnitX());
+  return unitOr(t_AB, Vec3::UnitX());
 }
 
 /// Fill the common-frame fields from A-frame core results plus radii.
@@ -221,7 +230,7 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   storeCache(md, g.simplex, cache);
   r.gjk_iterations = g.iterations;
   if (g.status != GjkStatus::Intersecting) {
-    const Vec3 n = -g.v / g.distance;  // g.distance > abs_tolerance >= 0 here
+    const Vec3 n = unitOr(-g.v, Vec3::UnitX());  // g.distance > abs_tolerance >= 0 here
     finish(f, o, g.distance, g.point_a, g.point_b, n, g.status == GjkStatus::MaxIterations, r);
     // distance() reports 0 for overlapping shapes (query.h), even when the depth came for free
     // (separated cores, overlapping radii).
@@ -233,8 +242,7 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
     // encloses the origin (penetration); a smaller one means the origin is on A - B within the
     // tolerance: touching when there are no radii.
     const bool enclosed = g.simplex.size == 4;
-    const double tn = f.T_AB.t.norm();
-    const Vec3 n = tn > 0.0 ? Vec3(f.T_AB.t / tn) : Vec3(Vec3::UnitX());
+    const Vec3 n = unitOr(f.T_AB.t, Vec3::UnitX());
     finish(f, o, 0.0, g.point_a, g.point_b, n, false, r);
     r.distance = 0.0;
     r.status = (enclosed || f.rA + f.rB > o.touch_tolerance * f.size) ? Status::Penetrating

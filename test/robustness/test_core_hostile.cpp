@@ -215,6 +215,22 @@ TEST(CoreHostile, SubnormalSegmentTouchingPointWitnesses) {
   EXPECT_TRUE(cm::intersect(segment, at(0, 0, 0), point, at(0, 0, 0)));
 }
 
+TEST(CoreHostile, SubnormalOffsetNormalIsUnit) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/distance-normal-subnormal-offset): a padded
+  // sphere 3.4e-161 m from a cylinder's centre. distance() (overlap, no EPA) takes its normal
+  // along the offset, divided by a norm whose square underflowed: length 0.9987.
+  const ConvexShape cylinder = ConvexShape::cylinder(1093.75, 0.109375);
+  const ConvexShape ball = ConvexShape::sphere(2.109375).padded(0.1078125);
+  for (const double z : {3.4030000619567615e-161, 4.9e-324, 1e-300, 1e300}) {
+    for (const bool depth : {false, true}) {
+      const cm::ContactResult r =
+          depth ? cm::signedDistance(cylinder, at(0, 0, 0), ball, at(0, 0, z))
+                : cm::distance(cylinder, at(0, 0, 0), ball, at(0, 0, z));
+      EXPECT_NEAR(r.normal.norm(), 1.0, 1e-15) << "z " << z << " depth " << depth;
+    }
+  }
+}
+
 TEST(CoreHostile, LibccdEpaEnds) {
   // Bug (found by fuzz_core): a capsule (core: a 3.2 m segment) and a flat box (1.6 x 3 x 0 m),
   // both padded, at the same place 2.8e6 m out: libccd's EPA did not return within 30 s (it has
