@@ -710,10 +710,11 @@ CM_ALWAYS_INLINE Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* s
 /// lower bound v.w/|v| is below the upper bound |v| by more than the tolerance) on a 3D triangle:
 /// v = sum(lambda_i w_i) may have lost its direction by cancellation when |v| << |w_i| (two nearly
 /// coplanar flat polygons 1e-8 m apart: v 1.3e-7 rad off the triangle's normal, a wrong support
-/// point, and a "separated" verdict for shapes that overlap; fuzz/regressions/core/flat-hulls-
-/// nearly-coplanar. A capsule 0.26 m from a 0.11 m x 1 um x 4.9e6 m box: the support along v was a
-/// vertex of the simplex 9 m short of certifying it, v 3.7e-6 rad off, and the normal 9 m short of
-/// realising the distance; fuzz/regressions/core/gjk-capsule-by-flat-4900km-box-normal-off).
+/// point, and a "separated" verdict for shapes that overlap:
+/// fuzz/regressions/core/flat-hulls-nearly-coplanar-1e-9-band; a capsule 0.26 m from a
+/// 0.11 m x 1 um x 4.9e6 m box, where the support along v was a vertex of the simplex 9 m short
+/// of certifying it and the normal 9 m short of realising the distance:
+/// fuzz/regressions/core/gjk-capsule-by-flat-4900km-box-normal-off).
 /// Sets v to the projection of the origin onto the triangle's plane (its direction is the normal
 /// to rounding; in exact arithmetic it is the same point, so the weights stand) and returns true,
 /// once per run (`retried`).
