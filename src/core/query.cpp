@@ -11,6 +11,7 @@
 
 #include "collision_monitor/core/epa.h"
 #include "collision_monitor/core/gjk.h"
+#include "collision_monitor/core/polytope_pair.h"
 
 namespace collision_monitor {
 namespace core {
@@ -141,6 +142,13 @@ auto withPair(const ConvexShape& a, const ConvexShape& b, const PairFrame& frame
   const int hb = cache != nullptr ? cache->hint_b : -1;
   return std::visit(
       [&](const auto& ca, const auto& cb) {
+        using Poly = std::shared_ptr<const Polytope<3>>;
+        if constexpr (std::is_same_v<std::decay_t<decltype(ca)>, Poly> &&
+                      std::is_same_v<std::decay_t<decltype(cb)>, Poly>) {
+          // Linear scans keep no hints: the cache's hints stay as they are.
+          if (PolytopePairDifference::applies(*ca, *cb))
+            return fn(PolytopePairDifference(*ca, *cb, frame.T_AB));
+        }
         const auto& sa = makeSupport(ca, ha);
         const auto& sb = makeSupport(cb, hb);
         using SA = std::decay_t<decltype(sa)>;

@@ -102,6 +102,45 @@ CM_ALWAYS_INLINE int scanBlocks(const double* c, int np, const double* d) {
   return static_cast<int>(idx[0][0]);
 }
 
+/// Both scans of one Minkowski support point of A - B, with B already in A's frame: the first
+/// maximum of dot(d, x) over block `ca` and of dot(-d, x) over block `cb` (scanBlocks each).
+template <int D, class V>
+CM_ALWAYS_INLINE std::array<int, 2> scanPairBlocks(const double* ca, int npa, const double* cb,
+                                                   int npb, const double* d) {
+  double nd[D];
+  for (int k = 0; k < D; ++k)
+    nd[k] = -d[k];
+  return {scanBlocks<D, V>(ca, npa, d), scanBlocks<D, V>(cb, npb, nd)};
+}
+
+/// Maps a structure-of-arrays vertex block (layout of scanBlocks) by x -> R x + t into `out`
+/// (same layout). `R` row-major. Summed in the order of mulAdd() (math.h), without FMA, so each
+/// vertex comes out bit for bit as mulAdd() would give it.
+template <int D, class V>
+CM_ALWAYS_INLINE void transformBlocks(const double* c, int np, const double* R, const double* t,
+                                      double* out) {
+  constexpr int kW = sizeof(V) / sizeof(double);
+  const V zero = {};
+  V rr[D * D], tt[D];  // broadcast once (stores to `out` could alias R and t)
+  for (int k = 0; k < D * D; ++k)
+    rr[k] = zero + R[k];
+  for (int r = 0; r < D; ++r)
+    tt[r] = zero + t[r];
+  for (int i = 0; i < np; i += kW) {
+    for (int r = 0; r < D; ++r) {
+      V x, s;
+      __builtin_memcpy(&x, c + i, sizeof(V));
+      s = x * rr[r * D];
+      for (int k = 1; k < D; ++k) {
+        __builtin_memcpy(&x, c + k * np + i, sizeof(V));
+        s += x * rr[r * D + k];
+      }
+      s += tt[r];
+      __builtin_memcpy(out + r * np + i, &s, sizeof(V));
+    }
+  }
+}
+
 using V2d = double __attribute__((vector_size(16), aligned(8)));
 
 #if (defined(__x86_64__) || defined(__i386__)) && defined(__GNUC__)
@@ -112,6 +151,18 @@ template <int D, bool kFold>
 __attribute__((target("avx2"), noinline)) int scanIndexAvx2(const double* c, int np,
                                                             const double* d) {
   return scanBlocks<D, V4d, kFold>(c, np, d);
+}
+template <int D>
+__attribute__((target("avx2"), noinline)) std::array<int, 2> scanPairAvx2(const double* ca, int npa,
+                                                                          const double* cb, int npb,
+                                                                          const double* d) {
+  return scanPairBlocks<D, V4d>(ca, npa, cb, npb, d);
+}
+template <int D>
+__attribute__((target("avx2"), noinline)) void transformAvx2(const double* c, int np,
+                                                             const double* R, const double* t,
+                                                             double* out) {
+  transformBlocks<D, V4d>(c, np, R, t, out);
 }
 /// True when this CPU runs AVX2 (checked once).
 inline bool cpuHasAvx2() {
@@ -265,6 +316,20 @@ class Polytope {
     if (avx2_) return detail::scanIndexAvx2<D, kFold>(soa_.data(), padded_, dd);
 #endif
     return detail::scanBlocks<D, detail::V2d, kFold>(soa_.data(), padded_, dd);
+  }
+
+  /// The structure-of-arrays copy of the vertices that scanIndex() scans: coordinate k of vertex
+  /// i at scanData()[k * paddedSize() + i]; slots from size() to paddedSize() repeat vertex 0.
+  const double* scanData() const {
+    return soa_.data();
+  }
+  /// size() rounded up to a multiple of 4.
+  int paddedSize() const {
+    return padded_;
+  }
+  /// True when scanIndex() runs on AVX2.
+  bool scansAvx2() const {
+    return avx2_;
   }
 
   /// Start vertex of a cold hill-climb: the precomputed extreme vertex of the centre direction of

@@ -1,0 +1,72 @@
+/// \file
+/// A - B for two small polytopes (both linear scans, B with at most Polytope::kLinearScanMax
+/// vertices): B's vertices are mapped into A's frame once per query, as Box2D's b2ShapeDistance
+/// does with its point proxies. A support point of A - B is then both scans in one call and no
+/// rotation: the general MinkowskiDifference rotates every direction into B's frame and every
+/// support point of B back (two 3x3 products per support, on the loop's critical path).
+#pragma once
+
+#include <array>
+
+#include "collision_monitor/core/gjk.h"
+#include "collision_monitor/core/shapes.h"
+
+namespace collision_monitor {
+namespace core {
+
+class PolytopePairDifference : public MinkowskiDifference<3, Polytope<3>, Polytope<3>> {
+  using Base = MinkowskiDifference<3, Polytope<3>, Polytope<3>>;
+
+ public:
+  /// Largest padded vertex count of B.
+  static constexpr int kMaxPadded = (Polytope<3>::kLinearScanMax + 3) / 4 * 4;
+
+  /// True when the pair qualifies: both polytopes scan linearly and B fits the buffer.
+  static bool applies(const Polytope<3>& a, const Polytope<3>& b) {
+    return a.usesLinearScan() && b.usesLinearScan() && b.paddedSize() <= kMaxPadded &&
+           a.size() > 0 && b.size() > 0;
+  }
+
+  /// Only where applies(a, b).
+  PolytopePairDifference(const Polytope<3>& a, const Polytope<3>& b, const Transform3& T_AB)
+      : Base(a, b, T_AB), a_(a), npb_(b.paddedSize()), avx2_(a.scansAvx2()) {
+    const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> R = T_AB.R;
+#ifdef CM_HAVE_AVX2_SCAN
+    if (avx2_) {
+      detail::transformAvx2<3>(b.scanData(), npb_, R.data(), T_AB.t.data(), b_.data());
+      return;
+    }
+#endif
+    detail::transformBlocks<3, detail::V2d>(b.scanData(), npb_, R.data(), T_AB.t.data(), b_.data());
+  }
+
+  /// Support point of A - B maximising dot(d, w), A's frame (hides Base::support).
+  CM_ALWAYS_INLINE SupportPoint<3> support(const Vec3& d) const {
+    const double dd[3] = {d.x(), d.y(), d.z()};
+    std::array<int, 2> i;
+#ifdef CM_HAVE_AVX2_SCAN
+    if (avx2_) {
+      i = detail::scanPairAvx2<3>(a_.scanData(), a_.paddedSize(), b_.data(), npb_, dd);
+    } else
+#endif
+    {
+      i = detail::scanPairBlocks<3, detail::V2d>(a_.scanData(), a_.paddedSize(), b_.data(), npb_,
+                                                 dd);
+    }
+    SupportPoint<3> p;
+    p.a = a_.vertices()[i[0]];
+    p.b = Vec3(b_[i[1]], b_[npb_ + i[1]], b_[2 * npb_ + i[1]]);
+    p.w = p.a - p.b;
+    return p;
+  }
+
+ private:
+  const Polytope<3>& a_;
+  int npb_;
+  bool avx2_;
+  /// B's vertices in A's frame, structure of arrays (Polytope::scanData() layout).
+  alignas(32) std::array<double, 3 * kMaxPadded> b_;
+};
+
+}  // namespace core
+}  // namespace collision_monitor
