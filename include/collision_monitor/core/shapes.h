@@ -38,13 +38,23 @@ namespace detail {
 /// off a hull12 distance query, where the scalar reduction's branches mispredicted about once per
 /// call); else by scalar compares and branches, which libccd's MPR runs faster (its support
 /// directions repeat, so the branches predict: 239 vs 266 ns per hull12 intersect query).
-template <int D, class V, bool kFold = true>
-CM_ALWAYS_INLINE int scanBlocks(const double* c, int np, const double* d) {
+/// Keeps the larger value, on a tie the smaller index (first maximum), lane by lane.
+template <class V>
+CM_ALWAYS_INLINE void foldLanes(V& b, V& i, const V& ob, const V& oi) {
+  const auto take = (ob > b) | ((ob == b) & (oi < i));
+  b = take ? ob : b;
+  i = take ? oi : i;
+}
+
+/// The block loop of scanBlocks: per lane of one vector, the first maximum (`best`) and its
+/// vertex index as a double (`idx`; exact below 2^53).
+template <int D, class V>
+CM_ALWAYS_INLINE void scanLanes(const double* c, int np, const double* d, V& best_out, V& idx_out) {
   constexpr int kW = sizeof(V) / sizeof(double);  // lanes per vector
   constexpr int kN = 4 / kW;                      // vectors per block of four vertices
   // Whole-vector initialisation (lane-by-lane stores draw GCC's -Wmaybe-uninitialized).
   const V zero = {};
-  V lane = zero;  // 0, 1, ..., kW - 1: indices as doubles, exact below 2^53
+  V lane = zero;  // 0, 1, ..., kW - 1
   if constexpr (kW == 2) {
     lane = V{0.0, 1.0};
   } else {
@@ -72,34 +82,37 @@ CM_ALWAYS_INLINE int scanBlocks(const double* c, int np, const double* d) {
       at[j] += 4.0;
     }
   }
-  // The larger value wins, a tie goes to the smaller index (first maximum). Vectors first, then
-  // the lanes of the survivor.
-  const auto fold = [](V& b, V& i, const V& ob, const V& oi) {
-    const auto take = (ob > b) | ((ob == b) & (oi < i));
-    b = take ? ob : b;
-    i = take ? oi : i;
-  };
   for (int j = 1; j < kN; ++j)
-    fold(best[0], idx[0], best[j], idx[j]);
+    foldLanes(best[0], idx[0], best[j], idx[j]);
+  best_out = best[0];
+  idx_out = idx[0];
+}
+
+template <int D, class V, bool kFold = true>
+CM_ALWAYS_INLINE int scanBlocks(const double* c, int np, const double* d) {
+  constexpr int kW = sizeof(V) / sizeof(double);
+  V best, idx;
+  scanLanes<D, V>(c, np, d, best, idx);
+  // The larger value wins, a tie goes to the smaller index (first maximum).
   if constexpr (!kFold) {
-    double bv = best[0][0];
-    double bi = idx[0][0];
+    double bv = best[0];
+    double bi = idx[0];
     for (int l = 1; l < kW; ++l) {
-      const bool take = best[0][l] > bv || (best[0][l] == bv && idx[0][l] < bi);
-      bv = take ? best[0][l] : bv;
-      bi = take ? idx[0][l] : bi;
+      const bool take = best[l] > bv || (best[l] == bv && idx[l] < bi);
+      bv = take ? best[l] : bv;
+      bi = take ? idx[l] : bi;
     }
     return static_cast<int>(bi);
   } else if constexpr (kW == 4) {
-    fold(best[0], idx[0], __builtin_shufflevector(best[0], best[0], 2, 3, 0, 1),
-         __builtin_shufflevector(idx[0], idx[0], 2, 3, 0, 1));
-    fold(best[0], idx[0], __builtin_shufflevector(best[0], best[0], 1, 0, 3, 2),
-         __builtin_shufflevector(idx[0], idx[0], 1, 0, 3, 2));
+    foldLanes(best, idx, __builtin_shufflevector(best, best, 2, 3, 0, 1),
+              __builtin_shufflevector(idx, idx, 2, 3, 0, 1));
+    foldLanes(best, idx, __builtin_shufflevector(best, best, 1, 0, 3, 2),
+              __builtin_shufflevector(idx, idx, 1, 0, 3, 2));
   } else {
-    fold(best[0], idx[0], __builtin_shufflevector(best[0], best[0], 1, 0),
-         __builtin_shufflevector(idx[0], idx[0], 1, 0));
+    foldLanes(best, idx, __builtin_shufflevector(best, best, 1, 0),
+              __builtin_shufflevector(idx, idx, 1, 0));
   }
-  return static_cast<int>(idx[0][0]);
+  return static_cast<int>(idx[0]);
 }
 
 /// Both scans of one Minkowski support point of A - B, with B already in A's frame: the first
@@ -110,7 +123,23 @@ CM_ALWAYS_INLINE std::array<int, 2> scanPairBlocks(const double* ca, int npa, co
   double nd[D];
   for (int k = 0; k < D; ++k)
     nd[k] = -d[k];
-  return {scanBlocks<D, V>(ca, npa, d), scanBlocks<D, V>(cb, npb, nd)};
+  V ba, ia, bb, ib;
+  scanLanes<D, V>(ca, npa, d, ba, ia);
+  scanLanes<D, V>(cb, npb, nd, bb, ib);
+  // Both lane reductions at once: A's lanes in the low half, B's in the high half.
+  if constexpr (sizeof(V) == 4 * sizeof(double)) {
+    V b = __builtin_shufflevector(ba, bb, 0, 1, 4, 5),
+      i = __builtin_shufflevector(ia, ib, 0, 1, 4, 5);
+    foldLanes(b, i, __builtin_shufflevector(ba, bb, 2, 3, 6, 7),
+              __builtin_shufflevector(ia, ib, 2, 3, 6, 7));
+    foldLanes(b, i, __builtin_shufflevector(b, b, 1, 0, 3, 2),
+              __builtin_shufflevector(i, i, 1, 0, 3, 2));
+    return {static_cast<int>(i[0]), static_cast<int>(i[2])};
+  } else {
+    V b = __builtin_shufflevector(ba, bb, 0, 2), i = __builtin_shufflevector(ia, ib, 0, 2);
+    foldLanes(b, i, __builtin_shufflevector(ba, bb, 1, 3), __builtin_shufflevector(ia, ib, 1, 3));
+    return {static_cast<int>(i[0]), static_cast<int>(i[1])};
+  }
 }
 
 /// Maps a structure-of-arrays vertex block (layout of scanBlocks) by x -> R x + t into `out`
