@@ -588,6 +588,15 @@ TEST(Polytope, ScanIndexFirstMaximumOnTies) {
   }
 }
 
+#ifdef CM_HAVE_AVX2_SCAN
+/// GJK on BasicPolytopePairDifference<true> compiled as query.cpp compiles it.
+__attribute__((target("avx2"), flatten)) cm::GjkResult<3> gjkDistanceAvx2(
+    const cm::Polytope<3>& a, const cm::Polytope<3>& b, const cm::Transform3& T,
+    const cm::GjkSettings& st) {
+  return cm::gjkDistance(cm::BasicPolytopePairDifference<true>(a, b, T), st);
+}
+#endif
+
 TEST(PolytopePair, SupportAndTransformMatchTheGenericDifference) {
   // PolytopePairDifference maps B into A's frame once and scans both in one call. Its support
   // points must be the generic MinkowskiDifference's, bit for bit: B's vertices come out as
@@ -652,6 +661,17 @@ TEST(PolytopePair, SupportAndTransformMatchTheGenericDifference) {
       const auto gg = cm::gjkDistance(generic, st);
       EXPECT_EQ(gp.status, gg.status) << na << " x " << nb;
       EXPECT_NEAR(gp.distance, gg.distance, 1e-12) << na << " x " << nb;
+#ifdef CM_HAVE_AVX2_SCAN
+      // The AVX2-compiled query (four lanes inlined, VEX code, no FMA) gives the same bits.
+      if (cm::detail::cpuHasAvx2()) {
+        const auto g4 = gjkDistanceAvx2(*a, *b, T, st);
+        EXPECT_EQ(g4.status, gp.status);
+        EXPECT_EQ(g4.iterations, gp.iterations);
+        EXPECT_EQ(g4.distance, gp.distance);
+        EXPECT_EQ(g4.point_a, gp.point_a);
+        EXPECT_EQ(g4.point_b, gp.point_b);
+      }
+#endif
     }
   }
   // Not for climbing polytopes or a B over the buffer.

@@ -14,7 +14,13 @@
 namespace collision_monitor {
 namespace core {
 
-class PolytopePairDifference : public MinkowskiDifference<3, Polytope<3>, Polytope<3>> {
+/// `kAvx2`: false, the scans and the transform dispatch at run time (Polytope::scansAvx2()) to
+/// the AVX2 functions or to two-lane vectors; true, they are four-lane vectors inlined into the
+/// caller, for callers compiled for AVX2 (query.cpp compiles its whole polytope-pair query so,
+/// see BasicPolytopePairDifference<true> there). Elsewhere the four-lane code still computes the
+/// same, only slower.
+template <bool kAvx2>
+class BasicPolytopePairDifference : public MinkowskiDifference<3, Polytope<3>, Polytope<3>> {
   using Base = MinkowskiDifference<3, Polytope<3>, Polytope<3>>;
 
  public:
@@ -28,10 +34,15 @@ class PolytopePairDifference : public MinkowskiDifference<3, Polytope<3>, Polyto
   }
 
   /// Only where applies(a, b).
-  PolytopePairDifference(const Polytope<3>& a, const Polytope<3>& b, const Transform3& T_AB)
+  BasicPolytopePairDifference(const Polytope<3>& a, const Polytope<3>& b, const Transform3& T_AB)
       : Base(a, b, T_AB), a_(a), npb_(b.paddedSize()), avx2_(a.scansAvx2()) {
     const Eigen::Matrix<double, 3, 3, Eigen::RowMajor> R = T_AB.R;
 #ifdef CM_HAVE_AVX2_SCAN
+    if constexpr (kAvx2) {
+      detail::transformBlocks<3, detail::V4d>(b.scanData(), npb_, R.data(), T_AB.t.data(),
+                                              b_.data());
+      return;
+    }
     if (avx2_) {
       detail::transformAvx2<3>(b.scanData(), npb_, R.data(), T_AB.t.data(), b_.data());
       return;
@@ -45,7 +56,10 @@ class PolytopePairDifference : public MinkowskiDifference<3, Polytope<3>, Polyto
     const double dd[3] = {d.x(), d.y(), d.z()};
     std::array<int, 2> i;
 #ifdef CM_HAVE_AVX2_SCAN
-    if (avx2_) {
+    if constexpr (kAvx2) {
+      i = detail::scanPairBlocks<3, detail::V4d>(a_.scanData(), a_.paddedSize(), b_.data(), npb_,
+                                                 dd);
+    } else if (avx2_) {
       i = detail::scanPairAvx2<3>(a_.scanData(), a_.paddedSize(), b_.data(), npb_, dd);
     } else
 #endif
@@ -67,6 +81,8 @@ class PolytopePairDifference : public MinkowskiDifference<3, Polytope<3>, Polyto
   /// B's vertices in A's frame, structure of arrays (Polytope::scanData() layout).
   alignas(32) std::array<double, 3 * kMaxPadded> b_;
 };
+
+using PolytopePairDifference = BasicPolytopePairDifference<false>;
 
 }  // namespace core
 }  // namespace collision_monitor
