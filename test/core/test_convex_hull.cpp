@@ -483,7 +483,7 @@ TEST(ConvexHull, SupportFromDirectionTableAndAnyHintEqualsBruteForce) {
   // vertex maximising dot(d, x), and the scan the first such vertex.
   std::mt19937_64 rng(11);
   std::normal_distribution<double> g(0.0, 1.0);
-  for (int n : {4, 5, 12, 23, 24, 25, 40, 300}) {
+  for (int n : {4, 5, 12, 23, 24, 25, 40, 120, 121, 300}) {
     std::vector<Vec3> pts;
     for (int i = 0; i < n; ++i)
       pts.push_back(Vec3(0.3 * g(rng), 1.0 * g(rng), 2.0 * g(rng)));
@@ -605,7 +605,7 @@ TEST(PolytopePair, SupportAndTransformMatchTheGenericDifference) {
   std::mt19937_64 rng(23);
   std::normal_distribution<double> g(0.0, 1.0);
   for (int na : {4, 12, 30}) {
-    for (int nb : {4, 9, 12, 48}) {
+    for (int nb : {4, 9, 12, 48, 120}) {
       std::vector<Vec3> pa, pb;
       for (int i = 0; i < na; ++i)
         pa.push_back(Vec3(0.5 * g(rng), g(rng), 0.3 * g(rng)));
