@@ -32,11 +32,11 @@ ConvexShape icosahedron() {
   return ConvexShape::convexHull(v);
 }
 
-/// 160 points on a stretched sphere: a larger hull (hill-climbing support over qhull adjacency).
+/// 80 points on a stretched sphere: a larger hull (hill-climbing support over qhull adjacency).
 ConvexShape blob() {
   std::vector<Vec3> v;
-  for (int i = 0; i < 160; ++i) {
-    const double z = -1.0 + (2.0 * i + 1.0) / 160.0;
+  for (int i = 0; i < 80; ++i) {
+    const double z = -1.0 + (2.0 * i + 1.0) / 80.0;
     const double r = std::sqrt(1.0 - z * z);
     const double phi = 2.399963229728653 * i;
     v.emplace_back(0.4 * r * std::cos(phi), 0.3 * r * std::sin(phi), 0.25 * z);
@@ -163,7 +163,7 @@ TEST(WarmStart, StaleCacheFromAnotherConfigurationGivesTheColdAnswer) {
 }
 
 TEST(WarmStart, PolytopeHintsAreKept) {
-  // The 160-vertex hull hill-climbs; its hint is stored in the cache and is a valid vertex index.
+  // The 80-vertex hull hill-climbs; its hint is stored in the cache and is a valid vertex index.
   const ConvexShape b = blob();
   const auto& poly = std::get<std::shared_ptr<const cm::Polytope<3>>>(b.core());
   ASSERT_GT(poly->size(), cm::Polytope<3>::kLinearScanMax);

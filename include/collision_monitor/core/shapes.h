@@ -300,11 +300,8 @@ struct ConeShape {
 template <int D>
 class Polytope {
  public:
-  /// Up to this many vertices the linear scan beats hill-climbing (measured with the polytope
-  /// pair path, polytope_pair.h, ns per query, climbing / scan: 100 vertices distance 866 / 663,
-  /// intersect 321 / 280; 128 vertices distance 911 / 816, intersect 342 / 339, warm 204 / 226;
-  /// 150 vertices distance 961 / 971, intersect 356 / 402; see docs/benchmarks.md).
-  static constexpr int kLinearScanMax = 120;
+  /// Below this many vertices the linear scan beats hill-climbing (measured: see docs/benchmarks).
+  static constexpr int kLinearScanMax = 48;
 
   Polytope() = default;
   /// `adjacency_offsets` has size vertices.size() + 1; neighbours of vertex i are
