@@ -28,16 +28,6 @@ namespace core {
 
 namespace detail {
 
-/// Index of the first maximum of dot(d, x_i) over a structure-of-arrays vertex block: coordinate
-/// k of vertex i at c[k * np + i], np a multiple of 4; pad slots repeat vertex 0. `lanes` vectors
-/// of two doubles (GCC/Clang vector extensions: SSE2 on x86-64, NEON on aarch64) or, compiled
-/// for AVX2 (scanIndexAvx2 below), one vector of four. Each lane keeps its first maximum; a pad
-/// slot can only tie with vertex 0 and loses the tie (larger index). The dot product is summed in
-/// coordinate order without FMA, so every variant returns the same index.
-/// `kFold`: the lanes are reduced in the vector registers, without branches (GJK: measured 25 %
-/// off a hull12 distance query, where the scalar reduction's branches mispredicted about once per
-/// call); else by scalar compares and branches, which libccd's MPR runs faster (its support
-/// directions repeat, so the branches predict: 239 vs 266 ns per hull12 intersect query).
 /// Keeps the larger value, on a tie the smaller index (first maximum), lane by lane.
 template <class V>
 CM_ALWAYS_INLINE void foldLanes(V& b, V& i, const V& ob, const V& oi) {
@@ -88,6 +78,16 @@ CM_ALWAYS_INLINE void scanLanes(const double* c, int np, const double* d, V& bes
   idx_out = idx[0];
 }
 
+/// Index of the first maximum of dot(d, x_i) over a structure-of-arrays vertex block: coordinate
+/// k of vertex i at c[k * np + i], np a multiple of 4; pad slots repeat vertex 0. `lanes` vectors
+/// of two doubles (GCC/Clang vector extensions: SSE2 on x86-64, NEON on aarch64) or, compiled
+/// for AVX2 (scanIndexAvx2 below), one vector of four. Each lane keeps its first maximum; a pad
+/// slot can only tie with vertex 0 and loses the tie (larger index). The dot product is summed in
+/// coordinate order without FMA, so every variant returns the same index.
+/// `kFold`: the lanes are reduced in the vector registers, without branches (GJK: measured 25 %
+/// off a hull12 distance query, where the scalar reduction's branches mispredicted about once per
+/// call); else by scalar compares and branches, which libccd's MPR runs faster (its support
+/// directions repeat, so the branches predict: 239 vs 266 ns per hull12 intersect query).
 template <int D, class V, bool kFold = true>
 CM_ALWAYS_INLINE int scanBlocks(const double* c, int np, const double* d) {
   constexpr int kW = sizeof(V) / sizeof(double);
