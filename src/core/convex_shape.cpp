@@ -55,16 +55,18 @@ Vec3 coreSupportOf(const ConvexShape::Core& core, const Vec3& d) {
 
 ConvexShape::ConvexShape(Core core, double radius, std::string kind)
     : core_(std::move(core)), radius_(radius), kind_(std::move(kind)) {
-  // Bounding radius of the core about the frame origin, plus the radius.
+  // Bounding radius of the core about the frame origin, plus the radius. stableNorm(): a plain
+  // norm of a 1e-277 m box is 0 (its square underflows), and the radius sets the query's scale
+  // (query.cpp: tiny pairs run scaled; fuzz/regressions/core/flat-box-1.4e-277-holds-point).
   double rc = std::visit(
       [](const auto& c) -> double {
         using T = std::decay_t<decltype(c)>;
         if constexpr (std::is_same_v<T, PointShape<3>>) {
-          return c.p.norm();
+          return c.p.stableNorm();
         } else if constexpr (std::is_same_v<T, SegmentShape<3>>) {
-          return std::max(c.a.norm(), c.b.norm());
+          return std::max(c.a.stableNorm(), c.b.stableNorm());
         } else if constexpr (std::is_same_v<T, BoxShape<3>>) {
-          return c.half.norm();
+          return c.half.stableNorm();
         } else if constexpr (std::is_same_v<T, CylinderShape> || std::is_same_v<T, ConeShape>) {
           return std::hypot(c.half_height, c.radius);
         } else if constexpr (std::is_same_v<T, EllipsoidShape<3>>) {
@@ -72,7 +74,7 @@ ConvexShape::ConvexShape(Core core, double radius, std::string kind)
         } else {
           double m = 0.0;
           for (const Vec3& v : c->vertices())
-            m = std::max(m, v.norm());
+            m = std::max(m, v.stableNorm());
           return m;
         }
       },

@@ -70,8 +70,12 @@ struct ErasedDifference {
   static constexpr int kDim = 3;
   const void* md = nullptr;
   SupportPoint<3> (*fn)(const void*, const Vec3&) = nullptr;
+  SupportPoint<3> (*from_local)(const void*, const Vec3&, const Vec3&) = nullptr;
+  Vec3 (*to_local_b)(const void*, const Vec3&) = nullptr;
   Vec3 initial = Vec3::UnitX();
   SupportPoint<3> support(const Vec3& d) const { return fn(md, d); }
+  SupportPoint<3> fromLocal(const Vec3& a, const Vec3& b) const { return from_local(md, a, b); }
+  Vec3 toLocalB(const Vec3& b) const { return to_local_b(md, b); }
   Vec3 initialDirection() const { return initial; }
 };
 
@@ -89,9 +93,42 @@ ErasedDifference eraseDifference(const MD& md) {
     };
   }
 #endif
+  e.from_local = [](const void* p, const Vec3& a, const Vec3& b) {
+    return static_cast<const MD*>(p)->fromLocal(a, b);
+  };
+  e.to_local_b = [](const void* p, const Vec3& b) {
+    return static_cast<const MD*>(p)->toLocalB(b);
+  };
   e.initial = md.initialDirection();
   return e;
 }
+
+/// A - B scaled by `k`, a power of two (exact), for pairs so small that squared lengths underflow
+/// (|v|^2 is subnormal below about 1e-154 m and 0 below about 1e-162 m: a box 2.8e-289 m from a
+/// point was reported touching, GJK ending at once on |v|^2 = 0:
+/// fuzz/regressions/core/gjk-underflow-box-2.8e-289-from-point). One instantiation for every
+/// core type (through ErasedDifference); results are divided by k again (query()).
+struct ScaledDifference {
+  static constexpr int kDim = 3;
+  const ErasedDifference* md;
+  double k;
+  SupportPoint<3> support(const Vec3& d) const { return scaled(md->support(d)); }
+  SupportPoint<3> fromLocal(const Vec3& a, const Vec3& b) const {
+    return scaled(md->fromLocal(a, b));
+  }
+  Vec3 toLocalA(const Vec3& a) const { return a / k; }
+  Vec3 toLocalB(const Vec3& b) const { return md->toLocalB(b / k); }
+  Vec3 initialDirection() const { return md->initialDirection(); }
+  SupportPoint<3> scaled(SupportPoint<3> p) const {
+    p.a *= k;
+    p.b *= k;
+    p.w = p.a - p.b;
+    return p;
+  }
+};
+
+/// Pairs smaller than this (PairFrame::size, m) run scaled (ScaledDifference).
+constexpr double kTinySize = 1e-100;
 
 /// EPA on the erased difference: the one instantiation of epa3 in the library.
 [[gnu::noinline]] EpaResult<3> runEpa(const ErasedDifference& md, const Simplex<3>& simplex,
@@ -105,7 +142,10 @@ struct PairFrame {
   Transform3 T_AB;  ///< B's frame -> A's frame
   double rA, rB;    ///< radii (m)
   double size;      ///< bounding radii + |relative translation| (m): the tolerance scale
-  bool finite;      ///< false when a pose has NaN/Inf entries (no query is run then)
+  /// Power of two the Minkowski difference is scaled by (1 unless size < kTinySize): GJK and EPA
+  /// lengths are size-proportional by this factor, results are divided by it.
+  double scale;
+  bool finite;  ///< false when a pose has NaN/Inf entries (no query is run then)
 };
 
 /// 0 for finite x, NaN for NaN or +-Inf (0 * Inf = NaN): summed over a matrix, NaN propagates.
@@ -127,17 +167,23 @@ PairFrame makeFrame(const ConvexShape& a, const Transform3& pose_a, const Convex
   f.T_AB.t = mulTransposed<3>(pose_a.R, pose_b.t - pose_a.t);
   f.rA = a.radius();
   f.rB = b.radius();
-  f.size = a.boundingRadius() + b.boundingRadius() + f.T_AB.t.norm();
+  double tn = f.T_AB.t.norm();
+  if (tn < 1e-150) tn = f.T_AB.t.stableNorm();  // |t|^2 may have underflowed
+  f.size = a.boundingRadius() + b.boundingRadius() + tn;
   // A NaN or Inf in either pose reaches T_AB (0 * NaN and 0 * Inf are NaN): checking T_AB.R and
   // the size (which holds |T_AB.t|) covers both poses.
   f.finite = nonFinite(f.T_AB.R) == 0.0 && std::isfinite(f.size);
+  // Brings the size to about 1 (at most 2^1000: a 5e-324 m pair becomes 5e-23 m, enough).
+  f.scale = f.size > 0.0 && f.size < kTinySize
+                ? std::ldexp(1.0, std::min(-std::ilogb(f.size), 1000))
+                : 1.0;
   return f;
 }
 
 GjkSettings gjkSettings(const PairFrame& f, const QueryOptions& o) {
   GjkSettings s;
   s.rel_tolerance = o.rel_tolerance;
-  s.abs_tolerance = o.rel_tolerance * f.size;
+  s.abs_tolerance = o.rel_tolerance * f.size * f.scale;
   s.max_iterations = o.max_iterations;
   return s;
 }
@@ -166,6 +212,14 @@ auto withPair(const ConvexShape& a, const ConvexShape& b, const PairFrame& frame
   const int hb = cache != nullptr ? cache->hint_b : -1;
   return std::visit(
       [&](const auto& ca, const auto& cb) {
+        if (frame.scale != 1.0) {  // a tiny pair (kTinySize): rare, one instantiation for all
+          const auto& sa = makeSupport(ca, -1);
+          const auto& sb = makeSupport(cb, -1);
+          const MinkowskiDifference<3, std::decay_t<decltype(sa)>, std::decay_t<decltype(sb)>> md(
+              sa, sb, frame.T_AB);
+          const ErasedDifference erased = eraseDifference(md);
+          return fn(ScaledDifference{&erased, frame.scale});
+        }
         using Poly = std::shared_ptr<const Polytope<3>>;
         if constexpr (std::is_same_v<std::decay_t<decltype(ca)>, Poly> &&
                       std::is_same_v<std::decay_t<decltype(cb)>, Poly>) {
@@ -209,7 +263,7 @@ void storeCache(const MD& md, const Simplex<3>& s, PairCache* cache) {
   if (cache == nullptr) return;
   cache->size = s.size;
   for (int i = 0; i < s.size; ++i) {
-    cache->local_a[i] = s.v[i].a;
+    cache->local_a[i] = md.toLocalA(s.v[i].a);
     cache->local_b[i] = md.toLocalB(s.v[i].b);
   }
 }
@@ -266,9 +320,11 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   const GjkResult<3> g = gjkDistance(md, gs, seedFromCache(md, cache, seed));
   storeCache(md, g.simplex, cache);
   r.gjk_iterations = g.iterations;
+  const double unscale = 1.0 / f.scale;  // exact: a power of two
   if (g.status != GjkStatus::Intersecting) {
     const Vec3 n = unitOr(-g.v, Vec3::UnitX());  // g.distance > abs_tolerance >= 0 here
-    finish(f, o, g.distance, g.point_a, g.point_b, n, g.status == GjkStatus::MaxIterations, r);
+    finish(f, o, g.distance * unscale, g.point_a * unscale, g.point_b * unscale, n,
+           g.status == GjkStatus::MaxIterations, r);
     // distance() reports 0 for overlapping shapes (query.h), even when the depth came for free
     // (separated cores, overlapping radii).
     if (!want_depth && r.status == Status::Penetrating) r.distance = 0.0;
@@ -280,7 +336,7 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
     // tolerance: touching when there are no radii.
     const bool enclosed = g.simplex.size == 4;
     const Vec3 n = unitOr(f.T_AB.t, Vec3::UnitX());
-    finish(f, o, 0.0, g.point_a, g.point_b, n, false, r);
+    finish(f, o, 0.0, g.point_a * unscale, g.point_b * unscale, n, false, r);
     r.distance = 0.0;
     r.status = (enclosed || f.rA + f.rB > o.touch_tolerance * f.size) ? Status::Penetrating
                                                                       : Status::Touching;
@@ -288,22 +344,22 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   }
   EpaSettings es;
   es.rel_tolerance = o.rel_tolerance;
-  es.abs_tolerance = o.rel_tolerance * f.size;
+  es.abs_tolerance = o.rel_tolerance * f.size * f.scale;
   es.max_iterations = o.max_iterations;
   const EpaResult<3> e = runEpa(eraseDifference(md), g.simplex, es);
   r.epa_iterations = e.iterations;
   if (e.status == EpaStatus::Flat) {
-    finish(f, o, 0.0, e.point_a, e.point_b, flatNormal(e, f.T_AB.t), false, r);
+    finish(f, o, 0.0, e.point_a * unscale, e.point_b * unscale, flatNormal(e, f.T_AB.t), false, r);
     return r;
   }
   // Unconverged EPA still settles the answer when its upper bound on the depth is inside the
   // touching band: the cores' signed distance is then within [-band, GJK tolerance]. A bound
   // below -(GJK tolerance) contradicts GJK's verdict (support rounding on extreme shapes, e.g. a
   // 1.4 m x 3.3e6 m cone: fuzz_core) and settles nothing.
-  const bool settled = e.depth_is_upper_bound && e.depth <= o.touch_tolerance * f.size &&
+  const bool settled = e.depth_is_upper_bound && e.depth <= o.touch_tolerance * f.size * f.scale &&
                        e.depth >= -es.abs_tolerance;
   const bool failed = e.status != EpaStatus::Converged && !settled;
-  finish(f, o, -e.depth, e.point_a, e.point_b, e.normal, failed, r);
+  finish(f, o, -e.depth * unscale, e.point_a * unscale, e.point_b * unscale, e.normal, failed, r);
   return r;
 }
 
@@ -314,7 +370,7 @@ bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape
   const PairFrame f = makeFrame(a, pose_a, b, pose_b);
   if (!f.finite) return true;  // undecidable: conservative
   // Touching counts as intersecting: the same band as signedDistance()'s Touching.
-  const double margin = f.rA + f.rB + options.touch_tolerance * f.size;
+  const double margin = (f.rA + f.rB + options.touch_tolerance * f.size) * f.scale;
   return withPair(a, b, f, cache, [&](const auto& md) {
     Simplex<3> s;
     const Simplex<3>* seed = seedFromCache(md, cache, s);

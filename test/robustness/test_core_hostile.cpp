@@ -223,11 +223,62 @@ TEST(CoreHostile, SubnormalOffsetNormalIsUnit) {
   const ConvexShape ball = ConvexShape::sphere(2.109375).padded(0.1078125);
   for (const double z : {3.4030000619567615e-161, 4.9e-324, 1e-300, 1e300}) {
     for (const bool depth : {false, true}) {
-      const cm::ContactResult r =
-          depth ? cm::signedDistance(cylinder, at(0, 0, 0), ball, at(0, 0, z))
-                : cm::distance(cylinder, at(0, 0, 0), ball, at(0, 0, z));
+      const cm::ContactResult r = depth
+                                      ? cm::signedDistance(cylinder, at(0, 0, 0), ball, at(0, 0, z))
+                                      : cm::distance(cylinder, at(0, 0, 0), ball, at(0, 0, z));
       EXPECT_NEAR(r.normal.norm(), 1.0, 1e-15) << "z " << z << " depth " << depth;
     }
+  }
+}
+
+TEST(CoreHostile, TinyPairsKeepTheirDistance) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-underflow-box-2.8e-289-from-point): a flat
+  // box 2.8e-289 m from a point. |v|^2 underflowed to 0, GJK stopped at once and the pair was
+  // "touching" at distance 0. Pairs below 1e-100 m now run on A - B scaled by a power of two.
+  // The answer scales exactly with the pair, so every scale must give the same digits.
+  const ConvexShape point = ConvexShape::sphere(0.0);
+  for (const double s : {1.0, 1e-120, 1e-200, 2.8218690508926337e-289 / 0.3}) {
+    const ConvexShape box = ConvexShape::box(Vec3(0.2, 0.1, 0.4) * s);
+    for (const bool depth : {false, true}) {
+      const cm::ContactResult r =
+          depth ? cm::signedDistance(box, at(0, 0.3 * s, 0), point, at(0, 0, 0))
+                : cm::distance(box, at(0, 0.3 * s, 0), point, at(0, 0, 0));
+      SCOPED_TRACE("scale " + std::to_string(s) + (depth ? " signedDistance" : " distance"));
+      EXPECT_EQ(r.status, cm::Status::Separated);
+      EXPECT_NEAR(r.distance / s, 0.25, 1e-12);
+      EXPECT_NEAR(r.point_a.y() / s, 0.25, 1e-12);
+      EXPECT_EQ(r.normal, Vec3(0, -1, 0));
+    }
+    // Overlap at the same scale: the depth (EPA, scaled too) and the boolean query.
+    const cm::ContactResult p = cm::signedDistance(box, at(0, 0.02 * s, 0), point, at(0, 0, 0));
+    EXPECT_EQ(p.status, cm::Status::Penetrating);
+    EXPECT_NEAR(p.distance / s, -0.03, 1e-12);
+    EXPECT_TRUE(cm::intersect(box, at(0, 0.02 * s, 0), point, at(0, 0, 0)));
+    EXPECT_FALSE(cm::intersect(box, at(0, 0.3 * s, 0), point, at(0, 0, 0)));
+  }
+  // A flat 2.8e-277 m box holding a point: touching, normal out of the flat box (its bounding
+  // radius, which sets the scale, was 0: fuzz/regressions/core/flat-box-1.4e-277-holds-point).
+  const ConvexShape flat = ConvexShape::box(Vec3(2.8206162122887957e-277, 1.6e-311, 0.0));
+  const cm::ContactResult t = cm::signedDistance(flat, at(0, 0, 0), point, at(0, 0, 0));
+  EXPECT_GT(flat.boundingRadius(), 1e-277);
+  EXPECT_EQ(t.status, cm::Status::Touching);
+  EXPECT_EQ(t.distance, 0.0);
+  // The normal realises the distance (0) to 1e-7 of the size: out of the flat box's plane, not
+  // along its 2.8e-277 m side (the box spans |n.x| half_x + |n.y| half_y along n).
+  EXPECT_LE(std::abs(t.normal.x()) * 1.4103081061443979e-277 + std::abs(t.normal.y()) * 0.8e-311,
+            1e-7 * 1.4103081061443979e-277);
+  // A warm start kept across queries of a tiny pair (the cache holds unscaled local points:
+  // fuzz/regressions/core/scaled-warm-start-cone-7.8e-308-on-point gave NaN when it did not).
+  const ConvexShape cone = ConvexShape::cone(1e-290, 3e-290);
+  const ConvexShape box = ConvexShape::box(Vec3(2e-290, 2e-290, 2e-290));
+  cm::PairCache cache;
+  for (int k = 0; k < 4; ++k) {
+    const double y = (2.5 - 0.1 * k) * 1e-290;
+    const cm::ContactResult warm = cm::signedDistance(cone, at(0, 0, 0), box, at(0, y, 0), &cache);
+    const cm::ContactResult cold = cm::signedDistance(cone, at(0, 0, 0), box, at(0, y, 0));
+    EXPECT_GT(cache.size, 0);
+    EXPECT_TRUE(std::isfinite(warm.distance)) << k;
+    EXPECT_NEAR(warm.distance / 1e-290, cold.distance / 1e-290, 1e-12) << k;
   }
 }
 

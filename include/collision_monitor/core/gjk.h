@@ -158,6 +158,8 @@ class MinkowskiDifference {
   SupportPoint<D> interiorPoint() const {
     return fromLocal(a_.interiorPoint(), b_.interiorPoint());
   }
+  /// A point of A as fromLocal() takes it back (A's frame: itself).
+  const Vec<D>& toLocalA(const Vec<D>& a) const { return a; }
   /// A point given in A's frame, mapped into B's frame.
   Vec<D> toLocalB(const Vec<D>& b) const { return R_.transpose() * (b - t_); }
   /// First search direction: from the centre of A - B (at -t_AB) towards the origin.
