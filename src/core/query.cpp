@@ -13,6 +13,13 @@
 #include "collision_monitor/core/gjk.h"
 #include "collision_monitor/core/polytope_pair.h"
 
+// Polytope pairs run their whole query compiled for AVX2 (runAvx2() below) where the CPU has it.
+// Not in sanitizer builds: with ASan + UBSan, GCC compiled query.cpp for over 16 minutes with it
+// (2 min 52 s without); they run the BasicPolytopePairDifference<false> path instead.
+#if defined(CM_HAVE_AVX2_SCAN) && !defined(__SANITIZE_ADDRESS__)
+#define CM_AVX2_QUERY 1
+#endif
+
 namespace collision_monitor {
 namespace core {
 
@@ -84,7 +91,7 @@ ErasedDifference eraseDifference(const MD& md) {
   ErasedDifference e;
   e.md = &md;
   e.fn = [](const void* p, const Vec3& d) { return static_cast<const MD*>(p)->support(d); };
-#ifdef CM_HAVE_AVX2_SCAN
+#ifdef CM_AVX2_QUERY
   if constexpr (std::is_same_v<MD, BasicPolytopePairDifference<true>>) {
     // Its four-lane scans are fast only inside AVX2 code (runAvx2()); elsewhere GCC splits them
     // into scalar code (hull100 signed distance: 7.3 us per query that way).
@@ -196,7 +203,7 @@ GjkSettings gjkSettings(const PairFrame& f, const QueryOptions& o) {
 /// test_convex_hull). Measured per hull12 distance query: 3,395 -> 2,829 instructions, 293 ->
 /// 274 ns. Not for the other pairs: compiled for all 49 core-type pairs, query.cpp took 5 minutes
 /// and 11 MB, and the climbing polytopes (hull100, hull500) did not get faster.
-#ifdef CM_HAVE_AVX2_SCAN
+#ifdef CM_AVX2_QUERY
 template <class MD, class Fn, class... Args>
 __attribute__((target("avx2"), flatten)) auto runAvx2(Fn& fn, const Args&... args) {
   return fn(MD(args...));
@@ -225,7 +232,7 @@ auto withPair(const ConvexShape& a, const ConvexShape& b, const PairFrame& frame
                       std::is_same_v<std::decay_t<decltype(cb)>, Poly>) {
           // This path scans and keeps no hints: the cache's hints stay as they are.
           if (PolytopePairDifference::applies(*ca, *cb)) {
-#ifdef CM_HAVE_AVX2_SCAN
+#ifdef CM_AVX2_QUERY
             if (ca->scansAvx2())
               return runAvx2<BasicPolytopePairDifference<true>>(fn, *ca, *cb, frame.T_AB);
 #endif
