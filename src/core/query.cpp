@@ -153,6 +153,8 @@ struct PairFrame {
   /// lengths are size-proportional by this factor, results are divided by it.
   double scale;
   bool finite;  ///< false when a pose has NaN/Inf entries (no query is run then)
+  /// The size in the units GJK and EPA work in (size * scale): the scale of their tolerances.
+  double workSize() const { return size * scale; }
 };
 
 /// 0 for finite x, NaN for NaN or +-Inf (0 * Inf = NaN): summed over a matrix, NaN propagates.
@@ -190,7 +192,7 @@ PairFrame makeFrame(const ConvexShape& a, const Transform3& pose_a, const Convex
 GjkSettings gjkSettings(const PairFrame& f, const QueryOptions& o) {
   GjkSettings s;
   s.rel_tolerance = o.rel_tolerance;
-  s.abs_tolerance = o.rel_tolerance * f.size * f.scale;
+  s.abs_tolerance = o.rel_tolerance * f.workSize();
   s.max_iterations = o.max_iterations;
   return s;
 }
@@ -300,14 +302,16 @@ Vec3 flatNormal(const EpaResult<3>& e, const Vec3& t_AB) {
   return unitOr(t_AB, Vec3::UnitX());
 }
 
-/// Fill the common-frame fields from A-frame core results plus radii.
+/// Fill the common-frame fields from A-frame core results (in GJK/EPA units: scaled by f.scale,
+/// divided back here, exactly: a power of two) plus radii.
 void finish(const PairFrame& f, const QueryOptions& o, double core_signed, const Vec3& pa_core,
             const Vec3& pb_core, const Vec3& n, bool failed, ContactResult& r) {
   const Transform3& Ta = *f.pose_a;
-  r.distance = core_signed - (f.rA + f.rB);
+  const double unscale = 1.0 / f.scale;
+  r.distance = core_signed * unscale - (f.rA + f.rB);
   r.normal = Ta.R * n;
-  r.point_a = Ta * Vec3(pa_core + f.rA * n);
-  r.point_b = Ta * Vec3(pb_core - f.rB * n);
+  r.point_a = Ta * Vec3(pa_core * unscale + f.rA * n);
+  r.point_b = Ta * Vec3(pb_core * unscale - f.rB * n);
   const double band = o.touch_tolerance * f.size;
   if (failed) {
     r.status = Status::FailedToConverge;
@@ -327,11 +331,9 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   const GjkResult<3> g = gjkDistance(md, gs, seedFromCache(md, cache, seed));
   storeCache(md, g.simplex, cache);
   r.gjk_iterations = g.iterations;
-  const double unscale = 1.0 / f.scale;  // exact: a power of two
   if (g.status != GjkStatus::Intersecting) {
     const Vec3 n = unitOr(-g.v, Vec3::UnitX());  // g.distance > abs_tolerance >= 0 here
-    finish(f, o, g.distance * unscale, g.point_a * unscale, g.point_b * unscale, n,
-           g.status == GjkStatus::MaxIterations, r);
+    finish(f, o, g.distance, g.point_a, g.point_b, n, g.status == GjkStatus::MaxIterations, r);
     // distance() reports 0 for overlapping shapes (query.h), even when the depth came for free
     // (separated cores, overlapping radii).
     if (!want_depth && r.status == Status::Penetrating) r.distance = 0.0;
@@ -343,7 +345,7 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
     // tolerance: touching when there are no radii.
     const bool enclosed = g.simplex.size == 4;
     const Vec3 n = unitOr(f.T_AB.t, Vec3::UnitX());
-    finish(f, o, 0.0, g.point_a * unscale, g.point_b * unscale, n, false, r);
+    finish(f, o, 0.0, g.point_a, g.point_b, n, false, r);
     r.distance = 0.0;
     r.status = (enclosed || f.rA + f.rB > o.touch_tolerance * f.size) ? Status::Penetrating
                                                                       : Status::Touching;
@@ -351,22 +353,22 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   }
   EpaSettings es;
   es.rel_tolerance = o.rel_tolerance;
-  es.abs_tolerance = o.rel_tolerance * f.size * f.scale;
+  es.abs_tolerance = o.rel_tolerance * f.workSize();
   es.max_iterations = o.max_iterations;
   const EpaResult<3> e = runEpa(eraseDifference(md), g.simplex, es);
   r.epa_iterations = e.iterations;
   if (e.status == EpaStatus::Flat) {
-    finish(f, o, 0.0, e.point_a * unscale, e.point_b * unscale, flatNormal(e, f.T_AB.t), false, r);
+    finish(f, o, 0.0, e.point_a, e.point_b, flatNormal(e, f.T_AB.t), false, r);
     return r;
   }
   // Unconverged EPA still settles the answer when its upper bound on the depth is inside the
   // touching band: the cores' signed distance is then within [-band, GJK tolerance]. A bound
   // below -(GJK tolerance) contradicts GJK's verdict (support rounding on extreme shapes, e.g. a
   // 1.4 m x 3.3e6 m cone: fuzz_core) and settles nothing.
-  const bool settled = e.depth_is_upper_bound && e.depth <= o.touch_tolerance * f.size * f.scale &&
+  const bool settled = e.depth_is_upper_bound && e.depth <= o.touch_tolerance * f.workSize() &&
                        e.depth >= -es.abs_tolerance;
   const bool failed = e.status != EpaStatus::Converged && !settled;
-  finish(f, o, -e.depth * unscale, e.point_a * unscale, e.point_b * unscale, e.normal, failed, r);
+  finish(f, o, -e.depth, e.point_a, e.point_b, e.normal, failed, r);
   return r;
 }
 
