@@ -647,14 +647,16 @@ inline Outcome runCase(const std::uint8_t* data, std::size_t len) {
       return fail(std::string(names[i]) + " normal not unit: " + describe(r));
     if (r.status == cmc::Status::FailedToConverge) {
       // Allowed only where EPA meets a curved core (its polytope approximation of a cylinder,
-      // cone or ellipsoid may need more than the iteration bound to reach 1e-12 of the size);
+      // cone or ellipsoid may need more than the iteration bound to reach its tolerance);
       // the estimate is then checked with the looser tolerance below. Never for polytope cores.
       if (!curved(a.spec) && !curved(b.spec))
         return fail(std::string(names[i]) +
                     " failed to converge on polytope cores: " + describe(r));
       out.unconverged = true;
     }
-    if (r.gjk_iterations > 128 || r.epa_iterations > 128 || r.gjk_iterations < 0)
+    const cmc::QueryOptions bounds;
+    if (r.gjk_iterations > bounds.max_iterations || r.epa_iterations > bounds.max_epa_iterations ||
+        r.gjk_iterations < 0)
       return fail(std::string(names[i]) + " iteration count out of bound: " + describe(r));
   }
 

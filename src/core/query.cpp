@@ -352,9 +352,9 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
     return r;
   }
   EpaSettings es;
-  es.rel_tolerance = o.rel_tolerance;
+  es.rel_tolerance = o.epa_rel_tolerance;
   es.abs_tolerance = o.rel_tolerance * f.workSize();
-  es.max_iterations = o.max_iterations;
+  es.max_iterations = o.max_epa_iterations;
   const EpaResult<3> e = runEpa(eraseDifference(md), g.simplex, es);
   r.epa_iterations = e.iterations;
   if (e.status == EpaStatus::Flat) {
