@@ -36,6 +36,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Eigenvalues>
 
 extern "C" {
 #include <libqhull_r/qhull_ra.h>
@@ -139,13 +140,34 @@ struct Hull {
 
 /// Hull of `pts` with qhull ("Qt": triangulated). Throws std::runtime_error if qhull fails
 /// (flat input: the tests never feed it any).
-inline Hull makeHull(const std::vector<V3>& pts) {
+/// `whiten`: qhull runs on the points mapped to about a unit ball (x -> W (x - c), W from their
+/// covariance) and its facets are mapped back (an affine map keeps a hull's faces). Each way fails
+/// where the other does not, both at extreme aspect ratios: on the raw points of a
+/// 1.02 m x 1.3e-6 m x 4.8e-6 m box qhull's triangles left out part of the box (distance
+/// 1.4756e-6 m for the closed form's 1.4734375e-6 m: fuzz/regressions/core/
+/// oracle-needle-box-from-point); whitened, a 0.11 m x 1e-6 m x 4.9e6 m box (aspect 5e12) loses
+/// its thin direction in the covariance's rounding.
+inline Hull makeHull(const std::vector<V3>& pts, bool whiten = false) {
   Hull h;
   h.points = pts;
+  V3 c = V3::Zero();
+  Eigen::Matrix3d W = Eigen::Matrix3d::Identity();
+  if (whiten) {
+    for (const V3& p : pts)
+      c += p;
+    c /= static_cast<double>(pts.size());
+    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+    for (const V3& p : pts)
+      cov += (p - c) * (p - c).transpose();
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
+    const V3 lam = eig.eigenvalues().cwiseMax(1e-300 + 1e-30 * eig.eigenvalues().maxCoeff());
+    W = lam.cwiseSqrt().cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
+  }
   std::vector<coordT> coords(3 * pts.size());
   for (std::size_t i = 0; i < pts.size(); ++i) {
+    const V3 x = whiten ? V3(W * (pts[i] - c)) : pts[i];
     for (int k = 0; k < 3; ++k)
-      coords[3 * i + k] = pts[i][k];
+      coords[3 * i + k] = x[k];
   }
   char* text = nullptr;
   std::size_t size = 0;
@@ -166,8 +188,17 @@ inline Hull makeHull(const std::vector<V3>& pts) {
         if (k < 3) t[k] = qh_pointid(qh, vertex->point);
         ++k;
       }
-      h.normals.emplace_back(facet->normal[0], facet->normal[1], facet->normal[2]);
-      h.offsets.push_back(facet->offset);
+      const V3 ns(facet->normal[0], facet->normal[1], facet->normal[2]);
+      if (whiten) {
+        // n_s . W (x - c) + o_s = 0 is (W^T n_s) . x + o_s - n_s . W c = 0.
+        const V3 n = W.transpose() * ns;
+        const double len = n.norm();
+        h.normals.push_back(n / len);
+        h.offsets.push_back((facet->offset - ns.dot(W * c)) / len);
+      } else {
+        h.normals.push_back(ns);
+        h.offsets.push_back(facet->offset);
+      }
       if (k == 3) h.triangles.push_back(t);
     }
   }
