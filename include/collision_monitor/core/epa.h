@@ -129,14 +129,14 @@ struct EpaUpperBound {
       point_a = p.a;
     }
   }
-  /// For EPA out of iterations: true (and then the answer, not an estimate) when this bound is
-  /// within `need` of EPA's lower bound `lower` (its nearest face), the depth being known to
-  /// `need` although that face's own support point still gains more. On curved shapes the bound
-  /// settles first (a cone in a cylinder, bench pool cylinder_cone pair 460 step 0, at 1e-12: its
-  /// bound was 1.2e-11 m from the depth after 128 iterations, its nearest face converged after
-  /// 195). Only at the end: in the loop, touching polytopes settle at once on a bound whose
-  /// support point is a vertex away from the contact (test_oracle_sweep box-hull 4308: point_b
-  /// 1.06 m off B), where the face converges in a few more iterations.
+  /// For EPA out of iterations (or stopped degenerate): true (and then the answer, not an estimate)
+  /// when this bound is within `need` of EPA's lower bound `lower` (its nearest face), the depth
+  /// being known to `need` although that face's own support point still gains more. On curved
+  /// shapes the bound settles first (a cone in a cylinder, bench pool cylinder_cone pair 460 step
+  /// 0, at 1e-12: its bound was 1.2e-11 m from the depth after 128 iterations, its nearest face
+  /// converged after 195). Only at the end: in the loop, touching polytopes settle at once on a
+  /// bound whose support point is a vertex away from the contact (test_oracle_sweep box-hull 4308:
+  /// point_b 1.06 m off B), where the face converges in a few more iterations.
   bool settles(double lower, double need) {
     certified = depth - lower <= need;
     return certified;
@@ -177,6 +177,11 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
   EpaResult<3> r;
   detail::EpaUpperBound<3> upper;
   const double tol = st.abs_tolerance;
+  // A face is replaced when the new point is above it or less than vis_eps below it. Not kept
+  // when the point is a little above: that leaves a reflex edge, which a sliver face next to it
+  // turns into vertices far outside (a jittered cube, 34 vertices 1e-9 m off its faces: a vertex
+  // 2.5e-9 m outside a face, then faces 3 m too near and no convergence in 256 iterations;
+  // fuzz/regressions/core/epa-jittered-cube-reflex-edge).
   const double vis_eps = 1e-2 * tol;
   const int max_it = std::min(std::max(st.max_iterations, 0), kEpaMaxIterations);
 
@@ -400,7 +405,7 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
       const Edge e = stack[--ns];
       Face& g = faces[e.face];
       if (!g.alive) continue;
-      if (g.n.dot(p.w) - g.d <= vis_eps) {
+      if (g.n.dot(p.w) - g.d <= -vis_eps) {
         horizon[nh++] = e;
         continue;
       }
@@ -445,7 +450,7 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
     r.normal = best.n;
     detail::epaWitness3(verts[best.v[0]], verts[best.v[1]], verts[best.v[2]], best.d * best.n,
                         r.point_a, r.point_b);
-    if (r.status == EpaStatus::MaxIterations &&
+    if (r.status != EpaStatus::Converged &&
         upper.settles(best.d, st.rel_tolerance * std::abs(best.d) + tol))
       r.status = EpaStatus::Converged;
   }
@@ -601,13 +606,13 @@ EpaResult<2> epa2(const MD& md, const Simplex<2>& simplex, const EpaSettings& st
     int count = 1;
     while (count < n) {
       const int prev = (start + n - 1) % n;
-      if (en[prev].dot(p.w) - ed[prev] <= vis_eps) break;
+      if (en[prev].dot(p.w) - ed[prev] <= -vis_eps) break;
       start = prev;
       ++count;
     }
     while (count < n) {
       const int next = (end + 1) % n;
-      if (en[next].dot(p.w) - ed[next] <= vis_eps) break;
+      if (en[next].dot(p.w) - ed[next] <= -vis_eps) break;
       end = next;
       ++count;
     }
@@ -637,7 +642,7 @@ EpaResult<2> epa2(const MD& md, const Simplex<2>& simplex, const EpaSettings& st
     r.normal = en[bi];
     r.point_a = (1.0 - t) * a.a + t * b.a;
     r.point_b = (1.0 - t) * a.b + t * b.b;
-    if (r.status == EpaStatus::MaxIterations &&
+    if (r.status != EpaStatus::Converged &&
         upper.settles(ed[bi], st.rel_tolerance * std::abs(ed[bi]) + tol))
       r.status = EpaStatus::Converged;
   }
