@@ -496,8 +496,7 @@ inline std::string describe(const cmc::ContactResult& r) {
 
 /// Exact signed distance for polytope-like pairs (qhull hull of the Minkowski difference of the
 /// cores, minus the radii), or nullopt when the difference is flat (qhull cannot hull it).
-/// `whiten`: see oracle::makeHull.
-inline std::optional<double> oracleDistance(const Placed& a, const Placed& b, bool whiten = false) {
+inline std::optional<double> oracleDistance(const Placed& a, const Placed& b) {
   std::vector<Vec3> ca, cb;
   double ra = 0.0, rb = 0.0;
   if (!a.polyCore(&ca, &ra) || !b.polyCore(&cb, &rb)) return std::nullopt;
@@ -516,7 +515,7 @@ inline std::optional<double> oracleDistance(const Placed& a, const Placed& b, bo
     for (const Vec3& y : cb)
       diff.push_back(x - y);
   try {
-    const oracle::Hull h = oracle::makeHull(diff, whiten);
+    const oracle::Hull h = oracle::makeHull(diff);
     return oracle::signedDistance(h, Vec3::Zero()) - ra - rb;
   } catch (const std::runtime_error&) {
     return std::nullopt;  // flat difference
@@ -673,13 +672,6 @@ inline Outcome runCase(const std::uint8_t* data, std::size_t len) {
   if (const auto exact = oracleDistance(a, b)) {
     out.oracle = true;
     ref = *exact;
-    // qhull on the raw points and on the whitened ones each fail somewhere at extreme aspect
-    // ratios (oracle::makeHull): a disagreement stands only when both disagree.
-    if (std::abs(sd.distance - ref) > tol) {
-      if (const auto other = oracleDistance(a, b, true)) {
-        if (std::abs(sd.distance - *other) <= tol) ref = *other;
-      }
-    }
     if (std::abs(sd.distance - ref) > tol) {
       std::ostringstream o;
       o.precision(17);

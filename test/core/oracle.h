@@ -36,7 +36,6 @@
 #include <vector>
 
 #include <Eigen/Core>
-#include <Eigen/Eigenvalues>
 
 extern "C" {
 #include <libqhull_r/qhull_ra.h>
@@ -61,9 +60,10 @@ inline V3 closestPointSegment(const V3& p, const V3& a, const V3& b) {
 /// Closest point to p on triangle abc: the projection of p onto the plane when it lies inside
 /// (signs of the three sub-triangle areas, long double), else the nearest of the three edges
 /// (closestPointSegment). Not Ericson 5.1.5's dot-product regions: on a needle triangle they
-/// difference products of 1e12-sized dot products (a 1 m x 3.4e6 m box face: a point on the face
-/// came out 0.0029 m away in double and 0.06 m in long double; fuzz/regressions/core/
-/// oracle-needle-triangle-point-on-face). The areas multiply long edges by short ones.
+/// difference products of dot products that cancel by up to 12 digits (a point on a 1 m x
+/// 3.4e6 m box face came out 0.0029 m away in double and 0.06 m in long double; a point 1.47e-6 m
+/// from a 1.02 m x 1.3e-6 m face, 1.4756e-6 m for 1.4734375e-6 m: fuzz/regressions/core/
+/// oracle-needle-*). The areas multiply long edges by short ones.
 inline V3 closestPointTriangle(const V3& p_, const V3& a_, const V3& b_, const V3& c_) {
   using L = long double;
   using LV = Eigen::Matrix<L, 3, 1>;
@@ -140,34 +140,13 @@ struct Hull {
 
 /// Hull of `pts` with qhull ("Qt": triangulated). Throws std::runtime_error if qhull fails
 /// (flat input: the tests never feed it any).
-/// `whiten`: qhull runs on the points mapped to about a unit ball (x -> W (x - c), W from their
-/// covariance) and its facets are mapped back (an affine map keeps a hull's faces). Each way fails
-/// where the other does not, both at extreme aspect ratios: on the raw points of a
-/// 1.02 m x 1.3e-6 m x 4.8e-6 m box qhull's triangles left out part of the box (distance
-/// 1.4756e-6 m for the closed form's 1.4734375e-6 m: fuzz/regressions/core/
-/// oracle-needle-box-from-point); whitened, a 0.11 m x 1e-6 m x 4.9e6 m box (aspect 5e12) loses
-/// its thin direction in the covariance's rounding.
-inline Hull makeHull(const std::vector<V3>& pts, bool whiten = false) {
+inline Hull makeHull(const std::vector<V3>& pts) {
   Hull h;
   h.points = pts;
-  V3 c = V3::Zero();
-  Eigen::Matrix3d W = Eigen::Matrix3d::Identity();
-  if (whiten) {
-    for (const V3& p : pts)
-      c += p;
-    c /= static_cast<double>(pts.size());
-    Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-    for (const V3& p : pts)
-      cov += (p - c) * (p - c).transpose();
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov);
-    const V3 lam = eig.eigenvalues().cwiseMax(1e-300 + 1e-30 * eig.eigenvalues().maxCoeff());
-    W = lam.cwiseSqrt().cwiseInverse().asDiagonal() * eig.eigenvectors().transpose();
-  }
   std::vector<coordT> coords(3 * pts.size());
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    const V3 x = whiten ? V3(W * (pts[i] - c)) : pts[i];
     for (int k = 0; k < 3; ++k)
-      coords[3 * i + k] = x[k];
+      coords[3 * i + k] = pts[i][k];
   }
   char* text = nullptr;
   std::size_t size = 0;
@@ -188,17 +167,8 @@ inline Hull makeHull(const std::vector<V3>& pts, bool whiten = false) {
         if (k < 3) t[k] = qh_pointid(qh, vertex->point);
         ++k;
       }
-      const V3 ns(facet->normal[0], facet->normal[1], facet->normal[2]);
-      if (whiten) {
-        // n_s . W (x - c) + o_s = 0 is (W^T n_s) . x + o_s - n_s . W c = 0.
-        const V3 n = W.transpose() * ns;
-        const double len = n.norm();
-        h.normals.push_back(n / len);
-        h.offsets.push_back((facet->offset - ns.dot(W * c)) / len);
-      } else {
-        h.normals.push_back(ns);
-        h.offsets.push_back(facet->offset);
-      }
+      h.normals.emplace_back(facet->normal[0], facet->normal[1], facet->normal[2]);
+      h.offsets.push_back(facet->offset);
       if (k == 3) h.triangles.push_back(t);
     }
   }
