@@ -73,23 +73,6 @@ struct EpaResult {
 
 namespace detail {
 
-/// a x b with each component a difference of products rounded once (Kahan's fma algorithm) rather
-/// than twice: the normal of a needle triangle, |a x b| << |a| |b|, keeps its direction. The
-/// plain product's rounding, eps |a| |b| per component, tilted the normal of a 1.95 m x 1e-9 m
-/// triangle by 1.9e-9 rad: EPA's lift along it found 1.8e-9 m of "thickness" in a box 4.9e-324 m
-/// thick, built a tetrahedron of volume 3.6e-18 m^3 and failed on it
-/// (fuzz/regressions/core/epa-needle-triangle-lift-on-flat-box). Out of line and cold: inlined
-/// into EPA's loop (for needle faces, rare) its fma() calls cost every query (hull12 signed
-/// distance 688 -> 903 ns per query).
-__attribute__((noinline, cold)) inline Vec3 crossAccurate(const Vec3& a, const Vec3& b) {
-  const auto diff = [](double p, double q, double r, double t) {  // p q - r t
-    const double rt = r * t;
-    return std::fma(p, q, -rt) - std::fma(r, t, -rt);
-  };
-  return Vec3(diff(a.y(), b.z(), a.z(), b.y()), diff(a.z(), b.x(), a.x(), b.z()),
-              diff(a.x(), b.y(), a.y(), b.x()));
-}
-
 /// Witness points of the point d n on a face of the expanded polytope (barycentric weights of the
 /// face's support points).
 inline void epaWitness3(const SupportPoint<3>& p0, const SupportPoint<3>& p1,
@@ -260,7 +243,7 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
       }
       nv = 3;
     } else if (nv == 3) {
-      const Vec3 n = detail::crossAccurate(verts[1].w - w0, verts[2].w - w0);
+      const Vec3 n = crossAccurate(verts[1].w - w0, verts[2].w - w0);
       const double longest = std::max(
           {(verts[1].w - w0).norm(), (verts[2].w - w0).norm(), (verts[2].w - verts[1].w).norm()});
       const double nn = n.norm();
@@ -328,8 +311,7 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
     // direction to eps / sine only. A box in a 4.9e6 m segment (A - B a needle prism) broke its
     // horizon after 8 iterations that way: fuzz/regressions/core/gjk-box-in-4900km-segment-
     // needle-tetrahedron.
-    if (n.squaredNorm() < 1e-8 * eb.squaredNorm() * ec.squaredNorm())
-      n = detail::crossAccurate(eb, ec);
+    if (n.squaredNorm() < 1e-8 * eb.squaredNorm() * ec.squaredNorm()) n = crossAccurate(eb, ec);
     const double len = n.norm();
     if (!(len > 0.0) || !std::isfinite(len)) return false;
     F.n = n / len;

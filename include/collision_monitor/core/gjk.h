@@ -761,7 +761,7 @@ template <int D>
 bool retryOnPlane(const Simplex<D>& s, Vec<D>& v, double& vv, bool& retried) {
   if constexpr (D == 3) {
     if (s.size != 3 || retried) return false;
-    const Vec3 n = (s.v[1].w - s.v[0].w).cross(s.v[2].w - s.v[0].w);
+    const Vec3 n = crossAccurate(s.v[1].w - s.v[0].w, s.v[2].w - s.v[0].w);
     const double nn = n.squaredNorm();
     if (!(nn > 0.0)) return false;
     retried = true;
@@ -770,6 +770,37 @@ bool retryOnPlane(const Simplex<D>& s, Vec<D>& v, double& vv, bool& retried) {
     return true;
   } else {
     (void)s, (void)v, (void)vv, (void)retried;
+    return false;
+  }
+}
+
+/// After "no progress" on the triangle just formed (s.size == 3) whose sub-algorithm found the
+/// origin's projection inside it: that projection, from a normal rounded once per component
+/// (crossAccurate()), as the closest point instead of sum(lambda_i w_i), when it is closer than
+/// v. The weights of a sliver lose digits and that sum with them: a 1 m hull and a 6.4e5 m
+/// segment through it gave a triangle whose plane passes 3.1e-7 m from the origin (113-bit
+/// arithmetic) and a sum 1.0e-5 m away, no progress from 1.28e-6 m, and "touching" for shapes
+/// overlapping by 0.43 m (fuzz/regressions/core/gjk-sliver-triangle-no-progress). Reduces `s`,
+/// sets v and vv, returns true; else leaves them.
+template <int D>
+bool progressOnPlane(Simplex<D>& s, Vec<D>& v, double& vv) {
+  if constexpr (D == 3) {
+    if (s.size != 3) return false;
+    Loop3 c;
+    offerTriangle(s.v.data(), 0, 1, 2, c);
+    if (c.mask != 7u) return false;
+    const Vec3 n = crossAccurate(s.v[1].w - s.v[0].w, s.v[2].w - s.v[0].w);
+    const double nn = n.squaredNorm();
+    if (!(nn > 0.0)) return false;
+    const Vec3 q = n * (s.v[0].w.dot(n) / nn);
+    const double qq = q.squaredNorm();
+    if (!(qq < vv)) return false;
+    compact(s, c);
+    v = q;
+    vv = qq;
+    return true;
+  } else {
+    (void)s, (void)v, (void)vv;
     return false;
   }
 }
@@ -824,6 +855,7 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st,
     }
     ++s.size;
     if (!detail::progress(s, v, vv)) {  // no progress (rounding): keep the better simplex, stop
+      if (detail::progressOnPlane(s, v, vv)) continue;
       --s.size;
       if (detail::retryOnPlane(s, v, vv, retried)) continue;  // not certified (see above)
       r.status = GjkStatus::Separated;
@@ -884,6 +916,7 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
     }
     ++s.size;
     if (!detail::progress(s, v, vv)) {
+      if (detail::progressOnPlane(s, v, vv)) continue;
       --s.size;
       if (detail::retryOnPlane(s, v, vv, retried)) continue;  // not certified (see above)
       result = vn <= reach;
