@@ -30,8 +30,9 @@ namespace core {
 /// Tolerances and bounds of one EPA run.
 struct EpaSettings {
   /// Stop when the support point along the closest face's normal gains at most
-  /// rel_tolerance * depth + abs_tolerance over that face; out of iterations, converged still
-  /// when the smallest support depth seen is within that of the face (EpaUpperBound::settles).
+  /// rel_tolerance * depth + abs_tolerance over that face; out of iterations (or degenerate),
+  /// converged still when the smallest support depth seen is within that of the face
+  /// (EpaUpperBound::settles).
   double rel_tolerance = 1e-12;
   /// Length unit; callers pass rel_tolerance * shape size. Also the flatness threshold.
   double abs_tolerance = 0.0;
