@@ -757,19 +757,34 @@ CM_ALWAYS_INLINE Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* s
 /// Sets v to the projection of the origin onto the triangle's plane (its direction is the normal
 /// to rounding; in exact arithmetic it is the same point, so the weights stand) and returns true,
 /// once per run (`retried`).
+/// On a segment (once per run too): v made orthogonal to the segment, v - (v.u / u.u) u. A
+/// needle 1e-9 m wide and 1.2 m long (a cone) shows its width to a support direction only when
+/// that direction's component along it is below 8e-10 of its length; v = sum(lambda_i w_i) had
+/// 1.2e-7 there (rounding of 0.6 m vertices against |v| = 5e-10 m), the support point along it was
+/// the segment's own end again, and a point inside the cone was "5e-10 m outside"
+/// (fuzz/regressions/core/gjk-point-in-1e-9-needle-cone-line-retry). `retried`: bit 1 plane,
+/// bit 2 line.
 template <int D>
-bool retryOnPlane(const Simplex<D>& s, Vec<D>& v, double& vv, bool& retried) {
+bool retryOnPlane(const Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
+  if (s.size == 2 && !(retried & 2)) {
+    const Vec<D> u = s.v[1].w - s.v[0].w;
+    const double uu = u.squaredNorm();
+    if (!(uu > 0.0)) return false;
+    retried |= 2;
+    v -= (v.dot(u) / uu) * u;
+    vv = v.squaredNorm();
+    return true;
+  }
   if constexpr (D == 3) {
-    if (s.size != 3 || retried) return false;
+    if (s.size != 3 || (retried & 1)) return false;
     const Vec3 n = crossAccurate(s.v[1].w - s.v[0].w, s.v[2].w - s.v[0].w);
     const double nn = n.squaredNorm();
     if (!(nn > 0.0)) return false;
-    retried = true;
+    retried |= 1;
     v = n * (s.v[0].w.dot(n) / nn);
     vv = v.squaredNorm();
     return true;
   } else {
-    (void)s, (void)v, (void)vv, (void)retried;
     return false;
   }
 }
@@ -866,7 +881,7 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st, const Simpl
   Vec<D> v = detail::gjkStart(md, seed, s, tol2);
   double vv = v.squaredNorm();
   int it = 0;
-  bool retried = false;
+  int retried = 0;
   bool stuck = false;  // an uncertified no-progress exit that may restart (detail::restartFrom)
   for (;;) {
     if (s.size == D + 1 || vv <= tol2) {
@@ -928,7 +943,7 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
   Vec<D> v = detail::gjkStart(md, simplex, s, tol * tol);
   double vv = v.squaredNorm();
   int it = 0;
-  bool retried = false;
+  int retried = 0;
   bool result = true;
   for (;;) {
     if (s.size == D + 1 || vv <= reach * reach) {
