@@ -197,6 +197,15 @@ GjkSettings gjkSettings(const PairFrame& f, const QueryOptions& o) {
   return s;
 }
 
+/// EPA's: its own relative tolerance and bound, GJK's length unit.
+EpaSettings epaSettings(const PairFrame& f, const QueryOptions& o) {
+  EpaSettings s;
+  s.rel_tolerance = o.epa_rel_tolerance;
+  s.abs_tolerance = gjkSettings(f, o).abs_tolerance;
+  s.max_iterations = o.max_epa_iterations;
+  return s;
+}
+
 /// fn(MD(args...)) with the whole query (GJK loop, sub-algorithm, supports) inlined into one
 /// function compiled for AVX2, for small polytope pairs where the CPU has it (cpuHasAvx2()): VEX
 /// three-operand instructions instead of SSE2's register copies, and
@@ -351,10 +360,7 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
                                                                       : Status::Touching;
     return r;
   }
-  EpaSettings es;
-  es.rel_tolerance = o.epa_rel_tolerance;
-  es.abs_tolerance = o.rel_tolerance * f.workSize();
-  es.max_iterations = o.max_epa_iterations;
+  const EpaSettings es = epaSettings(f, o);
   const EpaResult<3> e = runEpa(eraseDifference(md), g.simplex, es);
   r.epa_iterations = e.iterations;
   if (e.status == EpaStatus::Flat) {

@@ -762,25 +762,27 @@ CM_ALWAYS_INLINE Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* s
 /// that direction's component along it is below 8e-10 of its length; v = sum(lambda_i w_i) had
 /// 1.2e-7 there (rounding of 0.6 m vertices against |v| = 5e-10 m), the support point along it was
 /// the segment's own end again, and a point inside the cone was "5e-10 m outside"
-/// (fuzz/regressions/core/gjk-point-in-1e-9-needle-cone-line-retry). `retried`: bit 1 plane,
-/// bit 2 line.
+/// (fuzz/regressions/core/gjk-point-in-1e-9-needle-cone-line-retry). `retried`: the cases used
+/// (kRetriedPlane, kRetriedLine).
+constexpr int kRetriedPlane = 1;
+constexpr int kRetriedLine = 2;
 template <int D>
-bool retryOnPlane(const Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
-  if (s.size == 2 && !(retried & 2)) {
+bool retryProjected(const Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
+  if (s.size == 2 && !(retried & kRetriedLine)) {
     const Vec<D> u = s.v[1].w - s.v[0].w;
     const double uu = u.squaredNorm();
     if (!(uu > 0.0)) return false;
-    retried |= 2;
+    retried |= kRetriedLine;
     v -= (v.dot(u) / uu) * u;
     vv = v.squaredNorm();
     return true;
   }
   if constexpr (D == 3) {
-    if (s.size != 3 || (retried & 1)) return false;
+    if (s.size != 3 || (retried & kRetriedPlane)) return false;
     const Vec3 n = crossAccurate(s.v[1].w - s.v[0].w, s.v[2].w - s.v[0].w);
     const double nn = n.squaredNorm();
     if (!(nn > 0.0)) return false;
-    retried |= 1;
+    retried |= kRetriedPlane;
     v = n * (s.v[0].w.dot(n) / nn);
     vv = v.squaredNorm();
     return true;
@@ -902,7 +904,7 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st, const Simpl
     // van den Bergen: upper bound |v| and lower bound v.w/|v| agree (plus an absolute floor).
     const bool certified = vv - vw <= st.rel_tolerance * vv + tol * vn;
     if (certified || detail::isDuplicate(s, w.w, tol2)) {
-      if (!certified && detail::retryOnPlane(s, v, vv, retried)) continue;
+      if (!certified && detail::retryProjected(s, v, vv, retried)) continue;
       r.status = GjkStatus::Separated;
       break;
     }
@@ -910,7 +912,7 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st, const Simpl
     if (!detail::progress(s, v, vv)) {  // no progress (rounding): keep the better simplex, stop
       if (detail::progressOnPlane(s, v, vv)) continue;
       --s.size;
-      if (detail::retryOnPlane(s, v, vv, retried)) continue;  // not certified (see above)
+      if (detail::retryProjected(s, v, vv, retried)) continue;  // not certified (see above)
       r.status = GjkStatus::Separated;
       stuck = restarts > 0 && it < st.max_iterations;
       break;
@@ -965,7 +967,7 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
     }
     const bool certified = vv - vw <= st.rel_tolerance * vv + tol * vn;
     if (certified || detail::isDuplicate(s, w.w, tol * tol)) {
-      if (!certified && detail::retryOnPlane(s, v, vv, retried)) continue;
+      if (!certified && detail::retryProjected(s, v, vv, retried)) continue;
       result = vn <= reach;  // converged: the distance is |v|
       break;
     }
@@ -973,7 +975,7 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
     if (!detail::progress(s, v, vv)) {
       if (detail::progressOnPlane(s, v, vv)) continue;
       --s.size;
-      if (detail::retryOnPlane(s, v, vv, retried)) continue;  // not certified (see above)
+      if (detail::retryProjected(s, v, vv, retried)) continue;  // not certified (see above)
       result = vn <= reach;
       break;
     }
