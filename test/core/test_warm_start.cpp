@@ -178,3 +178,36 @@ TEST(WarmStart, PolytopeHintsAreKept) {
   // on B's -x side.
   EXPECT_LT(poly->vertices()[cache.hint_b].x(), 0.0);
 }
+
+TEST(WarmStart, NeedleTriangleKeepsItsDirection) {
+  // fuzz/regressions/core/gjk-needle-triangle-projection-warm: a 1.97 m ellipsoid whose rim
+  // touches the edge of a plate 1094 m long and 1.1e-9 m thin (truly about 2e-16 m apart). GJK's
+  // triangles span the plate's length (vertices 547 m from the origin) and |v| falls to 1e-10 m.
+  // v as sum(lambda_i w_i) carried 5e-14 m of rounding across the plate, a direction 7e-8 rad
+  // off, enough to pick the plate's wrong end: the cold query stopped on a duplicate at 7.3e-7 m
+  // (8 times the 1e-9 accuracy of this 551 m pair) and the warm one elsewhere. The origin's
+  // projection onto the triangle's plane keeps the normal's direction.
+  const ConvexShape a = ConvexShape::ellipsoid(Vec3(1.96875, 1.375, 1.671875));
+  const ConvexShape b = ConvexShape::box(Vec3(1.0937500000000001e-09, 1093.75, 1.921875));
+  Transform3 pa, pb;
+  pa.R << 0.99999999999999967, -1.4303285894560248e-08, 2.3344677445330141e-08,
+      1.430328295170061e-08, 0.99999999999999201, 1.2606126324007882e-07, -2.334467924842024e-08,
+      -1.2606126290617324e-07, 0.99999999999999178;
+  pa.t = Vec3(0, -0.001, 0);
+  pb.R << 2.2204460492503131e-16, 0, 1, 0, 1, 0, -1, 0, 2.2204460492503131e-16;
+  pb.t = Vec3(2.9296875, -0.001, 0);
+  const double gjk_tolerance = 1e-12 * 551.8;  // rel_tolerance x the pair's size
+  for (const bool swap : {false, true}) {
+    SCOPED_TRACE(swap ? "plate first" : "ellipsoid first");
+    PairCache cache;
+    const ContactResult cold = swap ? cm::signedDistance(b, pb, a, pa, &cache)
+                                    : cm::signedDistance(a, pa, b, pb, &cache);
+    const ContactResult warm = swap ? cm::signedDistance(b, pb, a, pa, &cache)
+                                    : cm::signedDistance(a, pa, b, pb, &cache);
+    EXPECT_EQ(cold.status, cm::Status::Touching);
+    EXPECT_NEAR(cold.distance, 0.0, gjk_tolerance);
+    EXPECT_EQ(warm.status, cold.status);
+    EXPECT_NEAR(warm.distance, cold.distance, gjk_tolerance);
+    EXPECT_LE(warm.gjk_iterations, 1);
+  }
+}
