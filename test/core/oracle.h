@@ -113,7 +113,9 @@ inline double closestSegmentSegment(const V3& p1, const V3& q1, const V3& p2, co
   }
   *c1 = p1 + d1 * s;
   *c2 = p2 + d2 * t;
-  return (*c1 - *c2).norm();
+  // stableNorm: |x|^2 underflows to 0 below about 1e-162 m (a point 7.1e-198 m from a radius-0
+  // sphere was "0 m" apart: fuzz/regressions/core/oracle-point-7e-198-from-point-underflow).
+  return (*c1 - *c2).stableNorm();
 }
 
 /// A full-dimensional hull: triangles for distances from outside, facet planes for depths.
