@@ -83,25 +83,34 @@ inline V3 closestPointTriangle(const V3& p_, const V3& a_, const V3& b_, const V
 }
 
 /// Closest points c1 on p1q1 and c2 on p2q2 (Ericson 5.1.9). Returns |c1 - c2|.
-inline double closestSegmentSegment(const V3& p1, const V3& q1, const V3& p2, const V3& q2, V3* c1,
-                                    V3* c2) {
+inline double closestSegmentSegment(const V3& p1_in, const V3& q1_in, const V3& p2_in,
+                                    const V3& q2_in, V3* c1, V3* c2) {
+  // Scaled by a power of two (exact) to coordinates of about 1: squared lengths underflow below
+  // about 1e-162 m (a point 7.1e-198 m from a radius-0 sphere was "0 m" apart, and a 3.1e-212 m
+  // segment through a point was a point 3.1e-212 m away:
+  // fuzz/regressions/core/oracle-point-7e-198-from-point-underflow).
+  const double m = std::max({p1_in.cwiseAbs().maxCoeff(), q1_in.cwiseAbs().maxCoeff(),
+                             p2_in.cwiseAbs().maxCoeff(), q2_in.cwiseAbs().maxCoeff()});
+  const int e = m > 0.0 && std::isfinite(m) ? std::ilogb(m) : 0;
+  const double k = std::ldexp(1.0, std::min(-e, 1000));  // 2^1074 would overflow
+  const V3 p1 = p1_in * k, q1 = q1_in * k, p2 = p2_in * k, q2 = q2_in * k;
   const V3 d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
-  const double a = d1.dot(d1), e = d2.dot(d2), f = d2.dot(r);
+  const double a = d1.dot(d1), e2 = d2.dot(d2), f = d2.dot(r);
   double s = 0.0, t = 0.0;
-  if (a <= 0.0 && e <= 0.0) {
+  if (a <= 0.0 && e2 <= 0.0) {
     s = t = 0.0;
   } else if (a <= 0.0) {
     s = 0.0;
-    t = clamp01(f / e);
+    t = clamp01(f / e2);
   } else {
     const double c = d1.dot(r);
-    if (e <= 0.0) {
+    if (e2 <= 0.0) {
       t = 0.0;
       s = clamp01(-c / a);
     } else {
-      const double b = d1.dot(d2), denom = a * e - b * b;
-      s = denom > 0.0 ? clamp01((b * f - c * e) / denom) : 0.0;
-      t = (b * s + f) / e;
+      const double b = d1.dot(d2), denom = a * e2 - b * b;
+      s = denom > 0.0 ? clamp01((b * f - c * e2) / denom) : 0.0;
+      t = (b * s + f) / e2;
       if (t < 0.0) {
         t = 0.0;
         s = clamp01(-c / a);
@@ -111,11 +120,10 @@ inline double closestSegmentSegment(const V3& p1, const V3& q1, const V3& p2, co
       }
     }
   }
-  *c1 = p1 + d1 * s;
-  *c2 = p2 + d2 * t;
-  // stableNorm: |x|^2 underflows to 0 below about 1e-162 m (a point 7.1e-198 m from a radius-0
-  // sphere was "0 m" apart: fuzz/regressions/core/oracle-point-7e-198-from-point-underflow).
-  return (*c1 - *c2).stableNorm();
+  const V3 x1 = p1 + d1 * s, x2 = p2 + d2 * t;
+  *c1 = x1 / k;
+  *c2 = x2 / k;
+  return (x1 - x2).norm() / k;
 }
 
 /// A full-dimensional hull: triangles for distances from outside, facet planes for depths.
