@@ -3,6 +3,7 @@
 /// fully typed GJK (and EPA) instantiation in A's frame. Radii are applied after convergence.
 #include "collision_monitor/core/query.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -110,11 +111,12 @@ ErasedDifference eraseDifference(const MD& md) {
   return e;
 }
 
-/// A - B scaled by `k`, a power of two (exact), for pairs so small that squared lengths underflow
-/// (|v|^2 is subnormal below about 1e-154 m and 0 below about 1e-162 m: a box 2.8e-289 m from a
-/// point was reported touching, GJK ending at once on |v|^2 = 0:
-/// fuzz/regressions/core/gjk-underflow-box-2.8e-289-from-point). One instantiation for every
-/// core type (through ErasedDifference); results are divided by k again (query()).
+/// A - B scaled by `k`, a power of two (exact), for pairs so small or so large that squared
+/// lengths or their squares leave the normal range (|v|^2 is subnormal below about 1e-154 m and 0
+/// below about 1e-162 m: a box 2.8e-289 m from a point was reported touching, GJK ending at once
+/// on |v|^2 = 0: fuzz/regressions/core/gjk-underflow-box-2.8e-289-from-point; see kTinySize).
+/// One instantiation for every core type (through ErasedDifference); results are divided by k
+/// again (query()).
 struct ScaledDifference {
   static constexpr int kDim = 3;
   const ErasedDifference* md;
@@ -134,8 +136,14 @@ struct ScaledDifference {
   }
 };
 
-/// Pairs smaller than this (PairFrame::size, m) run scaled (ScaledDifference).
-constexpr double kTinySize = 1e-100;
+/// Pairs smaller than kTinySize or larger than kHugeSize (PairFrame::size, m) run scaled to a
+/// size of about 1 (ScaledDifference). Triangle normals' squared norms (in GJK and EPA) are
+/// fourth powers of lengths: they underflow below about 1e-77 m and overflow above about 1e77 m.
+/// A 3e-86 m disc and box got a normal 0.2 rad off (fuzz/regressions/core/
+/// gjk-tiny-pair-1e-86-triangle-underflow); with 1e-100 as the bound only squared lengths
+/// were covered.
+constexpr double kTinySize = 1e-60;
+constexpr double kHugeSize = 1e60;
 
 /// EPA on the erased difference: the one instantiation of epa3 in the library.
 [[gnu::noinline]] EpaResult<3> runEpa(const ErasedDifference& md, const Simplex<3>& simplex,
@@ -149,7 +157,7 @@ struct PairFrame {
   Transform3 T_AB;  ///< B's frame -> A's frame
   double rA, rB;    ///< radii (m)
   double size;      ///< bounding radii + |relative translation| (m): the tolerance scale
-  /// Power of two the Minkowski difference is scaled by (1 unless size < kTinySize): GJK and EPA
+  /// Power of two the Minkowski difference is scaled by (1 unless the size is outside [kTinySize, kHugeSize]): GJK and EPA
   /// lengths are size-proportional by this factor, results are divided by it.
   double scale;
   bool finite;  ///< false when a pose has NaN/Inf entries (no query is run then)
@@ -177,14 +185,14 @@ PairFrame makeFrame(const ConvexShape& a, const Transform3& pose_a, const Convex
   f.rA = a.radius();
   f.rB = b.radius();
   double tn = f.T_AB.t.norm();
-  if (tn < 1e-150) tn = f.T_AB.t.stableNorm();  // |t|^2 may have underflowed
+  if (!(tn >= 1e-150 && tn <= 1e150)) tn = f.T_AB.t.stableNorm();  // |t|^2 under- or overflowed
   f.size = a.boundingRadius() + b.boundingRadius() + tn;
   // A NaN or Inf in either pose reaches T_AB (0 * NaN and 0 * Inf are NaN): checking T_AB.R and
   // the size (which holds |T_AB.t|) covers both poses.
   f.finite = nonFinite(f.T_AB.R) == 0.0 && std::isfinite(f.size);
   // Brings the size to about 1 (at most 2^1000: a 5e-324 m pair becomes 5e-23 m, enough).
-  f.scale = f.size > 0.0 && f.size < kTinySize
-                ? std::ldexp(1.0, std::min(-std::ilogb(f.size), 1000))
+  f.scale = f.size > 0.0 && (f.size < kTinySize || f.size > kHugeSize)
+                ? std::ldexp(1.0, std::clamp(-std::ilogb(f.size), -1000, 1000))
                 : 1.0;
   return f;
 }
@@ -230,7 +238,7 @@ auto withPair(const ConvexShape& a, const ConvexShape& b, const PairFrame& frame
   const int hb = cache != nullptr ? cache->hint_b : -1;
   return std::visit(
       [&](const auto& ca, const auto& cb) {
-        if (frame.scale != 1.0) {  // a tiny pair (kTinySize): rare, one instantiation for all
+        if (frame.scale != 1.0) {  // a tiny or huge pair (kTinySize): rare, one instantiation for all
           const auto& sa = makeSupport(ca, -1);
           const auto& sb = makeSupport(cb, -1);
           const MinkowskiDifference<3, std::decay_t<decltype(sa)>, std::decay_t<decltype(sb)>> md(

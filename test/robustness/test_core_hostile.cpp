@@ -234,22 +234,26 @@ TEST(CoreHostile, SubnormalOffsetNormalIsUnit) {
 TEST(CoreHostile, TinyPairsKeepTheirDistance) {
   // Bug (found by fuzz_core, fuzz/regressions/core/gjk-underflow-box-2.8e-289-from-point): a flat
   // box 2.8e-289 m from a point. |v|^2 underflowed to 0, GJK stopped at once and the pair was
-  // "touching" at distance 0. Pairs below 1e-100 m now run on A - B scaled by a power of two.
-  // The answer scales exactly with the pair, so every scale must give the same digits.
+  // "touching" at distance 0. Pairs outside [1e-60, 1e60] m now run on A - B scaled by a power
+  // of two (1e-100 first: triangle normals' squared norms, fourth powers, still underflowed at
+  // 1e-86 and overflowed at 1e150, where EPA's depth was wrong; at 1e300 |t|^2 overflowed and
+  // every query failed). The answer scales exactly with the pair, so every scale must give the
+  // same digits.
   const ConvexShape point = ConvexShape::sphere(0.0);
-  for (const double s : {1.0, 1e-120, 1e-200, 2.8218690508926337e-289 / 0.3}) {
+  for (const double s : {1.0, 1e-70, 1e-86, 1e-120, 1e-200, 2.8218690508926337e-289 / 0.3, 1e70, 1e150, 1e300}) {
     const ConvexShape box = ConvexShape::box(Vec3(0.2, 0.1, 0.4) * s);
     for (const bool depth : {false, true}) {
       const cm::ContactResult r =
           depth ? cm::signedDistance(box, at(0, 0.3 * s, 0), point, at(0, 0, 0))
                 : cm::distance(box, at(0, 0.3 * s, 0), point, at(0, 0, 0));
-      SCOPED_TRACE("scale " + std::to_string(s) + (depth ? " signedDistance" : " distance"));
+      SCOPED_TRACE(::testing::Message() << "scale " << s << (depth ? " signedDistance" : " distance"));
       EXPECT_EQ(r.status, cm::Status::Separated);
       EXPECT_NEAR(r.distance / s, 0.25, 1e-12);
       EXPECT_NEAR(r.point_a.y() / s, 0.25, 1e-12);
       EXPECT_EQ(r.normal, Vec3(0, -1, 0));
     }
     // Overlap at the same scale: the depth (EPA, scaled too) and the boolean query.
+    SCOPED_TRACE(::testing::Message() << "scale " << s << " overlap");
     const cm::ContactResult p = cm::signedDistance(box, at(0, 0.02 * s, 0), point, at(0, 0, 0));
     EXPECT_EQ(p.status, cm::Status::Penetrating);
     EXPECT_NEAR(p.distance / s, -0.03, 1e-12);
