@@ -544,6 +544,45 @@ TEST(ExactDegenerate, CrossingSegmentsTouch) {
 // Scale and frames
 // ---------------------------------------------------------------------------------------------
 
+TEST(ExactDegenerate, SegmentThroughANanometreFlatBoxIsANeedle) {
+  // fuzz/regressions/core/epa-needle-tetrahedron-volume-sign: a capsule whose 1.77 m axis passes
+  // through the centre of a flat 5e-9 x 2.8e-9 m box. A - B is a parallelepiped spanned by the
+  // box's sides and the axis u (box frame); its faces across the axis have normals along u x x
+  // and u x z, so the depth of the cores is min(hz |n1.z|, hx |n2.x|). EPA's first tetrahedron
+  // had three vertices at the needle's far end; its volume, taken from the near vertex, had the
+  // wrong sign (FailedToConverge, depth 2x too large). The fuzzer's poses, then generic ones.
+  const double hx = 2.4921875000000003e-09, hz = 1.3828125000000001e-09;
+  const double length = 1.765625, radius = 2.28125;
+  const ConvexShape box = ConvexShape::box(Vec3(2 * hx, 1.9762625833649862e-323, 2 * hz));
+  const ConvexShape capsule = ConvexShape::capsule(length, radius);
+  Transform3 box_fuzz = at(0, -15.15625, 49.53125);
+  box_fuzz.R << 1, 0, 0, 0, -2.2204460492503131e-16, 1, 0, -1, -2.2204460492503131e-16;
+  Transform3 capsule_fuzz = at(-0.0, -15.15625, 49.53125);
+  capsule_fuzz.R << 0.99428271396067902, 0.052272329502362776, 0.093110086926083677,
+      -0.052272329502362776, -0.52208155883554053, 0.85129222332419363, 0.093110086926083677,
+      -0.85129222332419363, -0.51636427279621966;
+  Transform3 capsule_generic = at(0, 0, 0);
+  capsule_generic.R =
+      Eigen::Quaterniond::FromTwoVectors(Vec3::UnitZ(), Vec3(0.1, 0.5, 0.8).normalized())
+          .toRotationMatrix();
+  const std::vector<std::pair<Transform3, Transform3>> poses{{box_fuzz, capsule_fuzz},
+                                                             {at(0, 0, 0), capsule_generic}};
+  for (const auto& [pa, pb] : poses) {
+    const Vec3 u = (pa.R.transpose() * pb.R.col(2)).normalized();  // the axis in the box's frame
+    const Vec3 n1 = u.cross(Vec3::UnitX()).normalized();
+    const Vec3 n2 = u.cross(Vec3::UnitZ()).normalized();
+    const double depth = std::min(hz * std::abs(n1.z()), hx * std::abs(n2.x()));
+    for (const bool swap : {false, true}) {
+      SCOPED_TRACE(swap ? "capsule first" : "box first");
+      const ContactResult r = swap ? cm::signedDistance(capsule, pb, box, pa)
+                                   : cm::signedDistance(box, pa, capsule, pb);
+      EXPECT_EQ(r.status, Status::Penetrating);
+      EXPECT_NEAR(r.distance, -(radius + depth), 1e-12 * length);
+      EXPECT_NEAR(std::abs(r.normal.dot(pa.R * n1)), 1.0, 1e-9);
+    }
+  }
+}
+
 TEST(ExactScale, LargeCoordinatesAndARotatedCommonFrame) {
   // The face-face and penetration cases moved 1 km away and turned: same distances, normals and
   // witnesses carried by the common transform.

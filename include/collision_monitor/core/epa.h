@@ -282,7 +282,29 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
       verts[3] = hp >= hm ? pp : pm;
       nv = 4;
     } else {
-      const double vol = (verts[1].w - w0).dot((verts[2].w - w0).cross(verts[3].w - w0));
+      // Signed volume from the vertex whose three edges are shortest (their lengths' product
+      // bounds the rounding); the four choices are even permutations, so the same sign. From
+      // vertex 0 a needle (a segment through a 5e-9 x 2.8e-9 m box: three vertices at the far
+      // end of a 1.77 m tetrahedron) got the wrong sign, an inward face and a "degenerate" EPA:
+      // fuzz/regressions/core/epa-needle-tetrahedron-volume-sign.
+      static constexpr std::array<std::array<int, 4>, 4> kEven{
+          {{0, 1, 2, 3}, {1, 0, 3, 2}, {2, 3, 0, 1}, {3, 2, 1, 0}}};
+      int base = 0;
+      double shortest = std::numeric_limits<double>::infinity();
+      for (int i = 0; i < 4; ++i) {
+        const auto& q = kEven[i];
+        const double prod = (verts[q[1]].w - verts[q[0]].w).norm() *
+                            (verts[q[2]].w - verts[q[0]].w).norm() *
+                            (verts[q[3]].w - verts[q[0]].w).norm();
+        if (prod < shortest) {
+          shortest = prod;
+          base = i;
+        }
+      }
+      const auto& q = kEven[base];
+      const Vec3& o = verts[q[0]].w;
+      const double vol =
+          (verts[q[1]].w - o).dot(crossAccurate(verts[q[2]].w - o, verts[q[3]].w - o));
       if (vol == 0.0 || !std::isfinite(vol)) {
         nv = 3;  // a flat tetrahedron: redo the lift from its first face
         continue;
