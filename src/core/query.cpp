@@ -157,8 +157,9 @@ struct PairFrame {
   Transform3 T_AB;  ///< B's frame -> A's frame
   double rA, rB;    ///< radii (m)
   double size;      ///< bounding radii + |relative translation| (m): the tolerance scale
-  /// Power of two the Minkowski difference is scaled by (1 unless the size is outside [kTinySize, kHugeSize]): GJK and EPA
-  /// lengths are size-proportional by this factor, results are divided by it.
+  /// Power of two the Minkowski difference is scaled by (1 unless the size is outside [kTinySize,
+  /// kHugeSize]): GJK and EPA lengths are size-proportional by this factor, results are divided by
+  /// it.
   double scale;
   bool finite;  ///< false when a pose has NaN/Inf entries (no query is run then)
   /// The size in the units GJK and EPA work in (size * scale): the scale of their tolerances.
@@ -238,7 +239,8 @@ auto withPair(const ConvexShape& a, const ConvexShape& b, const PairFrame& frame
   const int hb = cache != nullptr ? cache->hint_b : -1;
   return std::visit(
       [&](const auto& ca, const auto& cb) {
-        if (frame.scale != 1.0) {  // a tiny or huge pair (kTinySize): rare, one instantiation for all
+        if (frame.scale !=
+            1.0) {  // a tiny or huge pair (kTinySize): rare, one instantiation for all
           const auto& sa = makeSupport(ca, -1);
           const auto& sb = makeSupport(cb, -1);
           const MinkowskiDifference<3, std::decay_t<decltype(sa)>, std::decay_t<decltype(sb)>> md(
@@ -349,7 +351,10 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   storeCache(md, g.simplex, cache);
   r.gjk_iterations = g.iterations;
   if (g.status != GjkStatus::Intersecting) {
-    const Vec3 n = unitOr(-g.v, Vec3::UnitX());  // g.distance > abs_tolerance >= 0 here
+    // g.distance = |g.v| > abs_tolerance >= 0 here; unitOr() only where |v|^2 may have lost
+    // digits to underflow (one division instead of six and a square root on the common path).
+    const Vec3 n =
+        g.distance > 1e-150 ? Vec3(g.v * (-1.0 / g.distance)) : unitOr(-g.v, Vec3::UnitX());
     finish(f, o, g.distance, g.point_a, g.point_b, n, g.status == GjkStatus::MaxIterations, r);
     // distance() reports 0 for overlapping shapes (query.h), even when the depth came for free
     // (separated cores, overlapping radii).

@@ -200,10 +200,10 @@ TEST(WarmStart, NeedleTriangleKeepsItsDirection) {
   for (const bool swap : {false, true}) {
     SCOPED_TRACE(swap ? "plate first" : "ellipsoid first");
     PairCache cache;
-    const ContactResult cold = swap ? cm::signedDistance(b, pb, a, pa, &cache)
-                                    : cm::signedDistance(a, pa, b, pb, &cache);
-    const ContactResult warm = swap ? cm::signedDistance(b, pb, a, pa, &cache)
-                                    : cm::signedDistance(a, pa, b, pb, &cache);
+    const ContactResult cold =
+        swap ? cm::signedDistance(b, pb, a, pa, &cache) : cm::signedDistance(a, pa, b, pb, &cache);
+    const ContactResult warm =
+        swap ? cm::signedDistance(b, pb, a, pa, &cache) : cm::signedDistance(a, pa, b, pb, &cache);
     EXPECT_EQ(cold.status, cm::Status::Touching);
     EXPECT_NEAR(cold.distance, 0.0, gjk_tolerance);
     EXPECT_EQ(warm.status, cold.status);

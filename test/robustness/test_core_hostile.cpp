@@ -240,13 +240,15 @@ TEST(CoreHostile, TinyPairsKeepTheirDistance) {
   // every query failed). The answer scales exactly with the pair, so every scale must give the
   // same digits.
   const ConvexShape point = ConvexShape::sphere(0.0);
-  for (const double s : {1.0, 1e-70, 1e-86, 1e-120, 1e-200, 2.8218690508926337e-289 / 0.3, 1e70, 1e150, 1e300}) {
+  for (const double s :
+       {1.0, 1e-70, 1e-86, 1e-120, 1e-200, 2.8218690508926337e-289 / 0.3, 1e70, 1e150, 1e300}) {
     const ConvexShape box = ConvexShape::box(Vec3(0.2, 0.1, 0.4) * s);
     for (const bool depth : {false, true}) {
       const cm::ContactResult r =
           depth ? cm::signedDistance(box, at(0, 0.3 * s, 0), point, at(0, 0, 0))
                 : cm::distance(box, at(0, 0.3 * s, 0), point, at(0, 0, 0));
-      SCOPED_TRACE(::testing::Message() << "scale " << s << (depth ? " signedDistance" : " distance"));
+      SCOPED_TRACE(::testing::Message()
+                   << "scale " << s << (depth ? " signedDistance" : " distance"));
       EXPECT_EQ(r.status, cm::Status::Separated);
       EXPECT_NEAR(r.distance / s, 0.25, 1e-12);
       EXPECT_NEAR(r.point_a.y() / s, 0.25, 1e-12);
