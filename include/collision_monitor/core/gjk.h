@@ -200,6 +200,27 @@ inline bool sameSign(double a, double b) {
   return (a > 0.0 && b > 0.0) || (a < 0.0 && b < 0.0);
 }
 
+/// The triangle's normal (s1 - s0) x (s2 - s0), computed from the two edges at its largest angle
+/// (the edges other than the longest): the same vector in exact arithmetic, and the one product
+/// whose factors are not nearly parallel on a sliver. From s0 a triangle with two vertices 1 m
+/// apart and the third 8e5 m away (a 1.1e6 m capsule by a cylinder) gave a normal 2e-10 rad off
+/// and a projection of the origin 6.6e-4 m too near, below the distance
+/// (fuzz/regressions/core/gjk-sliver-triangle-normal-base). `kAccurate`: crossAccurate().
+template <bool kAccurate = false>
+CM_ALWAYS_INLINE Vec3 triangleNormal(const Vec3& s0, const Vec3& s1, const Vec3& s2) {
+  const Vec3 e01 = s1 - s0, e02 = s2 - s0, e12 = s2 - s1;
+  const double l01 = e01.squaredNorm(), l02 = e02.squaredNorm(), l12 = e12.squaredNorm();
+  // e01 x e02 = e01 x e12 = e02 x e12
+  const bool from0 = l12 >= l01 && l12 >= l02;
+  const Vec3& a = from0 || l02 >= l01 ? e01 : e02;
+  const Vec3& b = from0 ? e02 : e12;
+  if constexpr (kAccurate) {
+    return crossAccurate(a, b);
+  } else {
+    return a.cross(b);
+  }
+}
+
 template <int D>
 Closest<D> vertex(const Points<D>& w, int i) {
   Closest<D> c;
@@ -258,7 +279,7 @@ inline Closest<3> s2d3(const Points<3>& w, int i0, int i1, int i2) {
   const Vec3& s0 = w[i0];
   const Vec3& s1 = w[i1];
   const Vec3& s2 = w[i2];
-  const Vec3 n = (s1 - s0).cross(s2 - s0);
+  const Vec3 n = triangleNormal(s0, s1, s2);
   const double nn = n.squaredNorm();
   std::array<bool, 3> check{true, true, true};
   if (nn > 0.0) {
@@ -507,7 +528,7 @@ inline void offerTriangle(const SupportPoint<3>* p, int i0, int i1, int i2, Loop
   const Vec3& s0 = p[i0].w;
   const Vec3& s1 = p[i1].w;
   const Vec3& s2 = p[i2].w;
-  const Vec3 n = (s1 - s0).cross(s2 - s0);
+  const Vec3 n = triangleNormal(s0, s1, s2);
   const double nn = n.squaredNorm();
   bool edge12 = true, edge02 = true;
   if (nn > 0.0) {
@@ -785,7 +806,7 @@ bool retryProjected(const Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
   }
   if constexpr (D == 3) {
     if (s.size != 3 || (retried & kRetriedPlane)) return false;
-    const Vec3 n = crossAccurate(s.v[1].w - s.v[0].w, s.v[2].w - s.v[0].w);
+    const Vec3 n = triangleNormal<true>(s.v[0].w, s.v[1].w, s.v[2].w);
     const double nn = n.squaredNorm();
     if (!(nn > 0.0)) return false;
     retried |= kRetriedPlane;
@@ -812,7 +833,7 @@ bool progressOnPlane(Simplex<D>& s, Vec<D>& v, double& vv) {
     Loop3 c;
     offerTriangle(s.v.data(), 0, 1, 2, c);
     if (c.mask != 7u) return false;
-    const Vec3 n = crossAccurate(s.v[1].w - s.v[0].w, s.v[2].w - s.v[0].w);
+    const Vec3 n = triangleNormal<true>(s.v[0].w, s.v[1].w, s.v[2].w);
     const double nn = n.squaredNorm();
     if (!(nn > 0.0)) return false;
     const Vec3 q = n * (s.v[0].w.dot(n) / nn);
