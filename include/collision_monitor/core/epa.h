@@ -282,30 +282,11 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
       verts[3] = hp >= hm ? pp : pm;
       nv = 4;
     } else {
-      // Signed volume from the vertex whose three edges are shortest (their lengths' product
-      // bounds the rounding); the four choices are even permutations, so the same sign (the
-      // plain cross product: crossAccurate() here cost 190 ns per EPA run on box pairs). From
-      // vertex 0 a needle (a segment through a 5e-9 x 2.8e-9 m box: three vertices at the far
-      // end of a 1.77 m tetrahedron) got the wrong sign, an inward face and a "degenerate" EPA:
-      // fuzz/regressions/core/epa-needle-tetrahedron-volume-sign.
-      static constexpr std::array<std::array<int, 4>, 4> kEven{
-          {{0, 1, 2, 3}, {1, 0, 3, 2}, {2, 3, 0, 1}, {3, 2, 1, 0}}};
-      int base = 0;
-      double shortest = std::numeric_limits<double>::infinity();
-      for (int i = 0; i < 4; ++i) {
-        const auto& q = kEven[i];
-        const double prod = (verts[q[1]].w - verts[q[0]].w).squaredNorm() *
-                            (verts[q[2]].w - verts[q[0]].w).squaredNorm() *
-                            (verts[q[3]].w - verts[q[0]].w).squaredNorm();
-        if (prod < shortest) {
-          shortest = prod;
-          base = i;
-        }
-      }
-      const auto& q = kEven[base];
-      const Vec3& o = verts[q[0]].w;
-      const double vol =
-          (verts[q[1]].w - o).dot((verts[q[2]].w - o).cross(verts[q[3]].w - o));
+      // orientation(): from the best vertex. From vertex 0 a needle (a segment through a 5e-9 m
+      // flat box: three vertices at the far end of a 1.77 m tetrahedron) got the wrong sign, an
+      // inward face and a "degenerate" EPA: fuzz/regressions/core/epa-needle-tetrahedron-volume-
+      // sign. (crossAccurate() there cost 190 ns per EPA run on box pairs.)
+      const double vol = orientation(verts[0].w, verts[1].w, verts[2].w, verts[3].w);
       if (vol == 0.0 || !std::isfinite(vol)) {
         nv = 3;  // a flat tetrahedron: redo the lift from its first face
         continue;

@@ -221,6 +221,36 @@ CM_ALWAYS_INLINE Vec3 triangleNormal(const Vec3& s0, const Vec3& s1, const Vec3&
   }
 }
 
+/// True when a tetrahedron's volume mu or a weight C_m (GJK's signed volumes, from vertex 0 and
+/// the origin) is within a rounding bound of 0, where its sign may be wrong: 64 eps M^3, M the
+/// largest |s_m| (the formulas multiply three lengths of at most 2M each).
+inline bool volumesUncertain(const Vec3& s0, const Vec3& s1, const Vec3& s2, const Vec3& s3,
+                             double mu, double C0, double C1, double C2, double C3) {
+  const double m2 = std::max(std::max(s0.squaredNorm(), s1.squaredNorm()),
+                             std::max(s2.squaredNorm(), s3.squaredNorm()));
+  const double bound = 64.0 * std::numeric_limits<double>::epsilon() * m2 * std::sqrt(m2);
+  const double least = std::min(std::min(std::abs(mu), std::abs(C0)),
+                                std::min(std::min(std::abs(C1), std::abs(C2)), std::abs(C3)));
+  return least <= bound;
+}
+
+/// mu and the weights C_m again, each from the vertex of its tetrahedron whose edges are
+/// shortest (orientation()). A needle tetrahedron (two vertices at each end of a 1094 m box
+/// 1e-6 m wide, the origin inside) had weights of the wrong sign from vertex 0 and the origin:
+/// "no progress", a separation for overlapping shapes
+/// (fuzz/regressions/core/gjk-needle-tetrahedron-weights). Out of line: rare.
+__attribute__((noinline, cold)) inline void robustVolumes(const Vec3& s0, const Vec3& s1,
+                                                          const Vec3& s2, const Vec3& s3,
+                                                          double& mu, double& C0, double& C1,
+                                                          double& C2, double& C3) {
+  const Vec3 o = Vec3::Zero();
+  mu = orientation(s0, s1, s2, s3);
+  C0 = orientation(o, s1, s2, s3);
+  C1 = orientation(s0, o, s2, s3);
+  C2 = orientation(s0, s1, o, s3);
+  C3 = orientation(s0, s1, s2, o);
+}
+
 template <int D>
 Closest<D> vertex(const Points<D>& w, int i) {
   Closest<D> c;
@@ -324,10 +354,12 @@ inline Closest<3> s3d(const Points<3>& w, int i0, int i1, int i2, int i3) {
   const Vec3 e1 = s1 - s0;
   const Vec3 e2 = s2 - s0;
   const Vec3 e3 = s3 - s0;
-  const double mu = e1.dot(e2.cross(e3));
+  double mu = e1.dot(e2.cross(e3));
   // Volumes with vertex m replaced by the origin (they sum to mu).
-  const std::array<double, 4> C{s1.dot(s2.cross(s3)), -s0.dot(e2.cross(e3)), -e1.dot(s0.cross(e3)),
-                                -e1.dot(e2.cross(s0))};
+  std::array<double, 4> C{s1.dot(s2.cross(s3)), -s0.dot(e2.cross(e3)), -e1.dot(s0.cross(e3)),
+                          -e1.dot(e2.cross(s0))};
+  if (volumesUncertain(s0, s1, s2, s3, mu, C[0], C[1], C[2], C[3]))
+    robustVolumes(s0, s1, s2, s3, mu, C[0], C[1], C[2], C[3]);
   if (mu != 0.0 && sameSign(mu, C[0]) && sameSign(mu, C[1]) && sameSign(mu, C[2]) &&
       sameSign(mu, C[3])) {
     Closest<3> c;
@@ -575,13 +607,21 @@ inline void offerTetrahedron(const SupportPoint<3>* p, Loop3& best) {
   const Vec3 e2 = s2 - s0;
   const Vec3 e3 = s3 - s0;
   const Vec3 e23 = e2.cross(e3);
-  const double mu = e1.dot(e23);
-  const double C0 = s1.dot(s2.cross(s3));
-  const double C1 = -s0.dot(e23);
-  const double C2 = -e1.dot(s0.cross(e3));
-  const double C3 = -e1.dot(e2.cross(s0));
-  const bool in0 = sameSign(mu, C0), in1 = sameSign(mu, C1), in2 = sameSign(mu, C2);
-  if (mu != 0.0 && in0 && in1 && in2 && sameSign(mu, C3)) {
+  double mu = e1.dot(e23);
+  double C0 = s1.dot(s2.cross(s3));
+  double C1 = -s0.dot(e23);
+  double C2 = -e1.dot(s0.cross(e3));
+  double C3 = -e1.dot(e2.cross(s0));
+  bool in0 = sameSign(mu, C0), in1 = sameSign(mu, C1), in2 = sameSign(mu, C2);
+  bool in3 = sameSign(mu, C3);
+  // The origin outside by a sign that rounding may have flipped: again, from better vertices.
+  if (!(mu != 0.0 && in0 && in1 && in2 && in3) &&
+      detail::volumesUncertain(s0, s1, s2, s3, mu, C0, C1, C2, C3)) {
+    detail::robustVolumes(s0, s1, s2, s3, mu, C0, C1, C2, C3);
+    in0 = sameSign(mu, C0), in1 = sameSign(mu, C1), in2 = sameSign(mu, C2);
+    in3 = sameSign(mu, C3);
+  }
+  if (mu != 0.0 && in0 && in1 && in2 && in3) {
     best.mask = 15u;
     best.lambda[0] = C0 / mu;
     best.lambda[1] = C1 / mu;

@@ -137,5 +137,28 @@ __attribute__((noinline, cold)) inline Vec3 crossAccurate(const Vec3& a, const V
               diff(a.x(), b.y(), a.y(), b.x()));
 }
 
+/// 6 x the signed volume of the tetrahedron (a, b, c, d), (b - a) . ((c - a) x (d - a)), taken
+/// from the vertex whose three edges are shortest: the four choices are even permutations (the
+/// same value in exact arithmetic) and the product of the edge lengths bounds the rounding. From
+/// a far vertex a needle (three vertices 1e-6 m apart at one end, 1.1e3 m away) loses the sign.
+inline double orientation(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+  const Vec3* v[4] = {&a, &b, &c, &d};
+  static constexpr int kEven[4][4] = {{0, 1, 2, 3}, {1, 0, 3, 2}, {2, 3, 0, 1}, {3, 2, 1, 0}};
+  int base = 0;
+  double shortest = std::numeric_limits<double>::infinity();
+  for (int i = 0; i < 4; ++i) {
+    const Vec3& o = *v[kEven[i][0]];
+    const double prod = (*v[kEven[i][1]] - o).squaredNorm() * (*v[kEven[i][2]] - o).squaredNorm() *
+                        (*v[kEven[i][3]] - o).squaredNorm();
+    if (prod < shortest) {
+      shortest = prod;
+      base = i;
+    }
+  }
+  const int* q = kEven[base];
+  const Vec3& o = *v[q[0]];
+  return (*v[q[1]] - o).dot((*v[q[2]] - o).cross(*v[q[3]] - o));
+}
+
 }  // namespace core
 }  // namespace collision_monitor
