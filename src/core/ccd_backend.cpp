@@ -185,13 +185,17 @@ bool finitePoses(const Transform3& pose_a, const Transform3& pose_b) {
 }
 
 /// Pairs libccd is asked about: finite poses (libccd crashes on NaN) and a size (the bounding
-/// radii's sum) of at most 1e9 m. libccd works in a frame scaled to unit size with absolute
-/// epsilons; a box 8e165 m long by a 2.5 m box (fuzz/regressions/core/
-/// libccd-segv-8e165m-box-by-subnormal-box) is a segment in that frame and ccdGJKPenetration
-/// dereferenced a null pointer. No workspace is 1e9 m across; our GJK answers the rest.
+/// radii's sum plus the distance between the shapes' origins) of at most 1e9 m. libccd works in a
+/// frame scaled to unit size with absolute epsilons; a box 8e165 m long by a 2.5 m box
+/// (fuzz/regressions/core/libccd-segv-8e165m-box-by-subnormal-box) is a segment in that frame and
+/// ccdGJKPenetration dereferenced a null pointer; so did a point 3e151 m from a 1e-163 m cylinder
+/// while only the radii were counted
+/// (fuzz/regressions/core/libccd-segv-point-3e151m-from-cylinder). No workspace is 1e9 m across;
+/// our GJK answers the rest.
 bool libccdCanAnswer(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                      const Transform3& pose_b) {
-  return finitePoses(pose_a, pose_b) && a.boundingRadius() + b.boundingRadius() <= 1e9;
+  return finitePoses(pose_a, pose_b) &&
+         a.boundingRadius() + b.boundingRadius() + (pose_b.t - pose_a.t).stableNorm() <= 1e9;
 }
 
 class LibccdNarrowPhase final : public NarrowPhase {

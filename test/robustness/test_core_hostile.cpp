@@ -288,6 +288,24 @@ TEST(CoreHostile, TinyPairsKeepTheirDistance) {
   }
 }
 
+TEST(CoreHostile, LibccdBackendLeavesFarApartPairsToOurGjk) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/libccd-segv-point-3e151m-from-cylinder): a point
+  // 3.0e151 m from a cylinder 1.3e-163 m across. The backend's guard counted the bounding radii
+  // only, libccd got the pair and ccdGJKPenetration dereferenced a null pointer (SIGSEGV). The
+  // guard now counts the distance between the origins too; our GJK answers.
+  const ConvexShape point = ConvexShape::sphere(0.0);
+  const ConvexShape cylinder =
+      ConvexShape::cylinder(1.3075051467559279e-163, 1.3075051467559279e-163);
+  const Transform3 pa =
+      at(1.3075051467559279e-163, 1.6360837194905834e-310, 1.3075051467559279e-163);
+  const Transform3 pb = at(1.3075051467559279e-163, 3.0266778650768771e+151, -0.001484375);
+  const auto libccd = cm::makeNarrowPhase(cm::BackendType::Libccd);
+  const cm::ContactResult r = libccd->signedDistance(point, pa, cylinder, pb, nullptr);
+  EXPECT_EQ(r.status, cm::Status::Separated);
+  EXPECT_NEAR(r.distance / 3.0266778650768771e+151, 1.0, 1e-12);
+  EXPECT_FALSE(libccd->intersect(point, pa, cylinder, pb, nullptr));
+}
+
 TEST(CoreHostile, LibccdEpaEnds) {
   // Bug (found by fuzz_core): a capsule (core: a 3.2 m segment) and a flat box (1.6 x 3 x 0 m),
   // both padded, at the same place 2.8e6 m out: libccd's EPA did not return within 30 s (it has
