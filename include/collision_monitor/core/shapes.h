@@ -426,10 +426,11 @@ class Polytope {
   /// Start table resolution in 3D: a cube map of 6 faces x kCubeGrid x kCubeGrid cells (6 kB
   /// per climbing polytope). Measured on the benchmark's 500-vertex hulls (instructions per
   /// distance query): grid 2 (24 cells, like the earlier 26-direction table) 10,612; 4: 9,607;
-  /// 6: 9,189; 8: 8,921 (8,986 on the late-night code of 2026-11-23); 12: 8,748; 16: 8,607; 24: 8,454. A climb
-  /// from a grid-8 start takes 1.5 steps (9.7 neighbour dot products) on average, from a grid-2
-  /// start 2.8 (18.1). Random directions, cold hint, one climb: 500 vertices 63 -> 50 ns from
-  /// grid 8 to 16, 100 vertices 40 -> 37 ns. 24 would take 13.8 kB for 1.8 % fewer instructions.
+  /// 6: 9,189; 8: 8,921 (8,986 on the late-night code of 2026-11-23); 12: 8,748; 16: 8,607; 24:
+  /// 8,454. A climb from a grid-8 start takes 1.5 steps (9.7 neighbour dot products) on average,
+  /// from a grid-2 start 2.8 (18.1). Random directions, cold hint, one climb: 500 vertices 63 -> 50
+  /// ns from grid 8 to 16, 100 vertices 40 -> 37 ns. 24 would take 13.8 kB for 1.8 % fewer
+  /// instructions.
   static constexpr int kCubeGrid = 16;
 
   /// Cell of direction d for the start table. 3D: the cube-map cell of d (major axis and sign,
