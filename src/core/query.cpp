@@ -239,8 +239,8 @@ auto withPair(const ConvexShape& a, const ConvexShape& b, const PairFrame& frame
   const int hb = cache != nullptr ? cache->hint_b : -1;
   return std::visit(
       [&](const auto& ca, const auto& cb) {
-        if (frame.scale !=
-            1.0) {  // a tiny or huge pair (kTinySize): rare, one instantiation for all
+        // A tiny or huge pair (kTinySize, kHugeSize): rare, one instantiation for all.
+        if (frame.scale != 1.0) {
           const auto& sa = makeSupport(ca, -1);
           const auto& sb = makeSupport(cb, -1);
           const MinkowskiDifference<3, std::decay_t<decltype(sa)>, std::decay_t<decltype(sb)>> md(

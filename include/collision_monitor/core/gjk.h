@@ -555,7 +555,7 @@ CM_ALWAYS_INLINE void offerSegment(const SupportPoint<3>* p, int i0, int i1, Loo
 /// is the normal's. A plate 1094 m long touching an ellipsoid gave triangles with vertices 547 m
 /// out and |v| 1e-7 m: the sum's 5e-14 m of rounding across the plate turned v 7e-8 rad, the
 /// support point went to the plate's wrong end, and GJK stopped on a duplicate 7.3e-7 m from the
-/// contact (fuzz/regressions/core/gjk-needle-triangle-projection-warm). Cheaper, too.
+/// contact (fuzz/regressions/core/gjk-needle-triangle-projection-warm).
 inline void offerTriangle(const SupportPoint<3>* p, int i0, int i1, int i2, Loop3& best) {
   const Vec3& s0 = p[i0].w;
   const Vec3& s1 = p[i1].w;
@@ -616,8 +616,8 @@ inline void offerTetrahedron(const SupportPoint<3>* p, Loop3& best) {
   bool in3 = sameSign(mu, C3);
   // The origin outside by a sign that rounding may have flipped: again, from better vertices.
   if (!(mu != 0.0 && in0 && in1 && in2 && in3) &&
-      detail::volumesUncertain(s0, s1, s2, s3, mu, C0, C1, C2, C3)) {
-    detail::robustVolumes(s0, s1, s2, s3, mu, C0, C1, C2, C3);
+      volumesUncertain(s0, s1, s2, s3, mu, C0, C1, C2, C3)) {
+    robustVolumes(s0, s1, s2, s3, mu, C0, C1, C2, C3);
     in0 = sameSign(mu, C0), in1 = sameSign(mu, C1), in2 = sameSign(mu, C2);
     in3 = sameSign(mu, C3);
   }
