@@ -812,6 +812,17 @@ CM_ALWAYS_INLINE Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* s
   return s.v[0].w;
 }
 
+/// The origin's projection onto the plane of the triangle s.v[0..2], from triangleNormal<true>()
+/// (each component rounded once, from the edges at the largest angle); false when the triangle is
+/// degenerate. The accurate plane of the retries below.
+inline bool planeProjection(const Simplex<3>& s, Vec3& q) {
+  const Vec3 n = triangleNormal<true>(s.v[0].w, s.v[1].w, s.v[2].w);
+  const double nn = n.squaredNorm();
+  if (!(nn > 0.0)) return false;
+  q = n * (s.v[0].w.dot(n) / nn);
+  return true;
+}
+
 /// After a no-progress or duplicate-support exit that the last support point does not certify (its
 /// lower bound v.w/|v| is below the upper bound |v| by more than the tolerance) on a 3D triangle:
 /// v = sum(lambda_i w_i) may have lost its direction by cancellation when |v| << |w_i| (two nearly
@@ -846,11 +857,10 @@ bool retryProjected(const Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
   }
   if constexpr (D == 3) {
     if (s.size != 3 || (retried & kRetriedPlane)) return false;
-    const Vec3 n = triangleNormal<true>(s.v[0].w, s.v[1].w, s.v[2].w);
-    const double nn = n.squaredNorm();
-    if (!(nn > 0.0)) return false;
+    Vec3 q;
+    if (!planeProjection(s, q)) return false;
     retried |= kRetriedPlane;
-    v = n * (s.v[0].w.dot(n) / nn);
+    v = q;
     vv = v.squaredNorm();
     return true;
   } else {
@@ -859,13 +869,14 @@ bool retryProjected(const Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
 }
 
 /// After "no progress" on the triangle just formed (s.size == 3) whose sub-algorithm found the
-/// origin's projection inside it: that projection, from a normal rounded once per component
-/// (crossAccurate()), as the closest point instead of sum(lambda_i w_i), when it is closer than
-/// v. The weights of a sliver lose digits and that sum with them: a 1 m hull and a 6.4e5 m
-/// segment through it gave a triangle whose plane passes 3.1e-7 m from the origin (113-bit
-/// arithmetic) and a sum 1.0e-5 m away, no progress from 1.28e-6 m, and "touching" for shapes
-/// overlapping by 0.43 m (fuzz/regressions/core/gjk-sliver-triangle-no-progress). Reduces `s`,
-/// sets v and vv, returns true; else leaves them.
+/// origin's projection inside it: that projection again, from a normal rounded once per component
+/// (planeProjection()), as the closest point when it is closer than v (sum(lambda_i w_i) until
+/// the late night of 2026-11-23; offerTriangle() now takes the plain product's projection). The
+/// weights of a sliver lose digits and that sum with them: a 1 m hull and a 6.4e5 m segment through
+/// it gave a triangle whose plane passes 3.1e-7 m from the origin (113-bit arithmetic) and a
+/// sum 1.0e-5 m away, no progress from 1.28e-6 m, and "touching" for shapes overlapping by 0.43 m
+/// (fuzz/regressions/core/gjk-sliver-triangle-no-progress). Reduces `s`, sets v and vv, returns
+/// true; else leaves them.
 template <int D>
 bool progressOnPlane(Simplex<D>& s, Vec<D>& v, double& vv) {
   if constexpr (D == 3) {
@@ -873,10 +884,8 @@ bool progressOnPlane(Simplex<D>& s, Vec<D>& v, double& vv) {
     Loop3 c;
     offerTriangle(s.v.data(), 0, 1, 2, c);
     if (c.mask != 7u) return false;
-    const Vec3 n = triangleNormal<true>(s.v[0].w, s.v[1].w, s.v[2].w);
-    const double nn = n.squaredNorm();
-    if (!(nn > 0.0)) return false;
-    const Vec3 q = n * (s.v[0].w.dot(n) / nn);
+    Vec3 q;
+    if (!planeProjection(s, q)) return false;
     const double qq = q.squaredNorm();
     if (!(qq < vv)) return false;
     compact(s, c);
