@@ -286,9 +286,22 @@ const Simplex<3>* seedFromCache(const MD& md, const PairCache* cache, Simplex<3>
   return &seed;
 }
 
+/// `seed_kept` (GjkResult::seed_kept): nonzero when `s` is the seed reduced to those vertices;
+/// the cached points are then reduced alike, with no mapping back (and no rounding added).
 template <class MD>
-void storeCache(const MD& md, const Simplex<3>& s, PairCache* cache) {
+void storeCache(const MD& md, const Simplex<3>& s, unsigned seed_kept, PairCache* cache) {
   if (cache == nullptr) return;
+  if (seed_kept != 0) {
+    int n = 0;
+    for (int i = 0; i < cache->size; ++i) {
+      if (((seed_kept >> i) & 1u) == 0) continue;
+      cache->local_a[n] = cache->local_a[i];
+      cache->local_b[n] = cache->local_b[i];
+      ++n;
+    }
+    cache->size = n;
+    return;
+  }
   cache->size = s.size;
   for (int i = 0; i < s.size; ++i) {
     cache->local_a[i] = md.toLocalA(s.v[i].a);
@@ -348,7 +361,7 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   Simplex<3> seed;
   const GjkSettings gs = gjkSettings(f, o);
   const GjkResult<3> g = gjkDistance(md, gs, seedFromCache(md, cache, seed));
-  storeCache(md, g.simplex, cache);
+  storeCache(md, g.simplex, g.seed_kept, cache);
   r.gjk_iterations = g.iterations;
   if (g.status != GjkStatus::Intersecting) {
     // g.distance = |g.v| > abs_tolerance >= 0 here; unitOr() only where |v|^2 may have lost
@@ -404,7 +417,7 @@ bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape
     const Simplex<3>* seed = seedFromCache(md, cache, s);
     if (seed == nullptr) s.size = 0;
     const bool hit = gjkIntersect(md, margin, gjkSettings(f, options), &s);
-    storeCache(md, s, cache);
+    storeCache(md, s, 0, cache);
     return hit;
   });
 }

@@ -240,6 +240,54 @@ TEST(GjkHighD, HypercubeToPoint5D) {
   EXPECT_EQ(cm::gjkDistance(in, settings(4)).status, cm::GjkStatus::Intersecting);
 }
 
+TEST(GjkSeed, SeedKeptNamesTheSeedVerticesOfTheTerminalSimplex) {
+  // Box [-1, 1]^3 minus the point (3, 0.5, 0.2): the distance is 2 along x, realised by the
+  // face x = 1 of the difference (w = box vertex - point). Seeds are points of A - B.
+  using Box3 = cm::BoxShape<3>;
+  using Pt3 = cm::PointShape<3>;
+  const Box3 cube{cm::Vec3::Ones()};
+  const Pt3 p{cm::Vec3(3, 0.5, 0.2)};
+  const cm::MinkowskiDifference<3, Box3, Pt3> md(cube, p, shift<3>(cm::Vec3::Zero()));
+  const auto corner = [&](double y, double z) {
+    cm::SupportPoint<3> q;
+    q.a = cm::Vec3(1, y, z);
+    q.b = p.p;
+    q.w = q.a - q.b;
+    return q;
+  };
+  cm::Simplex<3> seed;
+  // The face's triangle (the origin projects into it) plus a vertex on the far side: GJK keeps
+  // vertices 1, 2, 3, certifies with one support point and adds none.
+  seed.size = 4;
+  seed.v[0].a = cm::Vec3(-1, -1, -1);
+  seed.v[0].b = p.p;
+  seed.v[0].w = seed.v[0].a - seed.v[0].b;
+  seed.v[1] = corner(1, 1);
+  seed.v[2] = corner(-1, 1);
+  seed.v[3] = corner(0, -1);
+  const auto r = cm::gjkDistance(md, settings(5), &seed);
+  EXPECT_EQ(r.status, cm::GjkStatus::Separated);
+  EXPECT_NEAR(r.distance, 2.0, 1e-12);
+  EXPECT_EQ(r.iterations, 1);
+  EXPECT_EQ(r.seed_kept, 0b1110u);
+  ASSERT_EQ(r.simplex.size, 3);
+  for (int k = 0; k < 3; ++k)
+    EXPECT_EQ(r.simplex.v[k].w, seed.v[k + 1].w) << "k = " << k;
+
+  // A seed segment on the face's edge y = -1 is not the closest feature: GJK adds support points.
+  cm::Simplex<3> edge;
+  edge.size = 2;
+  edge.v[0] = corner(-1, -1);
+  edge.v[1] = corner(-1, 1);
+  const auto grown = cm::gjkDistance(md, settings(5), &edge);
+  EXPECT_NEAR(grown.distance, 2.0, 1e-12);
+  EXPECT_GE(grown.iterations, 2);
+  EXPECT_EQ(grown.seed_kept, 0u);
+
+  // No seed: nothing to name.
+  EXPECT_EQ(cm::gjkDistance(md, settings(5)).seed_kept, 0u);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Simplex sub-algorithms
 // ---------------------------------------------------------------------------------------------

@@ -125,6 +125,26 @@ TEST(WarmStart, SamePoseAgainNeedsAtMostOneIteration) {
   }
 }
 
+TEST(WarmStart, SamePoseAgainKeepsTheCachedPointsBitForBit) {
+  // The seed settles the query (no support point added): the cache keeps its local points as they
+  // were, instead of points mapped into A's frame and back (each round trip rounds).
+  for (const Scenario& s : scenarios()) {
+    SCOPED_TRACE(s.name);
+    PairCache cache;
+    cm::distance(s.a, s.pa, s.b, s.pb, &cache);
+    const PairCache before = cache;
+    for (int again = 0; again < 3; ++again) {
+      const ContactResult r = cm::distance(s.a, s.pa, s.b, s.pb, &cache);
+      EXPECT_LE(r.gjk_iterations, 1);
+      ASSERT_EQ(cache.size, before.size);
+      for (int i = 0; i < cache.size; ++i) {
+        EXPECT_EQ(cache.local_a[i], before.local_a[i]) << "i = " << i;
+        EXPECT_EQ(cache.local_b[i], before.local_b[i]) << "i = " << i;
+      }
+    }
+  }
+}
+
 TEST(WarmStart, DistanceAndIntersectUseTheCacheToo) {
   for (const Scenario& s : scenarios()) {
     SCOPED_TRACE(s.name);

@@ -678,8 +678,10 @@ CM_ALWAYS_INLINE bool closestOfSeed(const Simplex<3>& s, Loop3& best) {
       offerSegment(p, 0, 1, best);
       break;
     case 3:
-      offerTriangle(p, 0, 1, 2, best);  // the face and the edges through vertex 2
-      offerSegment(p, 0, 1, best);      // the edge offerTriangle() leaves out
+      offerTriangle(p, 0, 1, 2, best);  // the face, else the edges through vertex 2
+      // The edge offerTriangle() leaves out, unless the origin projects into the face: that
+      // projection is then the triangle's closest point.
+      if (best.mask != 7u) offerSegment(p, 0, 1, best);
       break;
     default:
       offerTetrahedron(p, best);
@@ -771,6 +773,11 @@ struct GjkResult {
   Vec<D> point_b = Vec<D>::Zero();  ///< witness point on B, A's frame
   Simplex<D> simplex;               ///< terminal simplex (input of EPA; the warm-start cache)
   int iterations = 0;               ///< support evaluations in the main loop
+  /// Nonzero when `simplex` is the seed's simplex reduced to the vertices of these bits (bit i:
+  /// seed vertex i), in their order, no support point added: a caller that keeps the seed in
+  /// another form (a warm-start cache's local points) can reduce that instead of mapping the
+  /// simplex back.
+  unsigned seed_kept = 0;
 };
 
 namespace detail {
@@ -790,17 +797,23 @@ struct StartsInside<MD, std::void_t<decltype(MD::kHasInterior)>>
 /// starts from a support point instead.
 template <class MD>
 CM_ALWAYS_INLINE Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* seed,
-                                        Simplex<MD::kDim>& s, double tol2) {
+                                        Simplex<MD::kDim>& s, double tol2, unsigned& seed_kept) {
   constexpr int D = MD::kDim;
+  seed_kept = 0;
   if (seed != nullptr && seed->size > 0 && seed->size <= D + 1) {
     s = *seed;
     if constexpr (D == 3) {
       if (Loop3 c; closestOfSeed(s, c)) {
         compact(s, c);
+        seed_kept = c.mask;
         return c.v;
       }
     }
-    return solveSimplex<D>(s);
+    const Closest<D> c = closestOf(s);
+    compact(s, c);
+    for (int k = 0; k < c.n; ++k)
+      seed_kept |= 1u << c.idx[k];
+    return c.v;
   }
   s.size = 1;
   s.bary[0] = 1.0;
@@ -934,6 +947,7 @@ __attribute__((noinline, cold)) GjkResult<MD::kDim> restartFrom(const MD& md, co
   left.max_iterations = st.max_iterations - r.iterations;
   GjkResult<MD::kDim> again = gjkDistance(md, left, &seed, restarts);
   again.iterations += r.iterations;
+  again.seed_kept = 0;  // its seed was w, not the caller's
   if (again.distance < r.distance) return again;
   GjkResult<MD::kDim> best = r;
   best.iterations = again.iterations;
@@ -956,7 +970,7 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st, const Simpl
   Simplex<D>& s = r.simplex;
   const double tol = st.abs_tolerance;
   const double tol2 = tol * tol;
-  Vec<D> v = detail::gjkStart(md, seed, s, tol2);
+  Vec<D> v = detail::gjkStart(md, seed, s, tol2, r.seed_kept);
   double vv = v.squaredNorm();
   int it = 0;
   int retried = 0;
@@ -985,6 +999,7 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st, const Simpl
       break;
     }
     ++s.size;
+    r.seed_kept = 0;
     if (!detail::progress(s, v, vv)) {  // no progress (rounding): keep the better simplex, stop
       if (detail::progressOnPlane(s, v, vv)) continue;
       --s.size;
@@ -1018,7 +1033,8 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
   Simplex<D> s;
   const double tol = st.abs_tolerance;
   const double reach = margin + tol;
-  Vec<D> v = detail::gjkStart(md, simplex, s, tol * tol);
+  unsigned seed_kept;
+  Vec<D> v = detail::gjkStart(md, simplex, s, tol * tol, seed_kept);
   double vv = v.squaredNorm();
   int it = 0;
   int retried = 0;
