@@ -589,11 +589,12 @@ TEST(Polytope, ScanIndexFirstMaximumOnTies) {
 }
 
 #if defined(CM_HAVE_AVX2_SCAN) && !defined(__SANITIZE_ADDRESS__)  // as query.cpp
-/// GJK on BasicPolytopePairDifference<true> compiled as query.cpp compiles it.
+/// GJK on BasicPolytopePairDifference<true, kMapB> compiled as query.cpp compiles it.
+template <bool kMapB>
 __attribute__((target("avx2"), flatten)) cm::GjkResult<3> gjkDistanceAvx2(
     const cm::Polytope<3>& a, const cm::Polytope<3>& b, const cm::Transform3& T,
     const cm::GjkSettings& st) {
-  return cm::gjkDistance(cm::BasicPolytopePairDifference<true>(a, b, T), st);
+  return cm::gjkDistance(cm::BasicPolytopePairDifference<true, kMapB>(a, b, T), st);
 }
 #endif
 
@@ -602,6 +603,7 @@ TEST(PolytopePair, SupportAndTransformMatchTheGenericDifference) {
   // points must be the generic MinkowskiDifference's, bit for bit: B's vertices come out as
   // mulAdd() gives them, and each scan picks the first maximum. Both vector widths are checked
   // (the two-lane one is what a CPU without AVX2 runs), and GJK on both differences must agree.
+  // Unmapped (kMapB = false, B scanned in its own frame): the generic difference's arithmetic.
   std::mt19937_64 rng(23);
   std::normal_distribution<double> g(0.0, 1.0);
   for (int na : {4, 12, 30}) {
@@ -617,7 +619,10 @@ TEST(PolytopePair, SupportAndTransformMatchTheGenericDifference) {
       const cm::Transform3 T = cm::makeTransform(Eigen::Quaterniond(g(rng), g(rng), g(rng), g(rng)),
                                                  Vec3(g(rng), g(rng), g(rng)));
       const cm::PolytopePairDifference pair(*a, *b, T);
+      const cm::BasicPolytopePairDifference<false, false> unmapped(*a, *b, T);
       const cm::MinkowskiDifference<3, cm::Polytope<3>, cm::Polytope<3>> generic(*a, *b, T);
+      // Where the generic difference scans B too (no climbing), the same vertex.
+      const bool b_scans = b->usesLinearScan();
 
       // B in A's frame with both widths, against mulAdd() per vertex.
       const int np = b->paddedSize();
@@ -642,8 +647,9 @@ TEST(PolytopePair, SupportAndTransformMatchTheGenericDifference) {
       for (int k = 0; k < 200; ++k) {
         const Vec3 d = k == 0 ? Vec3(0.0, 0.0, 0.0) : randomUnit(rng);
         const double dd[3] = {d.x(), d.y(), d.z()};
+        const double nd[3] = {-d.x(), -d.y(), -d.z()};
         const auto i2 = cm::detail::scanPairBlocks<3, cm::detail::V2d>(
-            a->scanData(), a->paddedSize(), two.data(), np, dd);
+            a->scanData(), a->paddedSize(), two.data(), np, dd, nd);
         const cm::SupportPoint<3> s = pair.support(d);
         EXPECT_EQ(s.a, a->vertices()[i2[0]]);
         EXPECT_EQ(s.b, Vec3(two[i2[1]], two[np + i2[1]], two[2 * np + i2[1]]));
@@ -653,6 +659,14 @@ TEST(PolytopePair, SupportAndTransformMatchTheGenericDifference) {
         const cm::SupportPoint<3> r = generic.support(d);
         EXPECT_EQ(s.a, r.a);
         EXPECT_NEAR(d.dot(s.b), d.dot(r.b), 1e-14) << "direction " << k;
+        const cm::SupportPoint<3> u = unmapped.support(d);
+        EXPECT_EQ(u.a, r.a);
+        EXPECT_EQ(u.w, u.a - u.b);
+        if (b_scans) {
+          EXPECT_EQ(u.b, r.b) << "direction " << k;
+        } else {
+          EXPECT_NEAR(d.dot(u.b), d.dot(r.b), 1e-14) << "direction " << k;
+        }
       }
 
       cm::GjkSettings st;
@@ -661,15 +675,26 @@ TEST(PolytopePair, SupportAndTransformMatchTheGenericDifference) {
       const auto gg = cm::gjkDistance(generic, st);
       EXPECT_EQ(gp.status, gg.status) << na << " x " << nb;
       EXPECT_NEAR(gp.distance, gg.distance, 1e-12) << na << " x " << nb;
+      const auto gu = cm::gjkDistance(unmapped, st);
+      EXPECT_EQ(gu.status, gg.status) << na << " x " << nb;
+      EXPECT_NEAR(gu.distance, gg.distance, 1e-12) << na << " x " << nb;
+      if (b_scans) {
+        EXPECT_EQ(gu.point_b, gg.point_b) << na << " x " << nb;
+      }
 #if defined(CM_HAVE_AVX2_SCAN) && !defined(__SANITIZE_ADDRESS__)
       // The AVX2-compiled query (four lanes inlined, VEX code, no FMA) gives the same bits.
       if (cm::detail::cpuHasAvx2()) {
-        const auto g4 = gjkDistanceAvx2(*a, *b, T, st);
+        const auto g4 = gjkDistanceAvx2<true>(*a, *b, T, st);
         EXPECT_EQ(g4.status, gp.status);
         EXPECT_EQ(g4.iterations, gp.iterations);
         EXPECT_EQ(g4.distance, gp.distance);
         EXPECT_EQ(g4.point_a, gp.point_a);
         EXPECT_EQ(g4.point_b, gp.point_b);
+        const auto u4 = gjkDistanceAvx2<false>(*a, *b, T, st);
+        EXPECT_EQ(u4.iterations, gu.iterations);
+        EXPECT_EQ(u4.distance, gu.distance);
+        EXPECT_EQ(u4.point_a, gu.point_a);
+        EXPECT_EQ(u4.point_b, gu.point_b);
       }
 #endif
     }

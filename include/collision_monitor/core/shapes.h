@@ -115,17 +115,15 @@ CM_ALWAYS_INLINE int scanBlocks(const double* c, int np, const double* d) {
   return static_cast<int>(idx[0]);
 }
 
-/// Both scans of one Minkowski support point of A - B, with B already in A's frame: the first
-/// maximum of dot(d, x) over block `ca` and of dot(-d, x) over block `cb` (scanBlocks each).
+/// Both scans of one Minkowski support point of A - B: the first maximum of dot(d, x) over block
+/// `ca` and of dot(db, x) over block `cb` (scanBlocks each; db = -d when B is in A's frame, else
+/// -d rotated into B's frame).
 template <int D, class V>
 CM_ALWAYS_INLINE std::array<int, 2> scanPairBlocks(const double* ca, int npa, const double* cb,
-                                                   int npb, const double* d) {
-  double nd[D];
-  for (int k = 0; k < D; ++k)
-    nd[k] = -d[k];
+                                                   int npb, const double* d, const double* db) {
   V ba, ia, bb, ib;
   scanLanes<D, V>(ca, npa, d, ba, ia);
-  scanLanes<D, V>(cb, npb, nd, bb, ib);
+  scanLanes<D, V>(cb, npb, db, bb, ib);
   // Both lane reductions at once: A's lanes in the low half, B's in the high half.
   if constexpr (sizeof(V) == 4 * sizeof(double)) {
     V b = __builtin_shufflevector(ba, bb, 0, 1, 4, 5),
@@ -184,8 +182,9 @@ __attribute__((target("avx2"), noinline)) int scanIndexAvx2(const double* c, int
 template <int D>
 __attribute__((target("avx2"), noinline)) std::array<int, 2> scanPairAvx2(const double* ca, int npa,
                                                                           const double* cb, int npb,
-                                                                          const double* d) {
-  return scanPairBlocks<D, V4d>(ca, npa, cb, npb, d);
+                                                                          const double* d,
+                                                                          const double* db) {
+  return scanPairBlocks<D, V4d>(ca, npa, cb, npb, d, db);
 }
 template <int D>
 __attribute__((target("avx2"), noinline)) void transformAvx2(const double* c, int np,
