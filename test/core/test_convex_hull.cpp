@@ -573,7 +573,14 @@ TEST(Polytope, ScanIndexFirstMaximumOnTies) {
   // Both lane reductions of the scan (folded in vector registers, or scalar) must return the
   // first maximum when several vertices tie, in whichever lanes they sit (and whatever the pad
   // slots, copies of vertex 0, hold). Vertices i >= first with odd i - first lie on x = 1.
-  for (int n = 2; n <= 13; ++n) {
+  // From 48 vertices the four-lane scan keeps two maxima (even and odd blocks of four): ties
+  // across them, and an odd number of blocks, too.
+  std::vector<int> sizes;
+  for (int n = 2; n <= 13; ++n)
+    sizes.push_back(n);
+  for (int n : {44, 47, 48, 49, 52, 56, 100, 121})
+    sizes.push_back(n);
+  for (const int n : sizes) {
     for (int first = 0; first < n; ++first) {
       std::vector<Vec3> vs;
       for (int i = 0; i < n; ++i) {

@@ -37,11 +37,18 @@ CM_ALWAYS_INLINE void foldLanes(V& b, V& i, const V& ob, const V& oi) {
 }
 
 /// The block loop of scanBlocks: per lane of one vector, the first maximum (`best`) and its
-/// vertex index as a double (`idx`; exact below 2^53).
+/// vertex index as a double (`idx`; exact below 2^53). From kTwoChainsFrom vertices, four-lane
+/// vectors keep two independent maxima (even and odd blocks of four vertices), folded at the end:
+/// with one, every block's compare waits for the previous block's (hull100: 25 blocks in one
+/// chain per scan). Measured, ns per query, one / two chains: hull100 distance 680 / 611,
+/// intersect 260 / 238, warm 161 / 151; hull32 the same either way; hull12 distance 254 / 270.
 template <int D, class V>
 CM_ALWAYS_INLINE void scanLanes(const double* c, int np, const double* d, V& best_out, V& idx_out) {
   constexpr int kW = sizeof(V) / sizeof(double);  // lanes per vector
   constexpr int kN = 4 / kW;                      // vectors per block of four vertices
+  constexpr int kU = kN == 1 ? 2 : 1;             // blocks per step
+  constexpr int kA = kN * kU;                     // independent maxima, kW lanes each
+  constexpr int kTwoChainsFrom = 48;              // vertices (padded)
   // Whole-vector initialisation (lane-by-lane stores draw GCC's -Wmaybe-uninitialized).
   const V zero = {};
   V lane = zero;  // 0, 1, ..., kW - 1
@@ -50,15 +57,16 @@ CM_ALWAYS_INLINE void scanLanes(const double* c, int np, const double* d, V& bes
   } else {
     lane = V{0.0, 1.0, 2.0, 3.0};
   }
-  V dd[D], best[kN], idx[kN], at[kN];
+  V dd[D], best[kA], idx[kA], at[kA];
   for (int k = 0; k < D; ++k)
     dd[k] = zero + d[k];
-  for (int j = 0; j < kN; ++j) {
+  for (int j = 0; j < kA; ++j) {
     best[j] = zero - std::numeric_limits<double>::infinity();
     at[j] = idx[j] = lane + static_cast<double>(j * kW);
   }
-  for (int i = 0; i < np; i += 4) {
-    for (int j = 0; j < kN; ++j) {
+  // Vector j of a step holds vertices i + j kW ...; at[j] holds their indices.
+  const auto step = [&](int i, int vectors, int advance) {
+    for (int j = 0; j < vectors; ++j) {
       V x, y;
       __builtin_memcpy(&x, c + i + j * kW, sizeof(V));
       x *= dd[0];
@@ -69,8 +77,20 @@ CM_ALWAYS_INLINE void scanLanes(const double* c, int np, const double* d, V& bes
       const auto gt = x > best[j];
       best[j] = gt ? x : best[j];
       idx[j] = gt ? at[j] : idx[j];
-      at[j] += 4.0;
+      at[j] += static_cast<double>(advance);
     }
+  };
+  int i = 0;
+  if (kU == 1 || np < kTwoChainsFrom) {
+    for (; i < np; i += 4)
+      step(i, kN, 4);
+  } else {
+    for (; i + 4 * kU <= np; i += 4 * kU)
+      step(i, kA, 4 * kU);
+    if (i < np) step(i, kN, 4);  // the last block of four: at[j] = i + j kW + lane
+    // The larger value, on a tie the smaller index: the first maximum over all blocks.
+    for (int j = kN; j < kA; ++j)
+      foldLanes(best[j % kN], idx[j % kN], best[j], idx[j]);
   }
   for (int j = 1; j < kN; ++j)
     foldLanes(best[0], idx[0], best[j], idx[j]);
