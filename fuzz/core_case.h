@@ -664,8 +664,7 @@ inline Outcome runCase(const std::uint8_t* data, std::size_t len) {
   // stableNorm(): norm() squares, and below about 1e-154 m the squares underflow (a 1.8e-163 m
   // offset had a size of 0, a tolerance of 1e-300 and an exact normal "failing" by 3e-179 m:
   // fuzz/regressions/core/oracle-size-underflow-1.8e-163m-offset).
-  const double size =
-      A.boundingRadius() + B.boundingRadius() + (b.pose.t - a.pose.t).stableNorm();
+  const double size = A.boundingRadius() + B.boundingRadius() + (b.pose.t - a.pose.t).stableNorm();
   const double far = std::max(a.pose.t.stableNorm(), b.pose.t.stableNorm());
   // An unconverged estimate (curved cores only) is checked to kLooseTolerance of the size.
   const double rel = out.unconverged ? kLooseTolerance : 1e-9;
