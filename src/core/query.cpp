@@ -422,8 +422,9 @@ bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape
     Simplex<3> s;
     const Simplex<3>* seed = seedFromCache(md, cache, s);
     if (seed == nullptr) s.size = 0;
-    const bool hit = gjkIntersect(md, margin, gjkSettings(f, options), &s);
-    storeCache(md, s, 0, cache);
+    unsigned kept = 0;
+    const bool hit = gjkIntersect(md, margin, gjkSettings(f, options), &s, nullptr, &kept);
+    storeCache(md, s, kept, cache);
     return hit;
   });
 }

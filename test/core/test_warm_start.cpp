@@ -133,9 +133,13 @@ TEST(WarmStart, SamePoseAgainKeepsTheCachedPointsBitForBit) {
     PairCache cache;
     cm::distance(s.a, s.pa, s.b, s.pb, &cache);
     const PairCache before = cache;
-    for (int again = 0; again < 3; ++again) {
-      const ContactResult r = cm::distance(s.a, s.pa, s.b, s.pb, &cache);
-      EXPECT_LE(r.gjk_iterations, 1);
+    for (int again = 0; again < 4; ++again) {
+      if (again % 2 == 0) {
+        const ContactResult r = cm::distance(s.a, s.pa, s.b, s.pb, &cache);
+        EXPECT_LE(r.gjk_iterations, 1);
+      } else {
+        cm::intersect(s.a, s.pa, s.b, s.pb, &cache);
+      }
       ASSERT_EQ(cache.size, before.size);
       for (int i = 0; i < cache.size; ++i) {
         EXPECT_EQ(cache.local_a[i], before.local_a[i]) << "i = " << i;

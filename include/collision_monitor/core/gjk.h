@@ -1026,15 +1026,17 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st, const Simpl
 /// or the simplex encloses the origin. When the iteration bound is hit undecided the answer is
 /// true (conservative for a collision monitor). `simplex` (optional, in/out): warm-start seed
 /// on input (size 0 = cold), terminal simplex on output. `iterations` (optional, out).
+/// `seed_kept` (optional, out): as GjkResult::seed_kept.
 template <class MD>
 bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
-                  Simplex<MD::kDim>* simplex = nullptr, int* iterations = nullptr) {
+                  Simplex<MD::kDim>* simplex = nullptr, int* iterations = nullptr,
+                  unsigned* seed_kept = nullptr) {
   constexpr int D = MD::kDim;
   Simplex<D> s;
   const double tol = st.abs_tolerance;
   const double reach = margin + tol;
-  unsigned seed_kept;
-  Vec<D> v = detail::gjkStart(md, simplex, s, tol * tol, seed_kept);
+  unsigned kept = 0;
+  Vec<D> v = detail::gjkStart(md, simplex, s, tol * tol, kept);
   double vv = v.squaredNorm();
   int it = 0;
   int retried = 0;
@@ -1064,6 +1066,7 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
       break;
     }
     ++s.size;
+    kept = 0;
     if (!detail::progress(s, v, vv)) {
       if (detail::progressOnPlane(s, v, vv)) continue;
       --s.size;
@@ -1074,6 +1077,7 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
   }
   if (simplex != nullptr) *simplex = s;
   if (iterations != nullptr) *iterations = it;
+  if (seed_kept != nullptr) *seed_kept = kept;
   return result;
 }
 

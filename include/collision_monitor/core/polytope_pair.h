@@ -21,9 +21,9 @@ namespace core {
 /// same, only slower.
 /// `kMapB`: true, B's vertices are mapped into A's frame at construction and a support point is
 /// both scans with no rotation; false, B is scanned in its own frame, the direction rotated into
-/// it and B's support point mapped back per call, as MinkowskiDifference does (bit for bit its
-/// support points). Mapping costs about two scans of B, which a large B with few support calls
-/// does not win back: see kMapMax.
+/// it and B's support point mapped back per call, with MinkowskiDifference's arithmetic (its
+/// support points bit for bit where it scans B too). Mapping costs about two scans of B, which a
+/// large B with few support calls does not win back: see kMapMax.
 template <bool kAvx2, bool kMapB = true>
 class BasicPolytopePairDifference : public MinkowskiDifference<3, Polytope<3>, Polytope<3>> {
   using Base = MinkowskiDifference<3, Polytope<3>, Polytope<3>>;
@@ -37,9 +37,10 @@ class BasicPolytopePairDifference : public MinkowskiDifference<3, Polytope<3>, P
   /// Without AVX2 the limit is Polytope::kLinearScanMax, where climbing starts anyway.
   static constexpr int kMaxVerticesAvx2 = 120;
   /// Most vertices of B worth mapping (kMapB = true; query.cpp picks the instantiation).
-  /// Measured on AVX2, ns per query, mapped / B in its own frame: 12 vertices distance 253 / 266,
-  /// intersect 134 / 148; 32: 365 / 378, 161 / 174; 100: distance 667 / 671, intersect 276 / 260,
-  /// warm 177 / 153. Without AVX2 B has at most Polytope::kLinearScanMax vertices here.
+  /// Measured on AVX2 (one-chain scans), ns per query, mapped / B in its own frame: 12 vertices
+  /// distance 253 / 266, intersect 134 / 148; 32: 365 / 378, 161 / 174; 100: distance 667 / 671,
+  /// intersect 276 / 260, warm 177 / 153. Without AVX2 B has at most Polytope::kLinearScanMax
+  /// vertices here.
   static constexpr int kMapMax = 64;
   /// Largest padded vertex count of B.
   static constexpr int kMaxPadded = (kMaxVerticesAvx2 + 3) / 4 * 4;
