@@ -333,10 +333,35 @@ void collectTriangles(Qhull& q, const std::vector<Vec3>& pts,
   }
 }
 
-}  // namespace
+/// Coordinates outside [kTinyCoordinate, kHugeCoordinate] (largest magnitude) are scaled by a
+/// power of two to about 1 before the hull is built: lengths are squared above (norm()) and
+/// qhull's determinants are cubes, which underflow or overflow there (a cube 1.7e-273 m across
+/// came out as a single point, its extent's square being 0:
+/// fuzz/regressions/core/hull-1e-273m-cube-collapsed-to-a-point).
+constexpr double kTinyCoordinate = 1e-50;
+constexpr double kHugeCoordinate = 1e50;
 
-std::shared_ptr<const Polytope<3>> buildConvexHull(const std::vector<Vec3>& points) {
-  validate(points, "buildConvexHull");
+/// The power of two 2^e that brings `points` to about unit size, or 1 (e = 0) when they are
+/// within [kTinyCoordinate, kHugeCoordinate] (or all 0).
+int unitScaleExponent(const std::vector<Vec3>& points) {
+  double max_abs = 0.0;
+  for (const Vec3& p : points)
+    max_abs = std::max(max_abs, p.cwiseAbs().maxCoeff());
+  if (!(max_abs > 0.0) || (max_abs >= kTinyCoordinate && max_abs <= kHugeCoordinate)) return 0;
+  return -std::ilogb(max_abs);
+}
+
+/// `points` times 2^e (exact: a power of two; e from unitScaleExponent(), no overflow).
+std::vector<Vec3> scaled(const std::vector<Vec3>& points, int e) {
+  std::vector<Vec3> out(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (int k = 0; k < 3; ++k)
+      out[i][k] = std::ldexp(points[i][k], e);
+  }
+  return out;
+}
+
+std::shared_ptr<const Polytope<3>> buildUnitHull(const std::vector<Vec3>& points) {
   const Frame f = analyse(points);
   if (f.dim < 3) return makeLowDim(points, f);
   std::string why;
@@ -354,8 +379,22 @@ std::shared_ptr<const Polytope<3>> buildConvexHull(const std::vector<Vec3>& poin
   return makePolygon(points, flat);
 }
 
+}  // namespace
+
+std::shared_ptr<const Polytope<3>> buildConvexHull(const std::vector<Vec3>& points) {
+  validate(points, "buildConvexHull");
+  const int e = unitScaleExponent(points);
+  if (e == 0) return buildUnitHull(points);
+  // The hull of the scaled points, its vertices scaled back: each is an input point times 2^e
+  // times 2^-e, the input point again exactly (also a subnormal one: its bits fit either way).
+  const auto unit = buildUnitHull(scaled(points, e));
+  return std::make_shared<const Polytope<3>>(scaled(unit->vertices(), -e), unit->adjacencyOffsets(),
+                                             unit->adjacency());
+}
+
 std::vector<std::array<int, 3>> hullTriangles(const Polytope<3>& poly) {
-  const std::vector<Vec3>& pts = poly.vertices();
+  // Indices only: computed on the vertices at about unit size (unitScaleExponent()).
+  const std::vector<Vec3> pts = scaled(poly.vertices(), unitScaleExponent(poly.vertices()));
   std::vector<std::array<int, 3>> tris;
   if (pts.size() < 4) return tris;
   if (analyse(pts).dim < 3) return tris;
@@ -373,6 +412,13 @@ std::vector<std::array<int, 3>> hullTriangles(const Polytope<3>& poly) {
 
 std::vector<HullPlane> hullPlanes(const std::vector<Vec3>& points) {
   validate(points, "hullPlanes");
+  if (const int e = unitScaleExponent(points); e != 0) {
+    // The planes of the points at about unit size (unitScaleExponent()), offsets scaled back.
+    std::vector<HullPlane> planes = hullPlanes(scaled(points, e));
+    for (HullPlane& h : planes)
+      h.offset = std::ldexp(h.offset, -e);
+    return planes;
+  }
   const Frame f = analyse(points);
   std::vector<HullPlane> planes;
   if (f.dim == 3) {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -16,6 +17,7 @@
 
 #include "collision_monitor/core/convex_hull.h"
 #include "collision_monitor/core/polytope_pair.h"
+#include "collision_monitor/core/query.h"
 #include "oracle.h"
 
 namespace cm = collision_monitor::core;
@@ -123,6 +125,54 @@ TEST(ConvexHull, HillClimbingSupportEqualsLinearScanOn500VertexHull) {
     EXPECT_EQ(poly->vertices()[poly->supportIndex(d, cold)].dot(d), best) << "direction " << k;
     EXPECT_EQ(poly->support(d, warm).dot(d), best) << "warm, direction " << k;
   }
+}
+
+TEST(ConvexHull, TinyAndHugeCubesKeepTheirCornersAndEdges) {
+  // Hulls are built at about unit size and scaled back by a power of two: a cube 1.7e-273 m
+  // across was a single point (its extent's square underflowed). Corners come back bit for bit,
+  // subnormal ones too; the edges are the cube's twelve; planes and triangles too.
+  for (const double h : {8.7350880895638318e-274, 1e-300, 3e-310, 1e-60, 1e60, 1e200, 1e300}) {
+    SCOPED_TRACE(h);
+    std::vector<Vec3> pts = cubeCorners(h, Vec3(0.5 * h, 0.0, 0.0));
+    for (int i = 0; i < 20; ++i)  // interior points
+      pts.push_back(Vec3(0.5 * h + 0.01 * i * h, 0.02 * i * h, -0.03 * i * h));
+    const auto poly = cm::buildConvexHull(pts);
+    ASSERT_EQ(poly->size(), 8);
+    std::set<std::array<double, 3>> want, got;
+    for (int i = 0; i < 8; ++i) {
+      want.insert({pts[i].x(), pts[i].y(), pts[i].z()});
+      const Vec3& v = poly->vertices()[i];
+      got.insert({v.x(), v.y(), v.z()});
+    }
+    EXPECT_EQ(got, want);
+    expectWellFormedAdjacency(*poly);
+    for (int i = 0; i < 8; ++i)
+      EXPECT_EQ(neighbours(*poly, i).size(), 3u) << "vertex " << i;
+    EXPECT_EQ(cm::hullTriangles(*poly).size(), 12u);
+    const auto planes = cm::hullPlanes(pts);
+    ASSERT_EQ(planes.size(), 6u);
+    for (const auto& pl : planes) {
+      const double expected = h + pl.normal.x() * 0.5 * h;
+      EXPECT_NEAR(pl.offset, expected, 1e-14 * h);
+    }
+  }
+}
+
+TEST(ConvexHull, PointOnATinyCubeTouchesIt) {
+  // fuzz/regressions/core/hull-1e-273m-cube-collapsed-to-a-point, in closed form: a point on the
+  // +x face of a cube of half size h, h = 8.7e-274 m, touches it (it was "2.1e-273 m apart").
+  const double h = 8.7350880895638318e-274;
+  const cm::ConvexShape cube = cm::ConvexShape::convexHull(cubeCorners(h));
+  const cm::ConvexShape point = cm::ConvexShape::sphere(0.0);
+  cm::Transform3 at;
+  at.t = Vec3(h, 0.25 * h, 0.0);
+  const auto r = cm::signedDistance(cube, cm::Transform3(), point, at);
+  EXPECT_EQ(r.status, cm::Status::Touching);
+  EXPECT_LE(std::abs(r.distance), 1e-9 * h);
+  at.t = Vec3(3.0 * h, 0.0, 0.0);  // 2h from the face
+  const auto apart = cm::signedDistance(cube, cm::Transform3(), point, at);
+  EXPECT_EQ(apart.status, cm::Status::Separated);
+  EXPECT_NEAR(apart.distance, 2.0 * h, 1e-9 * h);
 }
 
 TEST(ConvexHull, CoincidentPointsGiveOneVertex) {
