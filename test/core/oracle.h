@@ -74,7 +74,12 @@ inline V3 closestPointTriangle(const V3& p_, const V3& a_, const V3& b_, const V
     const LV q = p - ((p - a).dot(n) / nn) * n;
     const L u = n.dot((b - q).cross(c - q)), v = n.dot((c - q).cross(a - q)),
             w = n.dot((a - q).cross(b - q));
-    if (u >= 0 && v >= 0 && w >= 0) return q.cast<double>();
+    // Inside when the three weights are >= 0 and sum to nn, as they do exactly (to 1e-6: they
+    // lose digits on needles). A triangle tiny next to its distance from p rounded all three to 0
+    // ((b - q) x (c - q) is then q x q): "inside", with q far from the triangle
+    // (fuzz/regressions/core/oracle-tiny-triangle-inside).
+    if (u >= 0 && v >= 0 && w >= 0 && std::abs(u + v + w - nn) <= 1e-6L * nn)
+      return q.cast<double>();
   }
   V3 best = closestPointSegment(p_, a_, b_);
   for (const V3& e : {closestPointSegment(p_, b_, c_), closestPointSegment(p_, c_, a_)})

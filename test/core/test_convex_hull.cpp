@@ -455,6 +455,11 @@ TEST(Oracle, ClosestPointOnTriangleInEveryVoronoiRegion) {
   EXPECT_TRUE(closestPointTriangle(Vec3(-5, 1, 1), a, b, c).isApprox(Vec3(0, 1, 0)));
   EXPECT_TRUE(closestPointTriangle(Vec3(2, 2, 7), a, b, c).isApprox(Vec3(1, 1, 0)));
   EXPECT_TRUE(closestPointTriangle(Vec3(0.5, 0.25, -4), a, b, c).isApprox(Vec3(0.5, 0.25, 0)));
+  // A point 1.4e30 m from a 1 m triangle, 5 m off its plane: the edge vectors from the projection
+  // round to the same vector and all three weights to 0 (fuzz/regressions/core/
+  // oracle-tiny-triangle-inside): the closest point is vertex b or c, not the projection 5 m away.
+  const Vec3 far(1e30, 1e30, 5.0);
+  EXPECT_GT((closestPointTriangle(far, a, b, c) - far).norm(), 1e30);
 }
 
 TEST(Oracle, SegmentSegmentClosestPoints) {
