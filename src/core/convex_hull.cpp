@@ -394,7 +394,9 @@ std::shared_ptr<const Polytope<3>> buildConvexHull(const std::vector<Vec3>& poin
 
 std::vector<std::array<int, 3>> hullTriangles(const Polytope<3>& poly) {
   // Indices only: computed on the vertices at about unit size (unitScaleExponent()).
-  const std::vector<Vec3> pts = scaled(poly.vertices(), unitScaleExponent(poly.vertices()));
+  const int e = unitScaleExponent(poly.vertices());
+  const std::vector<Vec3> unit = e != 0 ? scaled(poly.vertices(), e) : std::vector<Vec3>();
+  const std::vector<Vec3>& pts = e != 0 ? unit : poly.vertices();
   std::vector<std::array<int, 3>> tris;
   if (pts.size() < 4) return tris;
   if (analyse(pts).dim < 3) return tris;

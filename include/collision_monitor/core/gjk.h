@@ -731,12 +731,17 @@ CM_ALWAYS_INLINE bool progress(Simplex<D>& s, Vec<D>& v, double& vv) {
 /// to the vertices that carry it (weights in s.bary) and returns the point (A's frame). Uses signed
 /// volumes for D = 2, 3 and the generic projection otherwise; `force_generic` selects the generic
 /// one in any D (for tests). Any input is accepted, degenerate ones included; never NaN for finite
-/// input.
+/// input. `kept` (optional, out): the vertices kept (bit i: input vertex i).
 template <int D>
-Vec<D> solveSimplex(Simplex<D>& s, bool force_generic = false) {
+Vec<D> solveSimplex(Simplex<D>& s, bool force_generic = false, unsigned* kept = nullptr) {
+  if (kept != nullptr) *kept = 0;
   if (s.size <= 0) return Vec<D>::Zero();
   const detail::Closest<D> c = detail::closestOf(s, force_generic);
   detail::compact(s, c);
+  if (kept != nullptr) {
+    for (int k = 0; k < c.n; ++k)
+      *kept |= 1u << c.idx[k];
+  }
   return c.v;
 }
 
@@ -809,11 +814,7 @@ CM_ALWAYS_INLINE Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* s
         return c.v;
       }
     }
-    const Closest<D> c = closestOf(s);
-    compact(s, c);
-    for (int k = 0; k < c.n; ++k)
-      seed_kept |= 1u << c.idx[k];
-    return c.v;
+    return solveSimplex<D>(s, false, &seed_kept);
   }
   s.size = 1;
   s.bary[0] = 1.0;
