@@ -214,3 +214,69 @@ TEST(OracleSweep, PairsAreReproducibleFromTheirIndex) {
   EXPECT_EQ(p.b.pose.t, q.b.pose.t);
   EXPECT_EQ(p.b.pose.R, q.b.pose.R);
 }
+
+// A support tie GJK must break as exact arithmetic would (fuzz/regressions/core/
+// gjk-flat-cone-by-3218m-hull-tie): a flat disc (a 64-gon, then a cone of height 0) of radius R
+// at the origin in the plane z = 0, and a hull with an edge of length L along z at x = d, y = 0
+// (from z = 0 up). The edge is perpendicular to v near the end, the support along -v returned its
+// far end, and the triangle with that point gains less than a rounding of |v|^2: GJK stopped
+// 8.7e-6 m (64-gon) and 1.3e-5 m (disc) above the distance on the old code, for L = 3218.75 m.
+// Oracle: qhull on the Minkowski difference (the polygon exactly; the disc between an inscribed
+// and a circumscribed 1024-gon, 4.9e-9 m apart). Bound: 1e-12 of the size (GJK's relative
+// tolerance), tighter than the sweep's 1e-9, which an error of 8.7e-6 m passes at L = 1e5 m.
+TEST(OracleExact, SupportTieAlongAnEdgePerpendicularToV) {
+  const double R = 0.00103125, d = 0.0020625;
+  const auto polygon = [](int n, double radius) {
+    std::vector<cm::Vec3> p;
+    for (int i = 0; i < n; ++i) {
+      const double a = 2.0 * M_PI * i / n;
+      p.emplace_back(radius * std::cos(a), radius * std::sin(a), 0.0);
+    }
+    return p;
+  };
+  const auto oracleDistance = [](const std::vector<cm::Vec3>& a, const std::vector<cm::Vec3>& b) {
+    std::vector<oracle::V3> diff;
+    for (const cm::Vec3& x : a) {
+      for (const cm::Vec3& y : b)
+        diff.push_back(x - y);
+    }
+    return oracle::signedDistance(oracle::makeHull(diff), oracle::V3::Zero());
+  };
+  cm::Transform3 at_d;
+  at_d.t = cm::Vec3(d, 0, 0);
+  for (const double L : {3218.75, 1e5}) {
+    SCOPED_TRACE("edge length " + std::to_string(L));
+    const std::vector<cm::Vec3> hull{{0, 0, L},
+                                     {4.984375, 0, 3.84375},
+                                     {-R, -3.84375, 3.84375},
+                                     {0, 0, 0},
+                                     {3.84375, 0, 0},
+                                     {3.84375, 3.84375, -3.84375},
+                                     {3.84375, 3.84375, 3.859375},
+                                     {3.34375, 3.84375, 0}};
+    std::vector<cm::Vec3> hull_world;
+    for (const cm::Vec3& x : hull)
+      hull_world.push_back(x + at_d.t);
+    const double tol = 1e-12 * L;
+    const cm::ConvexShape b = cm::ConvexShape::convexHull(hull);
+    const std::vector<cm::Vec3> gon = polygon(64, R);
+    const double exact_gon = oracleDistance(gon, hull_world);
+    const double disc_low = oracleDistance(polygon(1024, R / std::cos(M_PI / 1024)), hull_world);
+    const double disc_high = oracleDistance(polygon(1024, R), hull_world);
+    ASSERT_GT(exact_gon, 0.001);
+    ASSERT_LT(disc_high - disc_low, 1e-8);
+    const cm::ConvexShape a_gon = cm::ConvexShape::convexHull(gon);
+    const cm::ConvexShape a_disc = cm::ConvexShape::cone(0.0, R);
+    for (const bool swap : {false, true}) {
+      SCOPED_TRACE(swap ? "hull first" : "disc first");
+      const auto run = [&](const cm::ConvexShape& a) {
+        return swap ? cm::distance(b, at_d, a, cm::Transform3()).distance
+                    : cm::distance(a, cm::Transform3(), b, at_d).distance;
+      };
+      EXPECT_NEAR(run(a_gon), exact_gon, tol);
+      const double disc = run(a_disc);
+      EXPECT_GE(disc, disc_low - tol);
+      EXPECT_LE(disc, disc_high + tol);
+    }
+  }
+}

@@ -912,6 +912,37 @@ bool progressOnPlane(Simplex<D>& s, Vec<D>& v, double& vv) {
   }
 }
 
+/// After "no progress" (and no progress on the plane either): the closest point of the simplex with
+/// the new vertex is as close as v to rounding (|v|^2 within 8 ulps) but elsewhere. Exact
+/// arithmetic would have moved v by less than a rounding of |v|^2 but turned it enough to break a
+/// tie of the support function: a 1 mm disc 1.03 mm from the end of a 3218 m edge perpendicular to
+/// v, whose far end the support along -v returned; v moved toward it by 3.2e-12 m along the edge,
+/// which turns the next support to the near end. GJK stopped 1.3e-5 m above the distance in one
+/// order and 7e-7 m in the other (fuzz/regressions/core/gjk-flat-cone-by-3218m-hull-tie).
+/// Takes that point as v, keeps vv at the smaller of the two (|v|^2 never grows, so ties and
+/// progress cannot cycle), sets `retried` |= kRetriedTie (the loop clears it on real progress: no
+/// two ties in a row) and returns true; else leaves everything.
+constexpr int kRetriedTie = 4;
+template <int D>
+bool progressOnTie(Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
+  if (retried & kRetriedTie) return false;
+  const double limit = vv * (1.0 + 8.0 * std::numeric_limits<double>::epsilon());
+  if constexpr (D == 3) {
+    Loop3 c;
+    closestInLoop(s, c);
+    if (!(c.dist2 <= limit) || c.v == v) return false;
+    compact(s, c);
+    v = c.v;
+  } else {
+    const Closest<D> c = closestOf(s);
+    if (!(c.dist2 <= limit) || c.v == v) return false;
+    compact(s, c);
+    v = c.v;
+  }
+  retried |= kRetriedTie;
+  return true;
+}
+
 template <int D>
 CM_ALWAYS_INLINE bool isDuplicate(const Simplex<D>& s, const Vec<D>& w, double tol2) {
   for (int i = 0; i < s.size; ++i)
@@ -1002,13 +1033,14 @@ GjkResult<MD::kDim> gjkDistance(const MD& md, const GjkSettings& st, const Simpl
     ++s.size;
     r.seed_kept = 0;
     if (!detail::progress(s, v, vv)) {  // no progress (rounding): keep the better simplex, stop
-      if (detail::progressOnPlane(s, v, vv)) continue;
+      if (detail::progressOnPlane(s, v, vv) || detail::progressOnTie(s, v, vv, retried)) continue;
       --s.size;
       if (detail::retryProjected(s, v, vv, retried)) continue;  // not certified (see above)
       r.status = GjkStatus::Separated;
       stuck = restarts > 0 && it < st.max_iterations;
       break;
     }
+    retried &= ~detail::kRetriedTie;  // progress: a later tie may be taken again
   }
   r.iterations = it;
   r.v = v;
