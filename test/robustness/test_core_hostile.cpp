@@ -193,6 +193,40 @@ TEST(CoreHostile, CapsuleByLongThinBoxNormal) {
   }
 }
 
+TEST(CoreHostile, ConeByTwoMillionMetreNeedleWitnesses) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-cone-by-2e6m-flat-ellipse-witness-sum): a
+  // flat cone (height 1 m, radius 10 m) 0.12 m from a needle 2e6 m long along z (an ellipsoid of
+  // semi-axes 0, 3e-9, 1e6 m; then a segment). GJK ends on a sliver triangle: one vertex at one
+  // end of the needle, two 6e-4 m apart at the other. Its weights C_m / mu summed to 1 - 2.6e-7
+  // (two areas were cross products of 1e6 m vectors nearly parallel), and the witness on the
+  // needle, sum(lambda_m b_m), was 0.138 m off along it (4.3e-3 m and 3.3e-3 m in the other
+  // cases) while the distance was right. Oracle: the needle is a line, so the witness on it is
+  // the cone's witness moved along the normal: point_b - point_a = distance * normal, and the two
+  // have the same z. Bound: 1e-12 of the 1e6 m size (GJK's tolerance); measured: 1.3e-10 m.
+  Transform3 pa;
+  pa.R << 0.91588785046728971, -0.084112149532710276, -0.3925233644859813, 0.084112149532710276,
+      -0.91588785046728982, 0.3925233644859813, -0.3925233644859813, -0.3925233644859813,
+      -0.83177570093457964;
+  const Transform3 pb = at(9.3936820180360954, 0, 0);
+  const ConvexShape cone = ConvexShape::cone(1, 10);
+  const double half = 1e6, tol = 1e-12 * half;
+  for (const ConvexShape& needle : {ConvexShape::ellipsoid(Vec3(0, 3.0000000000000004e-09, half)),
+                                    ConvexShape::segment(Vec3(0, 0, -half), Vec3(0, 0, half))}) {
+    for (const bool swapped : {false, true}) {
+      const cm::ContactResult r = swapped ? cm::signedDistance(needle, pb, cone, pa)
+                                          : cm::signedDistance(cone, pa, needle, pb);
+      ASSERT_EQ(r.status, cm::Status::Separated) << "swapped " << swapped;
+      EXPECT_NEAR(r.distance, 0.118645, 1e-6) << "swapped " << swapped;
+      EXPECT_LT((r.point_b - r.point_a - r.distance * r.normal).norm(), tol)
+          << "swapped " << swapped;
+      const Vec3& on_needle = swapped ? r.point_a : r.point_b;
+      const Vec3& on_cone = swapped ? r.point_b : r.point_a;
+      EXPECT_NEAR(on_needle.z(), on_cone.z(), tol) << "swapped " << swapped;
+      EXPECT_NEAR(on_needle.x(), pb.t.x(), tol) << "swapped " << swapped;
+    }
+  }
+}
+
 TEST(CoreHostile, SubnormalSegmentTouchingPointWitnesses) {
   // Bug (found by fuzz_core, fuzz/regressions/core/gjk-subnormal-segment-touching-point-witness):
   // a segment from (-3.1e-212, 0, 0) to the origin and a point (radius-0 sphere) at the origin.

@@ -206,12 +206,15 @@ inline bool sameSign(double a, double b) {
 /// apart and the third 8e5 m away (a 1.1e6 m capsule by a cylinder) gave a normal 2e-10 rad off
 /// and a projection of the origin 6.6e-4 m too near, below the distance
 /// (fuzz/regressions/core/gjk-sliver-triangle-normal-base). `kAccurate`: crossAccurate().
+/// `opposite_longest` (optional, out): the vertex (0, 1, 2) opposite the longest edge.
 template <bool kAccurate = false>
-CM_ALWAYS_INLINE Vec3 triangleNormal(const Vec3& s0, const Vec3& s1, const Vec3& s2) {
+CM_ALWAYS_INLINE Vec3 triangleNormal(const Vec3& s0, const Vec3& s1, const Vec3& s2,
+                                     int* opposite_longest = nullptr) {
   const Vec3 e01 = s1 - s0, e02 = s2 - s0, e12 = s2 - s1;
   const double l01 = e01.squaredNorm(), l02 = e02.squaredNorm(), l12 = e12.squaredNorm();
   // e01 x e02 = e01 x e12 = e02 x e12
   const bool from0 = l12 >= l01 && l12 >= l02;
+  if (opposite_longest != nullptr) *opposite_longest = from0 ? 0 : l02 >= l01 ? 1 : 2;
   const Vec3& a = from0 || l02 >= l01 ? e01 : e02;
   const Vec3& b = from0 ? e02 : e12;
   if constexpr (kAccurate) {
@@ -219,6 +222,27 @@ CM_ALWAYS_INLINE Vec3 triangleNormal(const Vec3& s0, const Vec3& s1, const Vec3&
   } else {
     return a.cross(b);
   }
+}
+
+/// Barycentric weights of a triangle's point from its signed areas C_m (sub-triangle opposite
+/// vertex m, from the edge opposite m) over the whole area mu: C_m / mu, except the vertex opposite
+/// the longest edge (`opposite_longest`, from triangleNormal()), whose area multiplies the two
+/// longest lengths and loses the most digits on a sliver; it gets 1 minus the others, so the
+/// weights sum to 1. On a 2e6 m needle triangle (a cone by a 2e6 m flat ellipse) two of the C_m /
+/// mu were off by 1.3e-7 and summed to 1 - 2.6e-7: the witness point on the needle, sum(lambda_m
+/// b_m) with |b_m| = 1e6 m, was 0.14 m off while the distance was right
+/// (fuzz/regressions/core/gjk-cone-by-2e6m-flat-ellipse-witness-sum). The weight of the vertex
+/// opposite the short edge is accurate, and the split of the rest between two nearly coincident
+/// vertices moves the point by little.
+CM_ALWAYS_INLINE void triangleWeights(int opposite_longest, double mu, double C0, double C1,
+                                      double C2, double* lambda) {
+  double a = C0 / mu, b = C1 / mu, c = C2 / mu;
+  a = opposite_longest == 0 ? 1.0 - b - c : a;
+  b = opposite_longest == 1 ? 1.0 - a - c : b;
+  c = opposite_longest == 2 ? 1.0 - a - b : c;
+  lambda[0] = a;
+  lambda[1] = b;
+  lambda[2] = c;
 }
 
 /// True when a tetrahedron's volume mu or a weight C_m (GJK's signed volumes, from vertex 0 and
@@ -309,7 +333,8 @@ inline Closest<3> s2d3(const Points<3>& w, int i0, int i1, int i2) {
   const Vec3& s0 = w[i0];
   const Vec3& s1 = w[i1];
   const Vec3& s2 = w[i2];
-  const Vec3 n = triangleNormal(s0, s1, s2);
+  int longest = 0;
+  const Vec3 n = triangleNormal(s0, s1, s2, &longest);
   const double nn = n.squaredNorm();
   std::array<bool, 3> check{true, true, true};
   if (nn > 0.0) {
@@ -322,13 +347,12 @@ inline Closest<3> s2d3(const Points<3>& w, int i0, int i1, int i2) {
       return (b[j] - a[j]) * (c[k] - a[k]) - (b[k] - a[k]) * (c[j] - a[j]);
     };
     const double mu = n[I];  // = area2(s0, s1, s2)
-    const std::array<double, 3> C{area2(p, s1, s2), area2(s0, p, s2), area2(s0, s1, p)};
+    const std::array<double, 3> C{area2(s1, s2, p), area2(s0, p, s2), area2(s0, s1, p)};
     if (sameSign(mu, C[0]) && sameSign(mu, C[1]) && sameSign(mu, C[2])) {
       Closest<3> c;
       c.n = 3;
       c.idx = {i0, i1, i2, 0};
-      for (int m = 0; m < 3; ++m)
-        c.lambda[m] = C[m] / mu;
+      triangleWeights(longest, mu, C[0], C[1], C[2], c.lambda.data());
       c.v = p;  // not sum(lambda_m w_m): see offerTriangle()
       c.dist2 = p.squaredNorm();
       return c;
@@ -560,7 +584,8 @@ inline void offerTriangle(const SupportPoint<3>* p, int i0, int i1, int i2, Loop
   const Vec3& s0 = p[i0].w;
   const Vec3& s1 = p[i1].w;
   const Vec3& s2 = p[i2].w;
-  const Vec3 n = triangleNormal(s0, s1, s2);
+  int longest = 0;
+  const Vec3 n = triangleNormal(s0, s1, s2, &longest);
   const double nn = n.squaredNorm();
   bool edge12 = true, edge02 = true;
   if (nn > 0.0) {
@@ -573,10 +598,12 @@ inline void offerTriangle(const SupportPoint<3>* p, int i0, int i1, int i2, Loop
       return (b[j] - a[j]) * (c[k] - a[k]) - (b[k] - a[k]) * (c[j] - a[j]);
     };
     const double mu = n[I];
-    const double C0 = area2(q, s1, s2), C1 = area2(s0, q, s2), C2 = area2(s0, s1, q);
+    const double C0 = area2(s1, s2, q), C1 = area2(s0, q, s2), C2 = area2(s0, s1, q);
     const bool in0 = sameSign(mu, C0), in1 = sameSign(mu, C1), in2 = sameSign(mu, C2);
     if (in0 && in1 && in2) {
-      const double a = C0 / mu, b = C1 / mu, c = C2 / mu;
+      double w[3];
+      triangleWeights(longest, mu, C0, C1, C2, w);
+      const double a = w[0], b = w[1], c = w[2];
       const Vec3& v = q;
       const double d2 = v.squaredNorm();
       if (d2 < best.dist2) {
