@@ -464,6 +464,17 @@ TEST(Oracle, ClosestPointOnTriangleInEveryVoronoiRegion) {
 
 TEST(Oracle, SegmentSegmentClosestPoints) {
   Vec3 c1, c2;
+  // Nearly parallel: two 16.875 m segments, the second 1.7e-8 rad off the first in the plane
+  // y = 4.5e-10 m, crossing it in projection at x = 0: the distance is that offset. In double,
+  // a e - b^2 kept a third of its value and the parameter went to an end: 8.3e-8 m
+  // (fuzz/regressions/core/oracle-nearly-parallel-plate-edges).
+  {
+    const double g = 4.5e-10, h = 1.4232e-7;
+    EXPECT_NEAR(oracle::closestSegmentSegment(Vec3(-8.4375, 0, 0), Vec3(8.4375, 0, 0),
+                                              Vec3(-8.4375, g, h), Vec3(8.4375, g, -h), &c1, &c2),
+                g, 1e-13);
+    EXPECT_NEAR(c1.x(), 0.0, 1e-3);
+  }
   // Skew, crossing at distance 2.
   EXPECT_DOUBLE_EQ(oracle::closestSegmentSegment(Vec3(-1, 0, 0), Vec3(1, 0, 0), Vec3(0, -1, 2),
                                                  Vec3(0, 1, 2), &c1, &c2),
