@@ -277,6 +277,16 @@ TEST(OracleExact, SupportTieAlongAnEdgePerpendicularToV) {
       const double disc = run(a_disc);
       EXPECT_GE(disc, disc_low - tol);
       EXPECT_LE(disc, disc_high + tol);
+      // The boolean query stalled alike: the 64-gon padded past the distance by 2e-6 m was
+      // "apart" (its estimate stayed 8.7e-6 m too far). Beyond the touching band (1e-10 of the
+      // size), which counts as a hit.
+      const double off = 2e-6 + 2e-10 * L;
+      for (const double extra : {-off, off}) {
+        const cm::ConvexShape padded = a_gon.padded(exact_gon + extra);
+        const bool hit = swap ? cm::intersect(b, at_d, padded, cm::Transform3())
+                              : cm::intersect(padded, cm::Transform3(), b, at_d);
+        EXPECT_EQ(hit, extra > 0) << "padding " << exact_gon + extra;
+      }
     }
   }
 }

@@ -945,7 +945,8 @@ bool progressOnPlane(Simplex<D>& s, Vec<D>& v, double& vv) {
 /// tie of the support function: a 1 mm disc 1.03 mm from the end of a 3218 m edge perpendicular to
 /// v, whose far end the support along -v returned; v moved toward it by 3.2e-12 m along the edge,
 /// which turns the next support to the near end. GJK stopped 1.3e-5 m above the distance in one
-/// order and 7e-7 m in the other (fuzz/regressions/core/gjk-flat-cone-by-3218m-hull-tie).
+/// order and 7e-7 m in the other (fuzz/regressions/core/gjk-flat-cone-by-3218m-hull-tie), and
+/// gjkIntersect() called a 64-gon padded 2e-6 m past the distance apart.
 /// Takes that point as v, keeps vv at the smaller of the two (|v|^2 never grows, so ties and
 /// progress cannot cycle), sets `retried` |= kRetriedTie (the loop clears it on real progress: no
 /// two ties in a row) and returns true; else leaves everything.
@@ -1128,12 +1129,13 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
     ++s.size;
     kept = 0;
     if (!detail::progress(s, v, vv)) {
-      if (detail::progressOnPlane(s, v, vv)) continue;
+      if (detail::progressOnPlane(s, v, vv) || detail::progressOnTie(s, v, vv, retried)) continue;
       --s.size;
       if (detail::retryProjected(s, v, vv, retried)) continue;  // not certified (see above)
       result = vn <= reach;
       break;
     }
+    retried &= ~detail::kRetriedTie;
   }
   if (simplex != nullptr) *simplex = s;
   if (iterations != nullptr) *iterations = it;
