@@ -514,9 +514,18 @@ inline std::optional<double> oracleDistance(const Placed& a, const Placed& b) {
   for (const Vec3& x : ca)
     for (const Vec3& y : cb)
       diff.push_back(x - y);
+  // qhull at about unit size (a power of two, exact): its products of coordinates underflow
+  // below about 1e-154 m, and a 2.6e-163 m hull 1.05e-168 m above a point came out "touching"
+  // (fuzz/regressions/core/oracle-qhull-underflow-2.6e-163m-hull).
+  double m = 0.0;
+  for (const Vec3& x : diff)
+    m = std::max(m, x.cwiseAbs().maxCoeff());
+  const double unit = m > 0.0 ? std::ldexp(1.0, std::clamp(-std::ilogb(m), -1000, 1000)) : 1.0;
+  for (Vec3& x : diff)
+    x *= unit;
   double d = 0.0;
   try {
-    d = oracle::signedDistance(oracle::makeHull(diff), Vec3::Zero());
+    d = oracle::signedDistance(oracle::makeHull(diff), Vec3::Zero()) / unit;
   } catch (const std::runtime_error&) {
     return std::nullopt;  // flat difference
   }
