@@ -227,6 +227,50 @@ TEST(CoreHostile, ConeByTwoMillionMetreNeedleWitnesses) {
   }
 }
 
+TEST(CoreHostile, ConeByTwoMillionMetreNeedleSliverPlane) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-cone-by-2e6m-needle-sliver): the same cone
+  // 0.12 m from an ellipsoid of semi-axes (1e-6, 1e-9, 1e6) m. GJK's triangles lie along the
+  // needle (vertices 9e5 m out, 0.01 m wide): the vertices' rounding turned their plane, the
+  // origin's projection onto it fell 2.2e-3 m off the triangle, and the cold distance came out
+  // 0.11710 m, 1.5e-3 m below the truth (the warm one was right). Oracle: the distance from the
+  // cone to the needle's axis (a line along z), the largest gap m.p - h(m) over unit m in the x-y
+  // plane (the cone's support function only; grid then ternary search), less the needle's 1e-6 m.
+  Transform3 pa;
+  pa.R << 0.91588785046728971, -0.084112149532710276, -0.3925233644859813, 0.084112149532710276,
+      -0.91588785046728982, 0.3925233644859813, -0.3925233644859813, -0.3925233644859813,
+      -0.83177570093457964;
+  const Transform3 pb = at(9.3936830180360946, 0, 0);
+  const ConvexShape cone = ConvexShape::cone(1, 10);
+  const ConvexShape needle = ConvexShape::ellipsoid(Vec3(1e-6, 1e-9, 1e6));
+  const auto gap = [&](double th) {
+    const Vec3 m(std::cos(th), std::sin(th), 0);
+    return m.dot(pb.t) - m.dot(pa * cone.support(pa.R.transpose() * m));
+  };
+  double lo = 0.0, best = -1.0;
+  for (int i = 0; i < 100000; ++i) {
+    const double th = -M_PI + 2 * M_PI * i / 100000;
+    if (gap(th) > best) best = gap(th), lo = th;
+  }
+  double hi = lo + 1e-4;
+  lo -= 1e-4;
+  for (int k = 0; k < 200; ++k) {
+    const double m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
+    (gap(m1) < gap(m2) ? lo : hi) = gap(m1) < gap(m2) ? m1 : m2;
+  }
+  const double axis = gap(0.5 * (lo + hi));
+  ASSERT_NEAR(axis, 0.118646, 1e-6);  // the case is what it claims to be
+  const double tol = 1e-12 * 1e6;     // GJK's tolerance on this 1e6 m pair
+  for (const bool swapped : {false, true}) {
+    cm::PairCache cache;
+    for (int run = 0; run < 2; ++run) {  // cold, then warm
+      const cm::ContactResult r = swapped ? cm::distance(needle, pb, cone, pa, &cache)
+                                          : cm::distance(cone, pa, needle, pb, &cache);
+      EXPECT_GE(r.distance, axis - 1e-6 - tol) << "swapped " << swapped << " run " << run;
+      EXPECT_LE(r.distance, axis + tol) << "swapped " << swapped << " run " << run;
+    }
+  }
+}
+
 TEST(CoreHostile, SubnormalSegmentTouchingPointWitnesses) {
   // Bug (found by fuzz_core, fuzz/regressions/core/gjk-subnormal-segment-touching-point-witness):
   // a segment from (-3.1e-212, 0, 0) to the origin and a point (radius-0 sphere) at the origin.

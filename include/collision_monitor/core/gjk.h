@@ -206,15 +206,18 @@ inline bool sameSign(double a, double b) {
 /// apart and the third 8e5 m away (a 1.1e6 m capsule by a cylinder) gave a normal 2e-10 rad off
 /// and a projection of the origin 6.6e-4 m too near, below the distance
 /// (fuzz/regressions/core/gjk-sliver-triangle-normal-base). `kAccurate`: crossAccurate().
-/// `opposite_longest` (optional, out): the vertex (0, 1, 2) opposite the longest edge.
+/// `opposite_longest` (optional, out): the vertex (0, 1, 2) opposite the longest edge;
+/// `longest_sq` (optional, out): that edge's squared length.
 template <bool kAccurate = false>
 CM_ALWAYS_INLINE Vec3 triangleNormal(const Vec3& s0, const Vec3& s1, const Vec3& s2,
-                                     int* opposite_longest = nullptr) {
+                                     int* opposite_longest = nullptr,
+                                     double* longest_sq = nullptr) {
   const Vec3 e01 = s1 - s0, e02 = s2 - s0, e12 = s2 - s1;
   const double l01 = e01.squaredNorm(), l02 = e02.squaredNorm(), l12 = e12.squaredNorm();
   // e01 x e02 = e01 x e12 = e02 x e12
   const bool from0 = l12 >= l01 && l12 >= l02;
   if (opposite_longest != nullptr) *opposite_longest = from0 ? 0 : l02 >= l01 ? 1 : 2;
+  if (longest_sq != nullptr) *longest_sq = from0 ? l12 : std::max(l01, l02);
   const Vec3& a = from0 || l02 >= l01 ? e01 : e02;
   const Vec3& b = from0 ? e02 : e12;
   if constexpr (kAccurate) {
@@ -222,6 +225,18 @@ CM_ALWAYS_INLINE Vec3 triangleNormal(const Vec3& s0, const Vec3& s1, const Vec3&
   } else {
     return a.cross(b);
   }
+}
+
+/// True when a triangle's plane is too poorly placed for the origin's projection q onto it to
+/// stand for its closest point (then sum(lambda_m s_m) does): the plane is only as well placed as
+/// the triangle is wide (its height over the longest edge, |n| / |e|). The vertices' rounding
+/// turns a sliver's plane about that edge, and q with it by |q| times that angle, while the sum's
+/// error stays a rounding of the vertices. So: a triangle narrower than |q| and than 1e-6 of its
+/// length. A cone 0.12 m from a 2e6 m needle: a triangle along the needle, q 2.2e-3 m off the sum
+/// and 1.5e-3 m inside the distance (fuzz/regressions/core/gjk-cone-by-2e6m-needle-sliver).
+/// `nn` = |n|^2, `qq` = |q|^2, `longest_sq` = |e|^2.
+CM_ALWAYS_INLINE bool sliverPlane(double nn, double qq, double longest_sq) {
+  return __builtin_expect(nn < qq * longest_sq && nn < 1e-12 * longest_sq * longest_sq, 0);
 }
 
 /// Barycentric weights of a triangle's point from its signed areas C_m (sub-triangle opposite
@@ -334,7 +349,8 @@ inline Closest<3> s2d3(const Points<3>& w, int i0, int i1, int i2) {
   const Vec3& s1 = w[i1];
   const Vec3& s2 = w[i2];
   int longest = 0;
-  const Vec3 n = triangleNormal(s0, s1, s2, &longest);
+  double longest_sq = 0.0;
+  const Vec3 n = triangleNormal(s0, s1, s2, &longest, &longest_sq);
   const double nn = n.squaredNorm();
   std::array<bool, 3> check{true, true, true};
   if (nn > 0.0) {
@@ -353,8 +369,12 @@ inline Closest<3> s2d3(const Points<3>& w, int i0, int i1, int i2) {
       c.n = 3;
       c.idx = {i0, i1, i2, 0};
       triangleWeights(longest, mu, C[0], C[1], C[2], c.lambda.data());
-      c.v = p;  // not sum(lambda_m w_m): see offerTriangle()
+      c.v = p;  // not sum(lambda_m w_m) unless a sliver's: see offerTriangle()
       c.dist2 = p.squaredNorm();
+      if (sliverPlane(nn, c.dist2, longest_sq)) {
+        c.v = c.lambda[0] * s0 + c.lambda[1] * s1 + c.lambda[2] * s2;
+        c.dist2 = c.v.squaredNorm();
+      }
       return c;
     }
     for (int m = 0; m < 3; ++m)
@@ -579,13 +599,15 @@ CM_ALWAYS_INLINE void offerSegment(const SupportPoint<3>* p, int i0, int i1, Loo
 /// is the normal's. A plate 1094 m long touching an ellipsoid gave triangles with vertices 547 m
 /// out and |v| 1e-7 m: the sum's 5e-14 m of rounding across the plate turned v 7e-8 rad, the
 /// support point went to the plate's wrong end, and GJK stopped on a duplicate 7.3e-7 m from the
-/// contact (fuzz/regressions/core/gjk-needle-triangle-projection-warm).
+/// contact (fuzz/regressions/core/gjk-needle-triangle-projection-warm). Except on a sliver whose
+/// plane is less certain than the sum (sliverPlane()).
 inline void offerTriangle(const SupportPoint<3>* p, int i0, int i1, int i2, Loop3& best) {
   const Vec3& s0 = p[i0].w;
   const Vec3& s1 = p[i1].w;
   const Vec3& s2 = p[i2].w;
   int longest = 0;
-  const Vec3 n = triangleNormal(s0, s1, s2, &longest);
+  double longest_sq = 0.0;
+  const Vec3 n = triangleNormal(s0, s1, s2, &longest, &longest_sq);
   const double nn = n.squaredNorm();
   bool edge12 = true, edge02 = true;
   if (nn > 0.0) {
@@ -604,8 +626,12 @@ inline void offerTriangle(const SupportPoint<3>* p, int i0, int i1, int i2, Loop
       double w[3];
       triangleWeights(longest, mu, C0, C1, C2, w);
       const double a = w[0], b = w[1], c = w[2];
-      const Vec3& v = q;
-      const double d2 = v.squaredNorm();
+      Vec3 v = q;
+      double d2 = v.squaredNorm();
+      if (sliverPlane(nn, d2, longest_sq)) {
+        v = a * s0 + b * s1 + c * s2;
+        d2 = v.squaredNorm();
+      }
       if (d2 < best.dist2) {
         best.mask = (1u << i0) | (1u << i1) | (1u << i2);
         best.lambda[0] = best.lambda[1] = best.lambda[2] = best.lambda[3] = 0.0;
