@@ -193,6 +193,17 @@ TEST(CoreHostile, CapsuleByLongThinBoxNormal) {
   }
 }
 
+namespace {
+/// The fuzzer's pose of the flat cone (height 1 m, radius 10 m) of the two needle cases below.
+Transform3 flatConePose() {
+  Transform3 pa;
+  pa.R << 0.91588785046728971, -0.084112149532710276, -0.3925233644859813, 0.084112149532710276,
+      -0.91588785046728982, 0.3925233644859813, -0.3925233644859813, -0.3925233644859813,
+      -0.83177570093457964;
+  return pa;
+}
+}  // namespace
+
 TEST(CoreHostile, ConeByTwoMillionMetreNeedleWitnesses) {
   // Bug (found by fuzz_core, fuzz/regressions/core/gjk-cone-by-2e6m-flat-ellipse-witness-sum): a
   // flat cone (height 1 m, radius 10 m) 0.12 m from a needle 2e6 m long along z (an ellipsoid of
@@ -203,10 +214,7 @@ TEST(CoreHostile, ConeByTwoMillionMetreNeedleWitnesses) {
   // cases) while the distance was right. Oracle: the needle is a line, so the witness on it is
   // the cone's witness moved along the normal: point_b - point_a = distance * normal, and the two
   // have the same z. Bound: 1e-12 of the 1e6 m size (GJK's tolerance); measured: 1.3e-10 m.
-  Transform3 pa;
-  pa.R << 0.91588785046728971, -0.084112149532710276, -0.3925233644859813, 0.084112149532710276,
-      -0.91588785046728982, 0.3925233644859813, -0.3925233644859813, -0.3925233644859813,
-      -0.83177570093457964;
+  const Transform3 pa = flatConePose();
   const Transform3 pb = at(9.3936820180360954, 0, 0);
   const ConvexShape cone = ConvexShape::cone(1, 10);
   const double half = 1e6, tol = 1e-12 * half;
@@ -235,10 +243,7 @@ TEST(CoreHostile, ConeByTwoMillionMetreNeedleSliverPlane) {
   // 0.11710 m, 1.5e-3 m below the truth (the warm one was right). Oracle: the distance from the
   // cone to the needle's axis (a line along z), the largest gap m.p - h(m) over unit m in the x-y
   // plane (the cone's support function only; grid then ternary search), less the needle's 1e-6 m.
-  Transform3 pa;
-  pa.R << 0.91588785046728971, -0.084112149532710276, -0.3925233644859813, 0.084112149532710276,
-      -0.91588785046728982, 0.3925233644859813, -0.3925233644859813, -0.3925233644859813,
-      -0.83177570093457964;
+  const Transform3 pa = flatConePose();
   const Transform3 pb = at(9.3936830180360946, 0, 0);
   const ConvexShape cone = ConvexShape::cone(1, 10);
   const ConvexShape needle = ConvexShape::ellipsoid(Vec3(1e-6, 1e-9, 1e6));

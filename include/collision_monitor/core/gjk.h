@@ -981,20 +981,20 @@ template <int D>
 bool progressOnTie(Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
   if (retried & kRetriedTie) return false;
   const double limit = vv * (1.0 + 8.0 * std::numeric_limits<double>::epsilon());
+  const auto take = [&](const auto& c) {
+    if (!(c.dist2 <= limit) || c.v == v) return false;
+    compact(s, c);
+    v = c.v;
+    retried |= kRetriedTie;
+    return true;
+  };
   if constexpr (D == 3) {
     Loop3 c;
     closestInLoop(s, c);
-    if (!(c.dist2 <= limit) || c.v == v) return false;
-    compact(s, c);
-    v = c.v;
+    return take(c);
   } else {
-    const Closest<D> c = closestOf(s);
-    if (!(c.dist2 <= limit) || c.v == v) return false;
-    compact(s, c);
-    v = c.v;
+    return take(closestOf(s));
   }
-  retried |= kRetriedTie;
-  return true;
 }
 
 template <int D>
