@@ -369,7 +369,7 @@ inline double supportValue(const ShapeSpec& s, const Vec3& n) {
       h = std::max(0.5 * s.dims[0] * n.z(), -0.5 * s.dims[0] * n.z() + s.dims[1] * nxy);
       break;
     case ShapeSpec::Ellipsoid:
-      h = s.dims.cwiseProduct(n).norm();
+      h = s.dims.cwiseProduct(n).stableNorm();  // |S n|^2 underflows below 1e-154 m
       break;
     default: {
       h = -std::numeric_limits<double>::infinity();

@@ -134,6 +134,21 @@ TEST(ShapeSupport, FullShapeAddsRadiusAlongDirection) {
   EXPECT_EQ(p.radius(), 1.0);
 }
 
+TEST(ShapeSupport, EllipsoidAtTinyAndHugeScales) {
+  // S^2 d / |S d| squares lengths: below about 1e-154 m they lose digits, above 1e154 m they
+  // overflow (fuzz/regressions/core/gjk-ellipsoid-1e-161m-support-underflow: a 7.3e-161 m needle's
+  // tip came out 7e-164 m short). The same answers as at unit size, scaled: d = (0, 1, 1) on
+  // semi-axes k (1, 2, 3) gives k (0, 4, 9) / sqrt(13); d = (1, 0, 0) on k (1, 0, 0) gives k e_x.
+  for (const double k : {7.318236270796776e-161, 1e-300, 1e200, 1e300}) {
+    const ConvexShape e = ConvexShape::ellipsoid(Vec3(1.0, 2.0, 3.0) * k);
+    const Vec3 got = e.support(Vec3(0.0, 1.0, 1.0));
+    expectVecNear(got / k, Vec3(0.0, 4.0, 9.0) / std::sqrt(13.0), 1e-15);
+    const ConvexShape needle = ConvexShape::ellipsoid(Vec3(k, 0.0, 0.0));
+    EXPECT_EQ(needle.support(Vec3(1.0, 0.0, 0.0)), Vec3(k, 0.0, 0.0)) << k;
+    EXPECT_TRUE(e.support(Vec3(1e-10, -1e-10, 0.0)).allFinite()) << k;
+  }
+}
+
 TEST(ShapeSupport, PolytopeLinearScanAndHillClimbAgree) {
   // 40 points on a helix-like curve on the unit sphere: with adjacency from qhull the support
   // hill-climbs; without it, a linear scan. Both must find the same maximising vertex.
