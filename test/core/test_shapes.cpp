@@ -149,6 +149,18 @@ TEST(ShapeSupport, EllipsoidAtTinyAndHugeScales) {
   }
 }
 
+TEST(ShapeSupport, CylinderAndConeRimsForTinyDirections) {
+  // radius * d.x / |d_xy| made radius * d.x sub-normal for a 1.3e-163 m rim and an 8.6e-159
+  // direction (GJK's first direction on such a pair, in metres): the rim point came out 1e-3 of
+  // the radius outside the cylinder (fuzz/regressions/core/gjk-point-by-1e-163m-cylinder-rim-
+  // underflow). Along -x the rim point is exactly (-r, 0, .).
+  const double r = 1.3075051467559381e-163;
+  const Vec3 d(-8.5687349792650e-159, 0.0, -1e-170);
+  EXPECT_EQ(ConvexShape::cylinder(r, r).support(d).x(), -r);
+  EXPECT_EQ(ConvexShape::cone(r, r).support(d).x(), -r);
+  EXPECT_EQ(ConvexShape::cylinder(1.0, 1.0).support(Vec3(-1e-300, 0.0, 0.0)).x(), -1.0);
+}
+
 TEST(ShapeSupport, PolytopeLinearScanAndHillClimbAgree) {
   // 40 points on a helix-like curve on the unit sphere: with adjacency from qhull the support
   // hill-climbs; without it, a linear scan. Both must find the same maximising vertex.

@@ -283,9 +283,9 @@ struct CylinderShape {
   Vec3 support(const Vec3& d) const {
     const double r_xy = std::hypot(d.x(), d.y());
     Vec3 s(0.0, 0.0, d.z() < 0.0 ? -half_height : half_height);
-    if (r_xy > 0.0) {
-      s.x() = radius * d.x() / r_xy;
-      s.y() = radius * d.y() / r_xy;
+    if (r_xy > 0.0) {  // unit direction first: radius * d.x can be sub-normal (see ConeShape)
+      s.x() = radius * (d.x() / r_xy);
+      s.y() = radius * (d.y() / r_xy);
     }
     return s;
   }
@@ -301,9 +301,12 @@ struct ConeShape {
     const Vec3 apex(0.0, 0.0, half_height);
     const double r_xy = std::hypot(d.x(), d.y());
     Vec3 rim(0.0, 0.0, -half_height);
+    // The unit direction first: radius * d.x is sub-normal for a 1.3e-163 m rim and a 8.6e-159
+    // direction, and lost all but three digits (the rim point 1e-3 of the radius outside the
+    // cylinder: fuzz/regressions/core/gjk-point-by-1e-163m-cylinder-rim-underflow).
     if (r_xy > 0.0) {
-      rim.x() = radius * d.x() / r_xy;
-      rim.y() = radius * d.y() / r_xy;
+      rim.x() = radius * (d.x() / r_xy);
+      rim.y() = radius * (d.y() / r_xy);
     }
     return d.dot(apex) >= d.dot(rim) ? apex : rim;
   }
