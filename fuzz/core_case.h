@@ -520,7 +520,7 @@ inline std::optional<double> oracleDistance(const Placed& a, const Placed& b) {
   double m = 0.0;
   for (const Vec3& x : diff)
     m = std::max(m, x.cwiseAbs().maxCoeff());
-  const double unit = m > 0.0 ? std::ldexp(1.0, std::clamp(-std::ilogb(m), -1000, 1000)) : 1.0;
+  const double unit = oracle::unitScale(m);
   for (Vec3& x : diff)
     x *= unit;
   double d = 0.0;

@@ -45,8 +45,16 @@ namespace oracle {
 
 using V3 = Eigen::Vector3d;
 
-inline double clamp01(double t) {
-  return t < 0.0 ? 0.0 : (t > 1.0 ? 1.0 : t);
+template <class T>
+T clamp01(T t) {
+  return t < T(0) ? T(0) : (t > T(1) ? T(1) : t);
+}
+
+/// The power of two that brings a largest coordinate magnitude `m` to about 1 (exact to multiply
+/// by; at most 2^1000, since 2^1074 would overflow), 1 for m = 0 or not finite.
+inline double unitScale(double m) {
+  const int e = m > 0.0 && std::isfinite(m) ? std::ilogb(m) : 0;
+  return std::ldexp(1.0, std::clamp(-e, -1000, 1000));
 }
 
 /// Closest point to p on segment ab (Ericson 5.1.2).
@@ -102,34 +110,32 @@ inline double closestSegmentSegment(const V3& p1_in, const V3& q1_in, const V3& 
   // fuzz/regressions/core/oracle-point-7e-198-from-point-underflow).
   const double m = std::max({p1_in.cwiseAbs().maxCoeff(), q1_in.cwiseAbs().maxCoeff(),
                              p2_in.cwiseAbs().maxCoeff(), q2_in.cwiseAbs().maxCoeff()});
-  const int e = m > 0.0 && std::isfinite(m) ? std::ilogb(m) : 0;
-  const double k = std::ldexp(1.0, std::min(-e, 1000));  // 2^1074 would overflow
+  const double k = unitScale(m);
   const L3 p1 = (p1_in * k).cast<L>(), q1 = (q1_in * k).cast<L>(), p2 = (p2_in * k).cast<L>(),
            q2 = (q2_in * k).cast<L>();
   const L3 d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
   const L a = d1.dot(d1), e2 = d2.dot(d2), f = d2.dot(r);
-  const auto clamp = [](L x) { return x < 0 ? L(0) : x > 1 ? L(1) : x; };
   L s = 0, t = 0;
   if (a <= 0 && e2 <= 0) {
     s = t = 0;
   } else if (a <= 0) {
     s = 0;
-    t = clamp(f / e2);
+    t = clamp01(f / e2);
   } else {
     const L c = d1.dot(r);
     if (e2 <= 0) {
       t = 0;
-      s = clamp(-c / a);
+      s = clamp01(-c / a);
     } else {
       const L b = d1.dot(d2), denom = a * e2 - b * b;
-      s = denom > 0 ? clamp((b * f - c * e2) / denom) : L(0);
+      s = denom > 0 ? clamp01((b * f - c * e2) / denom) : L(0);
       t = (b * s + f) / e2;
       if (t < 0) {
         t = 0;
-        s = clamp(-c / a);
+        s = clamp01(-c / a);
       } else if (t > 1) {
         t = 1;
-        s = clamp((b - c) / a);
+        s = clamp01((b - c) / a);
       }
     }
   }
