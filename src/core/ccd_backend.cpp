@@ -126,23 +126,28 @@ void firstDir(const void* o1, const void* o2, ccd_vec3_t* dir) {
 struct CcdPair {
   CcdBody a, b;
   ccd_t ccd;
-  double size = 1.0;         ///< boundingRadius(A) + boundingRadius(B), m
+  double size = 1.0;         ///< max(boundingRadius(A) + boundingRadius(B), |t_AB|), m
   mutable CcdBudget budget;  ///< a and b point here: not copyable
   CcdPair(const CcdPair&) = delete;
   CcdPair& operator=(const CcdPair&) = delete;
 
   CcdPair(const ConvexShape& sa, const Transform3& pose_a, const ConvexShape& sb,
           const Transform3& pose_b, const CcdOptions& o) {
-    size = sa.boundingRadius() + sb.boundingRadius();
-    // Two points (size 0) or sub-normal sizes (1/size overflows to inf and every support
-    // point becomes NaN, on which ccdGJKPenetration dereferences a null pointer): any finite
-    // scale works for those, so use 1.
-    if (!(size > 0.0) || !std::isfinite(1.0 / size) || !std::isfinite(size)) size = 1.0;
-    const double s = 1.0 / size;
     a.shape = &sa;
     a.pose = Transform3::Identity();
     b.shape = &sb;
     b.pose = pose_a.inverse() * pose_b;
+    // Or the distance between the origins where that is larger (bounding balls apart: the
+    // backend leaves such pairs to our GJK, libccdCanAnswer()): with the radii alone, a
+    // 8.9e-308 m cylinder and a point 1140 m away were scaled by 2.2e307, B's points overflowed
+    // to inf and ccdGJKPenetration dereferenced a null pointer (fuzz/regressions/core/
+    // libccd-segv-point-1140m-from-8.9e-308m-cylinder). Every coordinate is at most about 1.
+    size = std::max(sa.boundingRadius() + sb.boundingRadius(), b.pose.t.stableNorm());
+    // Two points at one place (size 0) or sub-normal sizes (1/size overflows to inf and every
+    // support point becomes NaN, on which ccdGJKPenetration dereferences a null pointer): any
+    // finite scale works for those, so use 1.
+    if (!(size > 0.0) || !std::isfinite(1.0 / size) || !std::isfinite(size)) size = 1.0;
+    const double s = 1.0 / size;
     a.scale = b.scale = s;
     a.core_only = b.core_only = o.cores_only;
     budget.limit = o.max_support_calls;
@@ -184,18 +189,19 @@ bool finitePoses(const Transform3& pose_a, const Transform3& pose_b) {
          pose_b.t.allFinite();
 }
 
-/// Pairs libccd is asked about: finite poses (libccd crashes on NaN) and a size (the bounding
-/// radii's sum plus the distance between the shapes' origins) of at most 1e9 m. libccd works in a
-/// frame scaled to unit size with absolute epsilons; a box 8e165 m long by a 2.5 m box
-/// (fuzz/regressions/core/libccd-segv-8e165m-box-by-subnormal-box) is a segment in that frame and
-/// ccdGJKPenetration dereferenced a null pointer; so did a point 3e151 m from a 1e-163 m cylinder
-/// while only the radii were counted
-/// (fuzz/regressions/core/libccd-segv-point-3e151m-from-cylinder). No workspace is 1e9 m across;
-/// our GJK answers the rest.
+/// Pairs libccd is asked about: finite poses (libccd crashes on NaN), bounding balls that meet
+/// (the distance between the shapes' origins at most the bounding radii's sum; else the shapes
+/// are apart, and libccd has no distance query) and a size (the bounding radii's sum) of at most
+/// 1e9 m. libccd works in a frame scaled to unit size with absolute epsilons; a box 8e165 m long
+/// by a 2.5 m box (fuzz/regressions/core/libccd-segv-8e165m-box-by-subnormal-box) is a segment
+/// in that frame and ccdGJKPenetration dereferenced a null pointer; so did a point 3e151 m from a
+/// 1e-163 m cylinder (fuzz/regressions/core/libccd-segv-point-3e151m-from-cylinder) and one
+/// 1140 m from a 8.9e-308 m cylinder (see CcdPair). No workspace is 1e9 m across; our GJK answers
+/// the rest.
 bool libccdCanAnswer(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                      const Transform3& pose_b) {
-  return finitePoses(pose_a, pose_b) &&
-         a.boundingRadius() + b.boundingRadius() + (pose_b.t - pose_a.t).stableNorm() <= 1e9;
+  const double radii = a.boundingRadius() + b.boundingRadius();
+  return finitePoses(pose_a, pose_b) && radii <= 1e9 && (pose_b.t - pose_a.t).stableNorm() <= radii;
 }
 
 class LibccdNarrowPhase final : public NarrowPhase {

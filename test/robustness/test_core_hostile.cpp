@@ -389,6 +389,40 @@ TEST(CoreHostile, LibccdBackendLeavesFarApartPairsToOurGjk) {
   EXPECT_FALSE(libccd->intersect(point, pa, cylinder, pb, nullptr));
 }
 
+TEST(CoreHostile, LibccdTinyShapeFarFromAPoint) {
+  // Bug (found by fuzz_core,
+  // fuzz/regressions/core/libccd-segv-point-1140m-from-8.9e-308m-cylinder): a cylinder 8.9e-308 m
+  // long (radius 0) and a point 1140.625 m away, well inside the backend's 1e9 m guard. The backend
+  // scaled the pair by 1 / (bounding radii) = 2.2e307, the point's coordinates overflowed to inf
+  // and ccdGJKPenetration dereferenced a null pointer (SIGSEGV). The scale now counts the distance
+  // between the origins too. Child process: a crash fails only this test. Separations on both sides
+  // of the pair, and a 1e-300 m sphere in place of the cylinder: the answers are our GJK's, exactly
+  // (libccd has no distance query).
+  const auto gjk = cm::makeNarrowPhase(cm::BackendType::Gjk);
+  const auto libccd = cm::makeNarrowPhase(cm::BackendType::Libccd);
+  const ConvexShape point = ConvexShape::sphere(0.0);
+  for (const ConvexShape& tiny :
+       {ConvexShape::cylinder(8.9133330423523759e-308, 0.0), ConvexShape::sphere(1e-300)}) {
+    for (const double y : {1140.625, -3.5, 2.5e8}) {
+      const Transform3 pa = at(0, 0, 0);
+      const Transform3 pb = at(0, y, 0);
+      const cm::ContactResult ours = gjk->signedDistance(tiny, pa, point, pb, nullptr);
+      ASSERT_EQ(ours.status, cm::Status::Separated) << y;
+      EXPECT_EXIT(
+          {
+            const bool hit = libccd->intersect(tiny, pa, point, pb, nullptr);
+            const cm::ContactResult r = libccd->signedDistance(tiny, pa, point, pb, nullptr);
+            std::exit(!hit && r.status == cm::Status::Separated && r.distance == ours.distance &&
+                              r.normal == ours.normal
+                          ? 0
+                          : 3);
+          },
+          ::testing::ExitedWithCode(0), "")
+          << "libccd backend crashed or disagreed, point " << y << " m away";
+    }
+  }
+}
+
 TEST(CoreHostile, LibccdEpaEnds) {
   // Bug (found by fuzz_core): a capsule (core: a 3.2 m segment) and a flat box (1.6 x 3 x 0 m),
   // both padded, at the same place 2.8e6 m out: libccd's EPA did not return within 30 s (it has

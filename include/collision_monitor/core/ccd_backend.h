@@ -5,7 +5,8 @@
 ///
 /// libccd never sees our shapes: it calls support/centre callbacks on `void*` objects that wrap a
 /// ConvexShape (full shape, core + radius) and its pose. Every query runs in A's frame and scaled
-/// by 1 / (boundingRadius(A) + boundingRadius(B)), because libccd's thresholds are absolute
+/// by 1 / (boundingRadius(A) + boundingRadius(B)) (or by the distance between their origins where
+/// that is larger: every coordinate within about 1), because libccd's thresholds are absolute
 /// (ccdIsZero compares squared lengths with DBL_EPSILON; the EPA/MPR tolerances are lengths or
 /// squared lengths): in that unit-sized frame they become relative to the shapes' size and the
 /// far-from-origin translation drops out. Results are mapped back to the common frame and unit.
@@ -77,8 +78,9 @@ bool ccdPenetration(const ConvexShape& a, const Transform3& pose_a, const Convex
 
 /// The libccd NarrowPhase: intersect() by `ccd.intersect`; signedDistance() by
 /// `ccd.penetration` when libccd finds contact, and by our GJK core::distance() when it finds
-/// the shapes apart (libccd 2.1 has no distance query). `query` supplies touch_tolerance and the
-/// options of the GJK distance fallback.
+/// the shapes apart (libccd 2.1 has no distance query). Pairs whose bounding balls do not meet,
+/// non-finite poses and sizes above 1e9 m go to our GJK directly. `query` supplies
+/// touch_tolerance and the options of the GJK distance fallback.
 std::unique_ptr<NarrowPhase> makeLibccdNarrowPhase(const QueryOptions& query = {},
                                                    const CcdOptions& ccd = {});
 
