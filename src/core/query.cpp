@@ -371,9 +371,11 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   r.gjk_iterations = g.iterations;
   if (g.status != GjkStatus::Intersecting) {
     // g.distance = |g.v| > abs_tolerance >= 0 here; unitOr() only where |v|^2 may have lost
-    // digits to underflow (one division instead of six and a square root on the common path).
-    const Vec3 n =
-        g.distance > 1e-150 ? Vec3(g.v * (-1.0 / g.distance)) : unitOr(-g.v, Vec3::UnitX());
+    // digits to underflow (one division instead of six and a square root on the common path),
+    // or where a stalled run reports its normal along another direction (GjkResult::normal_v).
+    const Vec3& dir = g.normalDirection();
+    const Vec3 n = g.distance > 1e-150 && &dir == &g.v ? Vec3(g.v * (-1.0 / g.distance))
+                                                       : unitOr(-dir, Vec3::UnitX());
     finish(f, o, g.distance, g.point_a, g.point_b, n, g.status == GjkStatus::MaxIterations, r);
     // distance() reports 0 for overlapping shapes (query.h), even when the depth came for free
     // (separated cores, overlapping radii).

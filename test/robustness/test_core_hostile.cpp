@@ -193,6 +193,73 @@ TEST(CoreHostile, CapsuleByLongThinBoxNormal) {
   }
 }
 
+TEST(CoreHostile, DiscByFiveBillionAspectEllipseNormal) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-disc-by-5e9-aspect-ellipse-normal): a disc
+  // (cylinder 1.08e-9 m long, radius 1e-6 m) 2.8e-7 m from an ellipse 1e-9 m x 4.98 m (an
+  // ellipsoid whose third semi-axis is 4.9e-324 m). Its support sweeps the 10 m length while the
+  // direction turns by 2e-10 rad, and GJK stalled (three runs, 58 iterations) with the distance
+  // right to 1.2e-12 m but v 7e-7 rad off the ellipse's normal plane, along which the ellipse
+  // reaches 3.5e-6 m further: the normal was 3.5e-6 m short of realising the distance. A stalled
+  // run's normal is now the direction of the best lower bound seen.
+  // Oracle (long double): the closest point of the flat ellipse lies on its inner rim
+  // x = c - a sqrt(1 - (y / b)^2), z = 0 (the whole disc is at x < c - a); the distance from the
+  // rim to the disc is minimised over y by ternary search.
+  const double radius = 9.9999999999999995e-07, length = 1.0781250000000001e-09;
+  const Vec3 semi(1.0000000000000001e-09, 4.984375, 4.9406564584124654e-324);
+  const ConvexShape disc = ConvexShape::cylinder(length, radius);
+  const ConvexShape ellipse = ConvexShape::ellipsoid(semi);
+  Transform3 pa;
+  pa.R << -0.91142957829202342, 0.11135909785034652, 0.3961000822271819, -0.057793962175496275,
+      -0.98778339010924432, 0.14471984024433218, 0.40737695289557146, 0.10900974979443204,
+      0.90673088218019493;
+  const Transform3 pb = at(9.1942086576619194e-07, 0, 0);
+  using L3 = Eigen::Matrix<long double, 3, 1>;
+  const L3 axis = pa.R.col(2).cast<long double>();
+  const auto toDisc = [&](const L3& p) {
+    const long double h = p.dot(axis);
+    const L3 radial = p - h * axis;
+    const long double rn = radial.norm();
+    const long double hc = std::clamp<long double>(h, -length / 2, length / 2);
+    const L3 q = (rn > radius ? radial * (radius / rn) : radial) + hc * axis;
+    return (p - q).norm();
+  };
+  const auto rim = [&](long double y) {
+    const long double u = y / semi.y();
+    return toDisc(L3(pb.t.x() - semi.x() * std::sqrt(1 - u * u), y, 0));
+  };
+  long double lo = -2e-6L, hi = 2e-6L;
+  for (int k = 0; k < 200; ++k) {
+    const long double m1 = lo + (hi - lo) / 3, m2 = hi - (hi - lo) / 3;
+    if (rim(m1) < rim(m2)) {
+      hi = m2;
+    } else {
+      lo = m1;
+    }
+  }
+  const double exact = static_cast<double>(rim(lo));
+  ASSERT_NEAR(exact, 2.8314e-7, 1e-11);  // the case is what it claims to be
+  for (const bool swapped : {false, true}) {
+    for (const bool depth : {false, true}) {
+      const ConvexShape& a = swapped ? ellipse : disc;
+      const ConvexShape& b = swapped ? disc : ellipse;
+      const Transform3& ta = swapped ? pb : pa;
+      const Transform3& tb = swapped ? pa : pb;
+      const cm::ContactResult r =
+          depth ? cm::signedDistance(a, ta, b, tb) : cm::distance(a, ta, b, tb);
+      EXPECT_EQ(r.status, cm::Status::Separated) << swapped << depth;
+      // Measured: 1.2e-12 m above the oracle (disc first), 1.7e-14 m (ellipse first).
+      EXPECT_NEAR(r.distance, exact, 1e-11) << swapped << depth;
+      // The supports' gap along the normal is a lower bound on the distance (exact at the true
+      // normal). Measured: 2.4e-12 m below (disc first; -3.5e-6 m before the fix), 2.3e-11 m.
+      const Vec3& n = r.normal;
+      const double gap = n.dot(tb * b.support(tb.R.transpose() * -n)) -
+                         n.dot(ta * a.support(ta.R.transpose() * n));
+      EXPECT_GE(gap, exact - 1e-10) << swapped << depth;
+      EXPECT_LE(gap, exact + 1e-15) << swapped << depth;
+    }
+  }
+}
+
 namespace {
 /// The fuzzer's pose of the flat cone (height 1 m, radius 10 m) of the two needle cases below.
 Transform3 flatConePose() {
