@@ -372,7 +372,7 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   if (g.status != GjkStatus::Intersecting) {
     // g.distance = |g.v| > abs_tolerance >= 0 here; unitOr() only where |v|^2 may have lost
     // digits to underflow (one division instead of six and a square root on the common path),
-    // or where a stalled run reports its normal along another direction (GjkResult::normal_v).
+    // or where a stalled run reports its normal along another direction (GjkResult::cert_v).
     const Vec3& dir = g.normalDirection();
     const Vec3 n = g.distance > 1e-150 && &dir == &g.v ? Vec3(g.v * (-1.0 / g.distance))
                                                        : unitOr(-dir, Vec3::UnitX());

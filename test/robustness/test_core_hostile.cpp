@@ -260,6 +260,41 @@ TEST(CoreHostile, DiscByFiveBillionAspectEllipseNormal) {
   }
 }
 
+TEST(CoreHostile, StalledRunKeepsItsNormalWhereTurningCostsMore) {
+  // Bug of the fix above (found by fuzz_core, fuzz/regressions/core/
+  // gjk-ellipsoid-by-sphere-cert-normal-witnesses): an ellipsoid 8e-3 m from a sphere of radius
+  // 2.42 m. GJK stalls on the curved pair (its tolerance is 1e-12 of the size) and restarts; the
+  // restarted run's lower bound was 7.6e-12 m better along a direction 2e-6 rad from v, and the
+  // normal was turned to it: point_b - point_a (along v, 2.43 m between the cores) then missed
+  // distance * normal by 4.8e-6 m. The normal turns only where the lower bound gains more than
+  // that mismatch. Checks without an oracle: the supports' gap along the normal is a lower bound
+  // on the distance, |point_b - point_a| (points on the shapes) an upper bound.
+  const ConvexShape ellipsoid = ConvexShape::ellipsoid(Vec3(1.96875, 1.375, 1.15625));
+  const ConvexShape sphere = ConvexShape::sphere(2.421875);
+  Transform3 pa;
+  pa.R << -0.14034539073630081, 0.023697835227075296, -0.98981896521769352, 0.10083741617151395,
+      0.99485736127037072, 0.0095208311616109056, 0.98495430695993613, -0.09847458216060323,
+      -0.14201327356753191;
+  const Transform3 pb = at(3.5996850435580057, 0, 0);
+  for (const bool swapped : {false, true}) {
+    const ConvexShape& a = swapped ? sphere : ellipsoid;
+    const ConvexShape& b = swapped ? ellipsoid : sphere;
+    const Transform3& ta = swapped ? pb : pa;
+    const Transform3& tb = swapped ? pa : pb;
+    const cm::ContactResult r = cm::distance(a, ta, b, tb);
+    ASSERT_EQ(r.status, cm::Status::Separated) << swapped;
+    EXPECT_NEAR(r.distance, 0.00797, 1e-5) << swapped;  // the case is what it claims to be
+    const Vec3& n = r.normal;
+    const double gap =
+        n.dot(tb * b.support(tb.R.transpose() * -n)) - n.dot(ta * a.support(ta.R.transpose() * n));
+    const double upper = (r.point_b - r.point_a).norm();
+    EXPECT_LE(gap, r.distance + 1e-12) << swapped;
+    EXPECT_GE(r.distance, upper - 1e-12) << swapped;
+    EXPECT_LT(upper - gap, 1e-10) << swapped;
+    EXPECT_LT((r.point_b - r.point_a - r.distance * n).norm(), 1e-10) << swapped;
+  }
+}
+
 namespace {
 /// The fuzzer's pose of the flat cone (height 1 m, radius 10 m) of the two needle cases below.
 Transform3 flatConePose() {

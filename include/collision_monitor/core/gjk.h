@@ -827,18 +827,17 @@ struct GjkResult {
   GjkStatus status = GjkStatus::MaxIterations;
   double distance = 0.0;      ///< distance between the cores, |v| (length unit)
   Vec<D> v = Vec<D>::Zero();  ///< point of A - B closest to the origin = point_a - point_b
-  /// When `normal_lower` is finite: the direction to report the normal along (-normal) instead
-  /// of v. A run that ended Separated without certifying v (no progress, its last support
-  /// point's lower bound v.w / |v| short of |v| by more than the tolerance) and restarted
-  /// (detail::restartFrom) reports the v of the best lower bound seen (detail::Certificate): of
-  /// the directions tried, the one along which the shapes are known to be farthest apart.
-  Vec<D> normal_v = Vec<D>::Zero();
-  /// That lower bound on the distance, v.w / |v| (length unit); +inf: the normal is along v.
-  double normal_lower = std::numeric_limits<double>::infinity();
-  /// normal_v when normal_lower is finite, else v.
-  const Vec<D>& normalDirection() const {
-    return normal_lower < std::numeric_limits<double>::infinity() ? normal_v : v;
-  }
+  /// The best-certified direction a stalled and restarted run saw (detail::restartFrom): of the
+  /// v's tried, the one whose support point gave the highest lower bound on the distance,
+  /// v.w / |v| (`cert_lower`; -inf: none kept).
+  Vec<D> cert_v = Vec<D>::Zero();
+  double cert_lower = -std::numeric_limits<double>::infinity();
+  /// Report the normal along cert_v instead of v (-normal): set when cert_v's lower bound beats
+  /// v's own by more than the witness points' mismatch that turning the normal away from v
+  /// causes, |v| |unit(cert_v) - unit(v)|.
+  bool normal_along_cert = false;
+  /// The direction of -normal: cert_v or v.
+  const Vec<D>& normalDirection() const { return normal_along_cert ? cert_v : v; }
   Vec<D> point_a = Vec<D>::Zero();  ///< witness point on A, A's frame
   Vec<D> point_b = Vec<D>::Zero();  ///< witness point on B, A's frame
   Simplex<D> simplex;               ///< terminal simplex (input of EPA; the warm-start cache)
@@ -1010,14 +1009,14 @@ bool progressOnTie(Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
 }
 
 /// The best lower bound on the distance seen in a GJK run, v.w / |v| (kept as the pair vw, vn,
-/// compared by cross-multiplication: no division in the loop), and its v: the normal of a run
-/// that stops without certifying its last v (GjkResult::normal_v). An ellipse 1e-9 x 4.98 m
-/// (aspect 5e9) 2.8e-7 m from a 1 um disc stalled GJK (three runs, 58 iterations) with the
-/// distance right to 1.2e-12 m but v 7e-7 rad off, along which the ellipse reaches 3.5e-6 m
-/// further; the best lower bound of the restarted runs is 1.5e-12 m below the distance
+/// compared by cross-multiplication: no division in the loop), and its v
+/// (GjkResult::cert_v). A disc 2.8e-7 m from an ellipse 1e-9 x 4.98 m (aspect 5e9) stalled GJK
+/// (three runs, 58 iterations) with the distance right to 1.2e-12 m but v 7e-7 rad off, along
+/// which the ellipse reaches 3.5e-6 m further: the normal did not realise the distance; the
+/// best lower bound of the restarted runs is 1.5e-12 m below it
 /// (fuzz/regressions/core/gjk-disc-by-5e9-aspect-ellipse-normal). Tracked only in restarted
-/// runs (gjkRun<true>): at every iteration it cost 54 instructions, 4 % of a hull12 distance
-/// query.
+/// runs (gjkRun<true>): at every iteration of every run it cost 54 instructions, 4 % of a hull12
+/// distance query.
 template <int D>
 struct Certificate {
   double vw = -std::numeric_limits<double>::infinity();
@@ -1045,12 +1044,10 @@ template <bool kTrack, class MD>
 GjkResult<MD::kDim> gjkRun(const MD& md, const GjkSettings& st, const Simplex<MD::kDim>* seed,
                            int restarts);
 
-/// The lower bound on the distance that a finished run's normal direction (normalDirection())
-/// is known for: normal_lower, or for a Separated run v.w / |v| with w its last support point
-/// (left in the slot after the simplex); +inf for other runs.
+/// The lower bound on the distance certified for a finished Separated run's v: v.w / |v| with w
+/// its last support point (left in the slot after the simplex); +inf for other runs.
 template <int D>
 double exitLower(const GjkResult<D>& g) {
-  if (g.normal_lower < std::numeric_limits<double>::infinity()) return g.normal_lower;
   if (g.status != GjkStatus::Separated || g.simplex.size > D || !(g.distance > 0.0))
     return std::numeric_limits<double>::infinity();
   return g.v.dot(g.simplex.v[g.simplex.size].w) / g.distance;
@@ -1078,16 +1075,25 @@ __attribute__((noinline, cold)) GjkResult<MD::kDim> restartFrom(const MD& md, co
   GjkResult<MD::kDim> again = gjkRun<true>(md, left, &seed, restarts);
   again.iterations += r.iterations;
   again.seed_kept = 0;  // its seed was w, not the caller's
-  // The better distance, and the normal of the better lower bound.
+  // The better distance; the best certificate of both (r's exit v, and what the tracked runs
+  // kept); the normal along it where it beats v's own by more than the witness points' mismatch.
   GjkResult<MD::kDim> best = again.distance < r.distance ? again : r;
   best.iterations = again.iterations;
-  const double lower_r = exitLower(r), lower_again = exitLower(again);
-  const GjkResult<MD::kDim>& sure = lower_r > lower_again ? r : again;
-  const double lower = std::max(lower_r, lower_again);
-  if (lower < std::numeric_limits<double>::infinity()) {
-    best.normal_v = sure.normalDirection();
-    best.normal_lower = lower;
-  }
+  best.cert_lower = -std::numeric_limits<double>::infinity();
+  const auto offer = [&best](const Vec<MD::kDim>& v, double lower) {
+    if (lower < std::numeric_limits<double>::infinity() && lower > best.cert_lower) {
+      best.cert_v = v;
+      best.cert_lower = lower;
+    }
+  };
+  offer(r.v, exitLower(r));
+  offer(r.cert_v, r.cert_lower);
+  offer(again.v, exitLower(again));
+  offer(again.cert_v, again.cert_lower);
+  const double own = exitLower(best);
+  const double turn = (best.cert_v.normalized() - best.v.normalized()).norm();
+  best.normal_along_cert =
+      own < std::numeric_limits<double>::infinity() && best.cert_lower - own > best.distance * turn;
   return best;
 }
 
@@ -1162,8 +1168,8 @@ GjkResult<MD::kDim> gjkRun(const MD& md, const GjkSettings& st, const Simplex<MD
   r.iterations = it;
   r.v = v;
   if (kTrack && uncertified && r.status == GjkStatus::Separated) {
-    r.normal_v = best.v;
-    r.normal_lower = best.vw / best.vn;
+    r.cert_v = best.v;
+    r.cert_lower = best.vw / best.vn;
   }
   r.distance = std::sqrt(vv);
   s.witnesses(r.point_a, r.point_b);
