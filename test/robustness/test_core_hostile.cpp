@@ -295,6 +295,48 @@ TEST(CoreHostile, StalledRunKeepsItsNormalWhereTurningCostsMore) {
   }
 }
 
+TEST(CoreHostile, SegmentBesideMegametreCylinderIsApart) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-segment-by-2.5e6m-cylinder-false-inside):
+  // a 1 m segment (a box with two zero sides) 0.041 m from a cylinder 2.5e6 m long (radius
+  // 2.64 m, aspect 9.6e5). GJK's last tetrahedron had two vertices at the cylinder's ends,
+  // 1.2e6 m out: its signed volumes are within rounding of 0 there, they all came out with mu's
+  // sign, and distance() said Penetrating (signedDistance's EPA found the gap). The loop
+  // re-derived uncertain volumes (robustVolumes) only when they put the origin outside.
+  // Oracle: the cylinder's axis is the world z axis through (2.73, 0) and reaches 1.27e6 m past
+  // the segment, so the distance is the 2D distance from the segment's xy projection to the axis,
+  // less the radius.
+  const ConvexShape segment = ConvexShape::box(Vec3(1, 0, 0));
+  const ConvexShape cylinder = ConvexShape::cylinder(2531250, 2.640625);
+  Transform3 pa;
+  pa.R << 0.17694290664750856, -0.92473481807040547, -0.33698178591049321, 0.93031314710729862,
+      0.26890081561932111, -0.24941892405865701, 0.3212610404428855, -0.26936567637239578,
+      0.90787305075434221;
+  Transform3 pb = at(2.7290964533237538, 0, 0);
+  pb.R << -0.99690479138293897, 0.078618298873344067, 0, 0.078618298873344067, 0.99690479138293919,
+      0, 0, 0, -0.99999999999999978;
+  using L2 = Eigen::Matrix<long double, 2, 1>;
+  const Vec3 half = 0.5 * pa.R.col(0);
+  const L2 p0(-half.x(), -half.y()), p1(half.x(), half.y()), c(pb.t.x(), pb.t.y());
+  const L2 d = p1 - p0;
+  const long double t = std::clamp<long double>((c - p0).dot(d) / d.squaredNorm(), 0, 1);
+  const double exact = static_cast<double>((p0 + t * d - c).norm() - 2.640625L);
+  ASSERT_NEAR(exact, 0.0406566, 1e-7);  // the case is what it claims to be
+  for (const bool swapped : {false, true}) {
+    const ConvexShape& a = swapped ? cylinder : segment;
+    const ConvexShape& b = swapped ? segment : cylinder;
+    const Transform3& ta = swapped ? pb : pa;
+    const Transform3& tb = swapped ? pa : pb;
+    EXPECT_FALSE(cm::intersect(a, ta, b, tb)) << swapped;
+    for (const bool depth : {false, true}) {
+      const cm::ContactResult r =
+          depth ? cm::signedDistance(a, ta, b, tb) : cm::distance(a, ta, b, tb);
+      EXPECT_EQ(r.status, cm::Status::Separated) << swapped << depth;
+      // Measured: 1.4e-10 m (segment first) and 1.2e-8 m (cylinder first) above the oracle.
+      EXPECT_NEAR(r.distance, exact, 1e-7) << swapped << depth;
+    }
+  }
+}
+
 namespace {
 /// The fuzzer's pose of the flat cone (height 1 m, radius 10 m) of the two needle cases below.
 Transform3 flatConePose() {
