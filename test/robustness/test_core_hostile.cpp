@@ -337,6 +337,41 @@ TEST(CoreHostile, SegmentBesideMegametreCylinderIsApart) {
   }
 }
 
+TEST(CoreHostile, SquareCornerByConeRimConverges) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-square-by-cone-rim-tie): a flat 0.23 m
+  // square (a box with a zero side) whose corner is 0.014 m from a cone's base rim, 50 m from the
+  // origin. The square's edge through that corner is perpendicular to v, so its support is a tie
+  // between the edge's two corners; GJK took the far one, the triangle with it was closer only in
+  // exact arithmetic (by 5 ulps of |v|^2; rounded, 48 ulps farther), and GJK stopped 1.3e-9 m
+  // (cold) and 2.5e-9 m (the swapped pair) above the distance, with warm starts elsewhere again.
+  // The tie step now allows the rounding of |v|^2 at the vertices' size. Oracle: the corner's
+  // distance to the rim circle (both at the cone's base height), in long double.
+  const double side = 0.23281250000000001;
+  const ConvexShape square = ConvexShape::box(Vec3(0, side, side));
+  const ConvexShape cone = ConvexShape::cone(side, side);
+  const Transform3 pa = at(-49.84375, -1.171875, -4.875);
+  const Transform3 pb = at(-49.620923577505003, -0.94904857750500515, -4.875);
+  const long double dx = static_cast<long double>(pb.t.x()) - pa.t.x();
+  const long double dy = static_cast<long double>(pb.t.y()) - pa.t.y() - side / 2.0L;
+  const double exact = static_cast<double>(std::sqrt(dx * dx + dy * dy) - side);
+  ASSERT_NEAR(exact, 0.0141224, 1e-7);  // the case is what it claims to be
+  for (const bool swapped : {false, true}) {
+    const ConvexShape& a = swapped ? cone : square;
+    const ConvexShape& b = swapped ? square : cone;
+    const Transform3& ta = swapped ? pb : pa;
+    const Transform3& tb = swapped ? pa : pb;
+    cm::PairCache cache;
+    const cm::ContactResult cold = cm::signedDistance(a, ta, b, tb, &cache);
+    const cm::ContactResult warm = cm::signedDistance(a, ta, b, tb, &cache);
+    // Measured: 5.9e-12 and 6.1e-13 m above (cold), 4.7e-13 and 6.1e-13 m (warm).
+    for (const cm::ContactResult& r : {cold, warm}) {
+      EXPECT_EQ(r.status, cm::Status::Separated) << swapped;
+      EXPECT_GE(r.distance, exact - 1e-15) << swapped;  // GJK's distance is an upper bound
+      EXPECT_LT(r.distance, exact + 1e-10) << swapped;
+    }
+  }
+}
+
 namespace {
 /// The fuzzer's pose of the flat cone (height 1 m, radius 10 m) of the two needle cases below.
 Transform3 flatConePose() {
