@@ -372,6 +372,42 @@ TEST(CoreHostile, SquareCornerByConeRimConverges) {
   }
 }
 
+TEST(CoreHostile, TieStepKeepsTheNormalUnit) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-tie-step-normal-length; introduced by
+  // 39bc66f, which let the tie step accept |v|^2 rounded at the vertices' size): a disc (a cone
+  // 1.9e-9 m tall, radius 2.33 m) 3.5e-10 m from the rim of a flat cone (0.23 m tall, radius
+  // 10.8 m), the cone first. GJK ended on a tie step, which takes the new point as v but keeps
+  // the smaller |v|^2; distance() divided v by sqrt(|v|^2 kept): a normal of length 1 + 1.2e-8.
+  // Checked: unit normals, point_b - point_a = distance * normal, the same distance both ways.
+  const ConvexShape disc = ConvexShape::cone(1.921875e-09, 2.328125);
+  const ConvexShape cone = ConvexShape::cone(0.23281250000000001, 10.78125);
+  Transform3 pa;
+  pa.R << 0, 0, 1, 1, 0, 0, 0, 1, 0;
+  Transform3 pb = at(10.773463076105141, 0, 0);
+  pb.R << 0.99055060875885881, -0.13410866799927315, -0.028711611848082869, 0.1348355442485917,
+      0.99055060875885881, 0.025077230601490103, 0.025077230601490103, -0.028711611848082869,
+      0.99927312375068145;
+  std::vector<double> distances;
+  for (const bool swapped : {false, true}) {
+    const ConvexShape& a = swapped ? cone : disc;
+    const ConvexShape& b = swapped ? disc : cone;
+    const Transform3& ta = swapped ? pb : pa;
+    const Transform3& tb = swapped ? pa : pb;
+    for (const bool depth : {false, true}) {
+      const cm::ContactResult r =
+          depth ? cm::signedDistance(a, ta, b, tb) : cm::distance(a, ta, b, tb);
+      EXPECT_EQ(r.status, cm::Status::Touching) << swapped << depth;
+      EXPECT_NEAR(r.normal.norm(), 1.0, 1e-15) << swapped << depth;  // was 1 + 1.2e-8
+      // Measured: 2.9e-19 m (disc first) and 6.1e-16 m (cone first).
+      EXPECT_LT((r.point_b - r.point_a - r.distance * r.normal).norm(), 1e-14) << swapped << depth;
+      distances.push_back(r.distance);
+    }
+  }
+  ASSERT_NEAR(distances.front(), 3.5158677e-10, 1e-16);  // the case is what it claims to be
+  for (const double d : distances)
+    EXPECT_NEAR(d, distances.front(), 2e-15);  // measured: 7.9e-16 m apart
+}
+
 namespace {
 /// The fuzzer's pose of the flat cone (height 1 m, radius 10 m) of the two needle cases below.
 Transform3 flatConePose() {

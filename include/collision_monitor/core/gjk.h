@@ -1174,6 +1174,11 @@ GjkResult<MD::kDim> gjkRun(const MD& md, const GjkSettings& st, const Simplex<MD
     retried &= ~detail::kRetriedTie;  // progress: a later tie may be taken again
   }
   r.iterations = it;
+  // A run that ended on a tie step (no progress since) holds that step's v with the smaller |v|^2
+  // kept (progressOnTie): report |v| itself, so that v / distance is a unit normal. A 1.9e-9 m
+  // disc 3.5e-10 m from a 10.8 m flat cone's rim got a normal of length 1 + 1.2e-8 (fuzz/
+  // regressions/core/gjk-tie-step-normal-length).
+  if (retried & kRetriedTie) vv = v.squaredNorm();
   r.v = v;
   if (kTrack && uncertified && r.status == GjkStatus::Separated) {
     r.cert_v = best.v;
