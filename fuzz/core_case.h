@@ -496,6 +496,10 @@ inline std::string describe(const cmc::ContactResult& r) {
 
 /// Exact signed distance for polytope-like pairs (qhull hull of the Minkowski difference of the
 /// cores, minus the radii), or nullopt when the difference is flat (qhull cannot hull it).
+/// Most point-triangle and segment-segment pairs oracleDistance() checks by brute force: two
+/// 20-point sets, or 80 points and one.
+constexpr double kBruteForceBudget = 1e5;
+
 inline std::optional<double> oracleDistance(const Placed& a, const Placed& b) {
   std::vector<Vec3> ca, cb;
   double ra = 0.0, rb = 0.0;
@@ -534,8 +538,21 @@ inline std::optional<double> oracleDistance(const Placed& a, const Placed& b) {
   // are farther), without qhull. qhull's hull of a thin difference can lose a vertex to its
   // merging precision: two plates 5.9 m and 2.5e6 m across, 1.3e6 m apart, were 0.61 m too far
   // (fuzz/regressions/core/oracle-qhull-thin-plates-1.3e6m-apart; ours agreed with a long-double
-  // brute force to 7e-10 m).
-  if (d > 0.0 && ca.size() <= 8 && cb.size() <= 8) {
+  // brute force to 7e-10 m). Where that costs at most kBruteForceBudget feature pairs: a flat
+  // 23-point polygon 3.2 m from a point (both 4875 m out, so their difference is flat only to
+  // rounding) came out 0.32 m too far from qhull (fuzz/regressions/core/
+  // oracle-qhull-flat-polygon-by-point; ours agreed with an exact rational 2D evaluation to
+  // 4e-16 m); until then only pairs of at most 8 points each were checked this way.
+  const auto choose3 = [](double n) { return n * (n - 1) * (n - 2) / 6; };
+  const double na = static_cast<double>(ca.size()), nb = static_cast<double>(cb.size());
+  const double pairs = na * choose3(nb) + nb * choose3(na) + na * (na - 1) / 2 * nb * (nb - 1) / 2;
+  if (d > 0.0 && pairs <= kBruteForceBudget) {
+    // At qhull's unit size too (exact: a power of two): a 30-point hull 2.6e-163 m across was
+    // "touching" a box 1e-168 m from it in metres (squares underflow).
+    for (Vec3& x : ca)
+      x *= unit;
+    for (Vec3& x : cb)
+      x *= unit;
     double best = std::numeric_limits<double>::infinity();
     const auto pointToTriangles = [&best](const std::vector<Vec3>& ps,
                                           const std::vector<Vec3>& ts) {
@@ -557,7 +574,7 @@ inline std::optional<double> oracleDistance(const Placed& a, const Placed& b) {
             best =
                 std::min(best, oracle::closestSegmentSegment(ca[i], ca[j], cb[k], cb[l], &c1, &c2));
           }
-    if (best < std::numeric_limits<double>::infinity()) d = best;
+    if (best < std::numeric_limits<double>::infinity()) d = best / unit;
   }
   return d - ra - rb;
 }

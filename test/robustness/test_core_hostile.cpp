@@ -408,6 +408,48 @@ TEST(CoreHostile, TieStepKeepsTheNormalUnit) {
     EXPECT_NEAR(d, distances.front(), 2e-15);  // measured: 7.9e-16 m apart
 }
 
+TEST(CoreHostile, DiscByCoplanarCornerBreaksTheSupportTie) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-disc-by-coplanar-corner-tie): a disc (a
+  // cylinder 4.9e-324 m tall, radius r = 2.8 mm) in the plane z = 0 and a hull whose corner
+  // (r, r, 0) is 1.2e-3 m from the disc's rim, with a top face in the same plane and an edge down
+  // to (r, r, r) (the fuzzer's 9 points, duplicates jittered by 1e-15 m). With v in that plane the
+  // support along -v was a tie between the top and the bottom of that edge, GJK took the bottom,
+  // whose triangle is closer only by the square of the gap (6e-18 m, below rounding), and stopped:
+  // 2.9e-11 m long cold, 5.2e-11 m warm and swapped, restarts included. GJK now asks again along
+  // a direction tilted toward v and takes the tie's other end. Oracle: the corner's distance to
+  // the rim, (sqrt(2) - 1) r.
+  const double r = 0.0028124999999999999;
+  const ConvexShape disc = ConvexShape::cylinder(4.9406564584124654e-324, r);
+  const ConvexShape hull = ConvexShape::convexHull({
+      Vec3(0.0028124999999999999, 0.0028124999999999999, 0),
+      Vec3(0.0056249999999999998, 0.0028125000000004869, -1.4616141732283463e-15),
+      Vec3(0.005625000000001882, 0.0028125000000001105, 1.8823818897637796e-15),
+      Vec3(0.0028124999999999999, 0.0028124999999999999, 0.0028125000000025686),
+      Vec3(0.0056250000000025689, 0.0028125000000025686, 2.5688976377952754e-15),
+      Vec3(0.0028125000000011513, 0.0056250000000025689, 2.5688976377952754e-15),
+      Vec3(0.0028125000000025686, 0.0028125000000025686, 0.0028125000000025686),
+      Vec3(0.0056249999999999998, 0.0028124999999999999, 0),
+      Vec3(0.0028124999999999999, 0.0056249999999999998, 0),
+  });
+  const Transform3 identity = Transform3::Identity();
+  const double exact = static_cast<double>((std::sqrt(2.0L) - 1) * r);
+  for (const bool swapped : {false, true}) {
+    cm::PairCache cache;
+    for (const bool warm : {false, true}) {
+      const cm::ContactResult res =
+          swapped ? cm::signedDistance(hull, identity, disc, identity, &cache)
+                  : cm::signedDistance(disc, identity, hull, identity, &cache);
+      EXPECT_EQ(res.status, cm::Status::Separated) << swapped << warm;
+      // Measured: 3.4e-16 m above (all four); 2.9e-11 to 5.2e-11 m before.
+      EXPECT_NEAR(res.distance, exact, 1e-15) << swapped << warm;
+    }
+  }
+  // The boolean query stalled alike: the disc padded to overlap the corner by 1e-11 m was "apart".
+  const ConvexShape padded = disc.padded(exact + 1e-11);
+  EXPECT_TRUE(cm::intersect(padded, identity, hull, identity));
+  EXPECT_TRUE(cm::intersect(hull, identity, padded, identity));
+}
+
 namespace {
 /// The fuzzer's pose of the flat cone (height 1 m, radius 10 m) of the two needle cases below.
 Transform3 flatConePose() {
