@@ -450,6 +450,52 @@ TEST(CoreHostile, DiscByCoplanarCornerBreaksTheSupportTie) {
   EXPECT_TRUE(cm::intersect(hull, identity, padded, identity));
 }
 
+TEST(CoreHostile, SegmentByNeedleEllipseIsNotTouching) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-needle-ellipse-plane-projection-outside):
+  // a segment 1.08e-9 m long (a cylinder of radius 0) 3.8e-9 m from a flat ellipse 1.08e-9 m x
+  // 1.52 m (aspect 1.4e9). GJK stalled on a needle triangle (2.3 m x 5e-10 m) and its plane retry
+  // took the origin's projection onto the triangle's plane, 7.3e-11 m away, which the rounded
+  // weights put inside and exact arithmetic far outside: the cold query said Touching, 7.3e-11 m,
+  // with witness points 1.3e-7 m apart. The plane's projection is now refused below the run's
+  // lower bound. Oracle: in the ellipse's frame the segment's nearest end is 3.8e-9 m from the
+  // ellipse's vertex (-a, 0, 0) and 2.8e-10 m off its axis, where the ellipse's boundary is the
+  // line x = -a to 1e-29 m (radius of curvature 2e9 m): the 2D distance from the segment's (x, z)
+  // to (-a, 0).
+  const double a = 1.0781250000000001e-09;
+  const ConvexShape segment = ConvexShape::cylinder(a, 0.0);
+  const ConvexShape ellipse = ConvexShape::ellipsoid(Vec3(a, 1.515625, 4.9406564584124654e-324));
+  Transform3 pa;
+  pa.R << -0.22950373154654846, 0.49201939314702831, 0.83978863648744317, 0.56959198126055444,
+      -0.63174810698915884, 0.52579397505038927, 0.78923571389660596, 0.59900855259573982,
+      -0.13526175300975085;
+  Transform3 pb = at(5.349634782129725e-09, 0, 0);
+  pb.R << 1, 3.1516901497729662e-09, 3.610183460774632e-09, -3.1516901628063903e-09, 1,
+      3.6101834493964525e-09, -3.6101834493964525e-09, -3.610183460774632e-09, 1;
+  using L3 = Eigen::Matrix<long double, 3, 1>;
+  const Eigen::Matrix<long double, 3, 3> ra = pa.R.cast<long double>(),
+                                         rb = pb.R.cast<long double>();
+  const L3 e[2] = {rb.transpose() * (ra * L3(0, 0, -a / 2) - pb.t.cast<long double>()),
+                   rb.transpose() * (ra * L3(0, 0, a / 2) - pb.t.cast<long double>())};
+  const long double x0 = -a - e[0].x(), z0 = e[0].z(), dx = e[0].x() - e[1].x(),
+                    dz = e[1].z() - e[0].z();
+  const long double t = std::clamp(-(x0 * dx + z0 * dz) / (dx * dx + dz * dz), 0.0L, 1.0L);
+  const double exact = static_cast<double>(std::hypot(x0 + t * dx, z0 + t * dz));
+  ASSERT_NEAR(exact, 3.8195e-9, 1e-13);  // the case is what it claims to be
+  const double tol = 1e-9 * 1.515625;    // the core's accuracy goal: 1e-9 of the size
+  cm::PairCache cache;
+  const cm::ContactResult results[] = {cm::signedDistance(segment, pa, ellipse, pb, &cache),
+                                       cm::signedDistance(segment, pa, ellipse, pb, &cache),
+                                       cm::distance(segment, pa, ellipse, pb),
+                                       cm::signedDistance(ellipse, pb, segment, pa)};
+  for (const cm::ContactResult& r : results) {
+    EXPECT_EQ(r.status, cm::Status::Separated);  // was Touching (cold)
+    // Measured: 1.9e-10 m (cold), 7.5e-12 m (warm and distance()), 0 (swapped) above.
+    EXPECT_NEAR(r.distance, exact, tol);
+    // Measured: up to 1.2e-11 m (the needle's triangles); 1.3e-7 m before.
+    EXPECT_LT((r.point_b - r.point_a - r.distance * r.normal).norm(), 1e-10);
+  }
+}
+
 namespace {
 /// The fuzzer's pose of the flat cone (height 1 m, radius 10 m) of the two needle cases below.
 Transform3 flatConePose() {

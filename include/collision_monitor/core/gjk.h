@@ -893,12 +893,26 @@ CM_ALWAYS_INLINE Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* s
 
 /// The origin's projection onto the plane of the triangle s.v[0..2], from triangleNormal<true>()
 /// (each component rounded once, from the edges at the largest angle); false when the triangle is
-/// degenerate. The accurate plane of the retries below.
-inline bool planeProjection(const Simplex<3>& s, Vec3& q) {
+/// degenerate, or when the projection is nearer than `lower` (a lower bound on the distance: the
+/// run's last v.w / |v|) by more than the rounding of the vertices (64 eps M): then it is not a
+/// point of the triangle. The accurate plane of the retries below. On a needle triangle (2.3 m
+/// long, 5e-10 m wide) the rounded edges turn the normal by about eps M / width (1e-7 rad) about a
+/// vertex; the projection came out 7.3e-11 m from the origin, inside by the rounded weights, far
+/// outside in exact arithmetic (the triangle is 3.9e-9 m away; the lower bound was 3.7e-9 m), and
+/// a segment 3.8e-9 m from a flat ellipse was "touching"
+/// (fuzz/regressions/core/gjk-needle-ellipse-plane-projection-outside).
+inline bool planeProjection(const Simplex<3>& s, Vec3& q, double lower) {
   const Vec3 n = triangleNormal<true>(s.v[0].w, s.v[1].w, s.v[2].w);
   const double nn = n.squaredNorm();
   if (!(nn > 0.0)) return false;
   q = n * (s.v[0].w.dot(n) / nn);
+  if (lower > 0.0) {
+    double m2 = 0.0;
+    for (int i = 0; i < 3; ++i)
+      m2 = std::max(m2, s.v[i].w.squaredNorm());
+    const double slack = 64.0 * std::numeric_limits<double>::epsilon() * std::sqrt(m2);
+    if (q.norm() < lower - slack) return false;
+  }
   return true;
 }
 
@@ -924,7 +938,7 @@ inline bool planeProjection(const Simplex<3>& s, Vec3& q) {
 constexpr int kRetriedPlane = 1;
 constexpr int kRetriedLine = 2;
 template <int D>
-bool retryProjected(const Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
+bool retryProjected(const Simplex<D>& s, Vec<D>& v, double& vv, int& retried, double lower) {
   if (s.size == 2 && !(retried & kRetriedLine)) {
     const Vec<D> u = s.v[1].w - s.v[0].w;
     const double uu = u.squaredNorm();
@@ -937,12 +951,13 @@ bool retryProjected(const Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
   if constexpr (D == 3) {
     if (s.size != 3 || (retried & kRetriedPlane)) return false;
     Vec3 q;
-    if (!planeProjection(s, q)) return false;
+    if (!planeProjection(s, q, lower)) return false;
     retried |= kRetriedPlane;
     v = q;
     vv = v.squaredNorm();
     return true;
   } else {
+    (void)lower;
     return false;
   }
 }
@@ -957,14 +972,14 @@ bool retryProjected(const Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
 /// (fuzz/regressions/core/gjk-sliver-triangle-no-progress). Reduces `s`, sets v and vv, returns
 /// true; else leaves them.
 template <int D>
-bool progressOnPlane(Simplex<D>& s, Vec<D>& v, double& vv) {
+bool progressOnPlane(Simplex<D>& s, Vec<D>& v, double& vv, double lower) {
   if constexpr (D == 3) {
     if (s.size != 3) return false;
     Loop3 c;
     offerTriangle(s.v.data(), 0, 1, 2, c);
     if (c.mask != 7u) return false;
     Vec3 q;
-    if (!planeProjection(s, q)) return false;
+    if (!planeProjection(s, q, lower)) return false;
     const double qq = q.squaredNorm();
     if (!(qq < vv)) return false;
     compact(s, c);
@@ -972,7 +987,7 @@ bool progressOnPlane(Simplex<D>& s, Vec<D>& v, double& vv) {
     vv = qq;
     return true;
   } else {
-    (void)s, (void)v, (void)vv;
+    (void)s, (void)v, (void)vv, (void)lower;
     return false;
   }
 }
@@ -1187,7 +1202,7 @@ GjkResult<MD::kDim> gjkRun(const MD& md, const GjkSettings& st, const Simplex<MD
     // van den Bergen: upper bound |v| and lower bound v.w/|v| agree (plus an absolute floor).
     const bool certified = vv - vw <= st.rel_tolerance * vv + tol * vn;
     if (certified || detail::isDuplicate(s, w.w, tol2)) {
-      if (!certified && detail::retryProjected(s, v, vv, retried)) continue;
+      if (!certified && detail::retryProjected(s, v, vv, retried, vw / vn)) continue;
       r.status = GjkStatus::Separated;
       uncertified = !certified;
       break;
@@ -1195,11 +1210,12 @@ GjkResult<MD::kDim> gjkRun(const MD& md, const GjkSettings& st, const Simplex<MD
     ++s.size;
     r.seed_kept = 0;
     if (!detail::progress(s, v, vv)) {  // no progress (rounding): keep the better simplex, stop
-      if (detail::progressOnPlane(s, v, vv) || detail::progressOnTie(s, v, vv, retried) ||
+      if (detail::progressOnPlane(s, v, vv, vw / vn) || detail::progressOnTie(s, v, vv, retried) ||
           detail::progressTilted(md, s, v, vv))
         continue;
       --s.size;
-      if (detail::retryProjected(s, v, vv, retried)) continue;  // not certified (see above)
+      if (detail::retryProjected(s, v, vv, retried, vw / vn))
+        continue;  // not certified (see above)
       r.status = GjkStatus::Separated;
       stuck = restarts > 0 && it < st.max_iterations;
       break;
@@ -1269,18 +1285,19 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
     }
     const bool certified = vv - vw <= st.rel_tolerance * vv + tol * vn;
     if (certified || detail::isDuplicate(s, w.w, tol * tol)) {
-      if (!certified && detail::retryProjected(s, v, vv, retried)) continue;
+      if (!certified && detail::retryProjected(s, v, vv, retried, vw / vn)) continue;
       result = vn <= reach;  // converged: the distance is |v|
       break;
     }
     ++s.size;
     kept = 0;
     if (!detail::progress(s, v, vv)) {
-      if (detail::progressOnPlane(s, v, vv) || detail::progressOnTie(s, v, vv, retried) ||
+      if (detail::progressOnPlane(s, v, vv, vw / vn) || detail::progressOnTie(s, v, vv, retried) ||
           detail::progressTilted(md, s, v, vv))
         continue;
       --s.size;
-      if (detail::retryProjected(s, v, vv, retried)) continue;  // not certified (see above)
+      if (detail::retryProjected(s, v, vv, retried, vw / vn))
+        continue;  // not certified (see above)
       result = vn <= reach;
       break;
     }
