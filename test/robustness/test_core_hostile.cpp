@@ -496,6 +496,41 @@ TEST(CoreHostile, SegmentByNeedleEllipseIsNotTouching) {
   }
 }
 
+TEST(CoreHostile, WarmEpaOnAFlatBoxFallsBackToCold) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/epa-warm-capsule-by-flat-4750m-box): a capsule
+  // (1.44 m, radius 1.1e-6 m) crossing a flat box 4.5 m x 4750 m (thickness 4.9e-324 m) 4 mm from
+  // its centre. The warm-started signedDistance reused the cold query's tetrahedron (vertices
+  // 2400 m out), which holds the origin only to rounding; EPA then had the origin outside its
+  // polytope and cycled through the same three support points for 256 iterations:
+  // FailedToConverge, depth 0.385 m, where the cold EPA converged in 4 iterations. A warm query
+  // whose EPA does not converge now runs again cold. Oracle: the capsule's segment crosses the
+  // box's plane (normal: the box's y axis) near the middle of its 4.5 m side, so the depth is the
+  // nearer end's distance to the plane plus the radius.
+  const double radius = 1.0937499999999999e-06;
+  const ConvexShape capsule = ConvexShape::capsule(1.4375, radius);
+  const ConvexShape box = ConvexShape::box(Vec3(4.546875, 4.9406564584124654e-324, 4750));
+  const Transform3 pa = Transform3::Identity();
+  Transform3 pb = at(0, 0.0040625000000000001, 0);
+  pb.R << 0.37055203781325263, -0.91750646570944427, 0.1444751627575136, 0.82939445286720748,
+      0.25684473379113548, -0.49612057433336298, 0.41808615000445903, 0.30366538838847768,
+      0.85614911263711768;
+  const Eigen::Matrix<long double, 3, 1> n = pb.R.col(1).cast<long double>();
+  long double nearer = std::numeric_limits<long double>::infinity();
+  for (const double z : {-0.71875, 0.71875})
+    nearer = std::min(nearer, std::abs((Vec3(0, 0, z) - pb.t).cast<long double>().dot(n)));
+  const double exact = static_cast<double>(nearer + radius);
+  ASSERT_NEAR(exact, 0.217217, 1e-6);  // the case is what it claims to be
+  cm::PairCache cache;
+  const cm::ContactResult cold = cm::signedDistance(capsule, pa, box, pb, &cache);
+  const cm::ContactResult warm = cm::signedDistance(capsule, pa, box, pb, &cache);
+  for (const cm::ContactResult& r : {cold, warm}) {
+    EXPECT_EQ(r.status, cm::Status::Penetrating);  // warm: was FailedToConverge
+    // Measured: 1.7e-14 m short (cold and warm alike; the pair is 2400 m across); the warm one
+    // was 0.168 m off.
+    EXPECT_NEAR(-r.distance, exact, 1e-12);
+  }
+}
+
 namespace {
 /// The fuzzer's pose of the flat cone (height 1 m, radius 10 m) of the two needle cases below.
 Transform3 flatConePose() {
