@@ -366,8 +366,12 @@ std::shared_ptr<const Polytope<3>> buildUnitHull(const std::vector<Vec3>& points
   if (f.dim < 3) return makeLowDim(points, f);
   std::string why;
   {
-    Qhull q;  // default options: coplanar facets merged, so ridges are the real edges
-    if (runSolid(q, points, "", &why)) return extractSolid(q, points);
+    // Coplanar facets merged (qhull's default), so ridges are the real edges. "Qs": the initial
+    // simplex from all points; with qhull's default pick, the 16 corners of a box swept along a
+    // 1e6 m segment never left qhull's merging (qh_mergefacet, > 10 minutes; "Qs": 0.14 ms):
+    // fuzz/regressions/core/hull-box-swept-1e6m-qhull-hang.
+    Qhull q;
+    if (runSolid(q, points, "Qs", &why)) return extractSolid(q, points);
   }
   {
     Qhull q;  // nearly flat input: joggled input always gives a (simplicial) hull

@@ -183,7 +183,7 @@ inline Hull makeHull(const std::vector<V3>& pts) {
   qhT qh_storage;
   qhT* qh = &qh_storage;
   qh_zero(qh, err);
-  char cmd[] = "qhull Qt";
+  char cmd[] = "qhull Qt Qs";  // Qs: see buildConvexHull (qhull's default start can hang)
   const int code =
       qh_new_qhull(qh, 3, static_cast<int>(pts.size()), coords.data(), False, cmd, nullptr, err);
   if (code == 0) {

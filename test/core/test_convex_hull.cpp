@@ -635,6 +635,37 @@ TEST(ConvexHull, DuplicatePointsLoseNoVertexAndNoEdge) {
   }
 }
 
+TEST(ConvexHull, BoxSweptAlongAMegametreSegmentFinishes) {
+  // Bug (found by fuzz_core as a timeout, fuzz/regressions/core/hull-box-swept-1e6m-qhull-hang):
+  // the 16 corners of a 1.4 x 3.5 x 4.7 m box at both ends of a segment 1.05e6 m long (the
+  // oracle's Minkowski difference of a box and a segment). qhull with its default initial simplex
+  // never left its facet merging (qh_mergefacet; 30 s here, 4 minutes in the oracle, stopped);
+  // a node would hang on such a mesh. "Qs" (initial simplex from all points): 0.3 ms. Checked:
+  // the hull's support equals the brute-force maximum over the points in every direction tried;
+  // 8 vertices (the other 8 corners lie within 5e-9 m of the swept prism's long edges, which
+  // qhull merges).
+  const Vec3 s0(-0.0011093750000000001, 1.390625e-09, -9.9999999999999995e-07), s1(0, 0, 1046875);
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 8; ++i) {
+    const Vec3 c((i & 1 ? 0.5 : -0.5) * 1.375, (i & 2 ? 0.5 : -0.5) * 3.46875,
+                 (i & 4 ? 0.5 : -0.5) * 4.703125);
+    pts.push_back(c - s0);
+    pts.push_back(c - s1);
+  }
+  const auto poly = cm::buildConvexHull(pts);
+  EXPECT_EQ(poly->size(), 8);
+  expectWellFormedAdjacency(*poly);
+  std::mt19937_64 rng(31);
+  for (int k = 0; k < 1000; ++k) {
+    const Vec3 d = randomUnit(rng);
+    double best = -std::numeric_limits<double>::infinity();
+    for (const Vec3& p : pts)
+      best = std::max(best, p.dot(d));
+    int hint = -1;
+    EXPECT_EQ(poly->vertices()[poly->supportIndex(d, hint)].dot(d), best) << k;
+  }
+}
+
 TEST(Polytope, ScanIndexFirstMaximumOnTies) {
   // Both lane reductions of the scan (folded in vector registers, or scalar) must return the
   // first maximum when several vertices tie, in whichever lanes they sit (and whatever the pad
