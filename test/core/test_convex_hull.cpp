@@ -61,6 +61,20 @@ Vec3 randomUnit(std::mt19937_64& rng) {
   return v.normalized();
 }
 
+/// The hull's support (a climb from a cold hint) equals the brute-force maximum over `pts` in
+/// `directions` random directions.
+void expectSupportOfPoints(const cm::Polytope<3>& poly, const std::vector<Vec3>& pts,
+                           std::mt19937_64& rng, int directions, const std::string& what) {
+  for (int k = 0; k < directions; ++k) {
+    const Vec3 d = randomUnit(rng);
+    double best = -std::numeric_limits<double>::infinity();
+    for (const Vec3& p : pts)
+      best = std::max(best, p.dot(d));
+    int hint = -1;
+    EXPECT_EQ(poly.vertices()[poly.supportIndex(d, hint)].dot(d), best) << what << " k " << k;
+  }
+}
+
 }  // namespace
 
 TEST(ConvexHull, CubeWithInteriorPointsKeepsExactlyTheEightCorners) {
@@ -622,15 +636,8 @@ TEST(ConvexHull, DuplicatePointsLoseNoVertexAndNoEdge) {
         pts.push_back(pts[pick(rng) % pts.size()]);  // as many duplicates again
       const auto poly = cm::buildConvexHull(pts);
       expectWellFormedAdjacency(*poly);
-      for (int k = 0; k < 100; ++k) {
-        const Vec3 d = randomUnit(rng);
-        double best = -std::numeric_limits<double>::infinity();
-        for (const Vec3& p : pts)
-          best = std::max(best, p.dot(d));
-        int hint = -1;
-        const int idx = poly->supportIndex(d, hint);
-        EXPECT_EQ(poly->vertices()[idx].dot(d), best) << "n " << n << " trial " << trial;
-      }
+      expectSupportOfPoints(*poly, pts, rng, 100,
+                            "n " + std::to_string(n) + " trial " + std::to_string(trial));
     }
   }
 }
@@ -656,14 +663,7 @@ TEST(ConvexHull, BoxSweptAlongAMegametreSegmentFinishes) {
   EXPECT_EQ(poly->size(), 8);
   expectWellFormedAdjacency(*poly);
   std::mt19937_64 rng(31);
-  for (int k = 0; k < 1000; ++k) {
-    const Vec3 d = randomUnit(rng);
-    double best = -std::numeric_limits<double>::infinity();
-    for (const Vec3& p : pts)
-      best = std::max(best, p.dot(d));
-    int hint = -1;
-    EXPECT_EQ(poly->vertices()[poly->supportIndex(d, hint)].dot(d), best) << k;
-  }
+  expectSupportOfPoints(*poly, pts, rng, 1000, "swept box");
 }
 
 TEST(Polytope, ScanIndexFirstMaximumOnTies) {
