@@ -44,6 +44,18 @@ long procStatusKb(const std::string& key) {
   return -1;
 }
 
+/// A pair of placed shapes in the order a test asks for: (x, y) or, swapped, (y, x).
+struct Ordered {
+  const ConvexShape& a;
+  const ConvexShape& b;
+  const Transform3& ta;
+  const Transform3& tb;
+};
+Ordered ordered(bool swapped, const ConvexShape& x, const Transform3& tx, const ConvexShape& y,
+                const Transform3& ty) {
+  return swapped ? Ordered{y, x, ty, tx} : Ordered{x, y, tx, ty};
+}
+
 double seconds(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -240,10 +252,7 @@ TEST(CoreHostile, DiscByFiveBillionAspectEllipseNormal) {
   ASSERT_NEAR(exact, 2.8314e-7, 1e-11);  // the case is what it claims to be
   for (const bool swapped : {false, true}) {
     for (const bool depth : {false, true}) {
-      const ConvexShape& a = swapped ? ellipse : disc;
-      const ConvexShape& b = swapped ? disc : ellipse;
-      const Transform3& ta = swapped ? pb : pa;
-      const Transform3& tb = swapped ? pa : pb;
+      const auto [a, b, ta, tb] = ordered(swapped, disc, pa, ellipse, pb);
       const cm::ContactResult r =
           depth ? cm::signedDistance(a, ta, b, tb) : cm::distance(a, ta, b, tb);
       EXPECT_EQ(r.status, cm::Status::Separated) << swapped << depth;
@@ -277,10 +286,7 @@ TEST(CoreHostile, StalledRunKeepsItsNormalWhereTurningCostsMore) {
       -0.14201327356753191;
   const Transform3 pb = at(3.5996850435580057, 0, 0);
   for (const bool swapped : {false, true}) {
-    const ConvexShape& a = swapped ? sphere : ellipsoid;
-    const ConvexShape& b = swapped ? ellipsoid : sphere;
-    const Transform3& ta = swapped ? pb : pa;
-    const Transform3& tb = swapped ? pa : pb;
+    const auto [a, b, ta, tb] = ordered(swapped, ellipsoid, pa, sphere, pb);
     const cm::ContactResult r = cm::distance(a, ta, b, tb);
     ASSERT_EQ(r.status, cm::Status::Separated) << swapped;
     EXPECT_NEAR(r.distance, 0.00797, 1e-5) << swapped;  // the case is what it claims to be
@@ -322,10 +328,7 @@ TEST(CoreHostile, SegmentBesideMegametreCylinderIsApart) {
   const double exact = static_cast<double>((p0 + t * d - c).norm() - 2.640625L);
   ASSERT_NEAR(exact, 0.0406566, 1e-7);  // the case is what it claims to be
   for (const bool swapped : {false, true}) {
-    const ConvexShape& a = swapped ? cylinder : segment;
-    const ConvexShape& b = swapped ? segment : cylinder;
-    const Transform3& ta = swapped ? pb : pa;
-    const Transform3& tb = swapped ? pa : pb;
+    const auto [a, b, ta, tb] = ordered(swapped, segment, pa, cylinder, pb);
     EXPECT_FALSE(cm::intersect(a, ta, b, tb)) << swapped;
     for (const bool depth : {false, true}) {
       const cm::ContactResult r =
@@ -356,10 +359,7 @@ TEST(CoreHostile, SquareCornerByConeRimConverges) {
   const double exact = static_cast<double>(std::sqrt(dx * dx + dy * dy) - side);
   ASSERT_NEAR(exact, 0.0141224, 1e-7);  // the case is what it claims to be
   for (const bool swapped : {false, true}) {
-    const ConvexShape& a = swapped ? cone : square;
-    const ConvexShape& b = swapped ? square : cone;
-    const Transform3& ta = swapped ? pb : pa;
-    const Transform3& tb = swapped ? pa : pb;
+    const auto [a, b, ta, tb] = ordered(swapped, square, pa, cone, pb);
     cm::PairCache cache;
     const cm::ContactResult cold = cm::signedDistance(a, ta, b, tb, &cache);
     const cm::ContactResult warm = cm::signedDistance(a, ta, b, tb, &cache);
@@ -389,10 +389,7 @@ TEST(CoreHostile, TieStepKeepsTheNormalUnit) {
       0.99927312375068145;
   std::vector<double> distances;
   for (const bool swapped : {false, true}) {
-    const ConvexShape& a = swapped ? cone : disc;
-    const ConvexShape& b = swapped ? disc : cone;
-    const Transform3& ta = swapped ? pb : pa;
-    const Transform3& tb = swapped ? pa : pb;
+    const auto [a, b, ta, tb] = ordered(swapped, disc, pa, cone, pb);
     for (const bool depth : {false, true}) {
       const cm::ContactResult r =
           depth ? cm::signedDistance(a, ta, b, tb) : cm::distance(a, ta, b, tb);

@@ -891,6 +891,15 @@ CM_ALWAYS_INLINE Vec<MD::kDim> gjkStart(const MD& md, const Simplex<MD::kDim>* s
   return s.v[0].w;
 }
 
+/// max |w_i|^2 over the first `n` vertices of `s` (M^2 of the rounding bounds below).
+template <int D>
+double largestVertexSquared(const Simplex<D>& s, int n) {
+  double m2 = 0.0;
+  for (int i = 0; i < n; ++i)
+    m2 = std::max(m2, s.v[i].w.squaredNorm());
+  return m2;
+}
+
 /// The origin's projection onto the plane of the triangle s.v[0..2], from triangleNormal<true>()
 /// (each component rounded once, from the edges at the largest angle); false when the triangle is
 /// degenerate, or when the projection is nearer than `lower` (a lower bound on the distance: the
@@ -907,10 +916,8 @@ inline bool planeProjection(const Simplex<3>& s, Vec3& q, double lower) {
   if (!(nn > 0.0)) return false;
   q = n * (s.v[0].w.dot(n) / nn);
   if (lower > 0.0) {
-    double m2 = 0.0;
-    for (int i = 0; i < 3; ++i)
-      m2 = std::max(m2, s.v[i].w.squaredNorm());
-    const double slack = 64.0 * std::numeric_limits<double>::epsilon() * std::sqrt(m2);
+    const double slack =
+        64.0 * std::numeric_limits<double>::epsilon() * std::sqrt(largestVertexSquared(s, 3));
     if (q.norm() < lower - slack) return false;
   }
   return true;
@@ -1010,9 +1017,7 @@ bool progressOnTie(Simplex<D>& s, Vec<D>& v, double& vv, int& retried) {
   // |v|^2 of a closest point rounds by about eps |v| M, M the largest vertex: a 0.23 m square's
   // edge 0.014 m from a cone's rim (M / |v| = 16) gave the triangle with the far corner 48 ulps
   // above v, in exact arithmetic 5 ulps below (fuzz/regressions/core/gjk-square-by-cone-rim-tie).
-  double m2 = 0.0;
-  for (int i = 0; i < s.size; ++i)
-    m2 = std::max(m2, s.v[i].w.squaredNorm());
+  const double m2 = largestVertexSquared(s, s.size);
   const double limit =
       vv + 8.0 * std::numeric_limits<double>::epsilon() * std::max(vv, std::sqrt(vv * m2));
   const auto take = [&](const auto& c) {
