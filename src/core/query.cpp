@@ -366,8 +366,7 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   ContactResult r;
   Simplex<3> seed;
   const GjkSettings gs = gjkSettings(f, o);
-  const Simplex<3>* warm = seedFromCache(md, cache, seed);
-  const GjkResult<3> g = gjkDistance(md, gs, warm);
+  const GjkResult<3> g = gjkDistance(md, gs, seedFromCache(md, cache, seed));
   storeCache(md, g.simplex, g.seed_kept, cache);
   r.gjk_iterations = g.iterations;
   if (g.status != GjkStatus::Intersecting) {
@@ -397,16 +396,6 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   }
   const EpaSettings es = epaSettings(f, o);
   const EpaResult<3> e = runEpa(eraseDifference(md), g.simplex, es);
-  if (warm != nullptr && e.status != EpaStatus::Converged && e.status != EpaStatus::Flat) {
-    // A warm seed that holds the origin only to rounding can start EPA on a polytope the origin is
-    // outside of: a capsule crossing a flat 4750 m box (vertices 2400 m out) cycled through the
-    // same three support points for 256 iterations (FailedToConverge, depth 0.38 m) where the cold
-    // query's EPA converged in 4 (0.217 m):
-    // fuzz/regressions/core/epa-warm-capsule-by-flat-4750m-box. Such a query runs again cold (and
-    // caches the cold simplex).
-    cache->size = 0;
-    return query(md, f, cache, o, want_depth);
-  }
   r.epa_iterations = e.iterations;
   if (e.status == EpaStatus::Flat) {
     finish(f, o, 0.0, e.point_a, e.point_b, flatNormal(e, f.T_AB.t), false, r);
@@ -455,8 +444,21 @@ ContactResult signedDistance(const ConvexShape& a, const Transform3& pose_a, con
                              const QueryOptions& options) {
   const PairFrame f = makeFrame(a, pose_a, b, pose_b);
   if (!f.finite) return ContactResult{};  // FailedToConverge, distance +inf, normal UnitX
-  return withPair(a, b, f, cache,
-                  [&](const auto& md) { return query(md, f, cache, options, true); });
+  const auto run = [&] {
+    return withPair(a, b, f, cache,
+                    [&](const auto& md) { return query(md, f, cache, options, true); });
+  };
+  const bool warm = cache != nullptr && cache->size > 0;
+  const ContactResult r = run();
+  if (!warm || r.status != Status::FailedToConverge) return r;
+  // A warm seed that holds the origin only to rounding can start EPA on a polytope the origin is
+  // outside of: a capsule crossing a flat 4750 m box (vertices 2400 m out) cycled through the
+  // same three support points for 256 iterations (FailedToConverge, depth 0.38 m) where the cold
+  // query's EPA converged in 4 (0.217 m): fuzz/regressions/core/epa-warm-capsule-by-flat-4750m-box.
+  // Such a query runs again cold (and caches the cold simplex). Here, not inside query(): there
+  // the fallback cost 47 / 86 instructions per hull12 distance / warm query (code generation).
+  cache->size = 0;
+  return run();
 }
 
 }  // namespace core
