@@ -86,8 +86,14 @@ inline V3 closestPointTriangle(const V3& p_, const V3& a_, const V3& b_, const V
     // lose digits on needles). A triangle tiny next to its distance from p rounded all three to 0
     // ((b - q) x (c - q) is then q x q): "inside", with q far from the triangle
     // (fuzz/regressions/core/oracle-tiny-triangle-inside).
-    if (u >= 0 && v >= 0 && w >= 0 && std::abs(u + v + w - nn) <= 1e-6L * nn)
-      return q.cast<double>();
+    // The point returned is the weights' combination of the vertices, on the triangle, not q: on
+    // a sliver the rounded normal tilts the plane, and q lies off the triangle by that tilt times
+    // its distance from the vertices. A capsule 18.5 m from a 1.4e6 m x 1.5e-6 m sliver got q
+    // 0.028 m off it along n, and a distance 0.023 m short
+    // (fuzz/regressions/core/oracle-sliver-triangle-projection-off-plane).
+    const L sum = u + v + w;
+    if (u >= 0 && v >= 0 && w >= 0 && std::abs(sum - nn) <= 1e-6L * nn)
+      return ((u * a + v * b + w * c) / sum).template cast<double>();
   }
   V3 best = closestPointSegment(p_, a_, b_);
   for (const V3& e : {closestPointSegment(p_, b_, c_), closestPointSegment(p_, c_, a_)})

@@ -474,6 +474,19 @@ TEST(Oracle, ClosestPointOnTriangleInEveryVoronoiRegion) {
   // oracle-tiny-triangle-inside): the closest point is vertex b or c, not the projection 5 m away.
   const Vec3 far(1e30, 1e30, 5.0);
   EXPECT_GT((closestPointTriangle(far, a, b, c) - far).norm(), 1e30);
+  // A sliver 1.4e6 m long and 1.5e-6 m wide (a hull's far vertex and two of a cluster's points),
+  // 18.5 m from a point beside its middle: the rounded normal tilts its plane, and the projection
+  // onto it was 0.028 m off the triangle: a distance 0.023 m short (fuzz/regressions/core/
+  // oracle-sliver-triangle-projection-off-plane). The closest point must lie on the triangle,
+  // within its 1.5e-6 m width of its long edge, and be as near as that edge's closest point.
+  const Vec3 tip(805222.54798228352, 805222.54798228352, 805199.26673228352);
+  const Vec3 b6(-18.59375, -18.593748755536417, -41.874999824311026);
+  const Vec3 b45(-18.59374910691437, -18.59375, -41.875);
+  const Vec3 p(0, 0, -0.5625);
+  const Vec3 q = closestPointTriangle(p, tip, b6, b45);
+  const Vec3 on_edge = oracle::closestPointSegment(q, tip, b6);
+  EXPECT_LT((q - on_edge).norm(), 1.6e-6);  // was 0.028 m
+  EXPECT_NEAR((q - p).norm(), (oracle::closestPointSegment(p, tip, b6) - p).norm(), 1.6e-6);
 }
 
 TEST(Oracle, SegmentSegmentClosestPoints) {

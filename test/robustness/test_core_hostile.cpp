@@ -528,6 +528,33 @@ TEST(CoreHostile, WarmEpaOnAFlatBoxFallsBackToCold) {
   }
 }
 
+TEST(CoreHostile, BoxByNeedleHullKeepsItsEpaHorizonConvex) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/epa-box-by-3925m-needle-hull-coplanar-horizon,
+  // there a cluster of 24 points 1e-6 m across instead of the one point): a box overlapping the
+  // hull of two points, one inside the box, one 6,800 m away along the diagonal. A - B is a
+  // 6,800 m needle prism whose faces pass within rounding (2e-10 m) of later support points: the
+  // one EPA added next lay on the line of a horizon edge, 2.5e-10 m below one face at that edge
+  // and 1.9e-10 m above the other; the new face on the edge came out inverted, EPA stopped
+  // degenerate and signedDistance said FailedToConverge with depth 1.29 m. Oracle: the near end
+  // lies inside the box, so the depth is its distance to the nearest face the needle can leave
+  // through (y or z: the far end lies beyond -y and -z).
+  const double c = -0.1828125;
+  const double far = -3924.8875369094494;
+  const ConvexShape box = ConvexShape::box(Vec3(2.265625, 1.828125, 1.828125));
+  const ConvexShape needle = ConvexShape::convexHull({Vec3(far, far, far), Vec3(c, c, c)});
+  const double exact = static_cast<double>(0.9140625L + static_cast<long double>(c));
+  ASSERT_NEAR(exact, 0.73125, 1e-15);  // the case is what it claims to be
+  const Transform3 pose = Transform3::Identity();
+  for (const bool swapped : {false, true}) {
+    const auto [a, b, ta, tb] = ordered(swapped, box, pose, needle, pose);
+    const cm::ContactResult r = cm::signedDistance(a, ta, b, tb);
+    EXPECT_EQ(r.status, cm::Status::Penetrating) << swapped;  // was FailedToConverge
+    // Measured: 1.6e-16 m short (both orders); it was 0.56 m too deep.
+    EXPECT_NEAR(-r.distance, exact, 1e-12) << swapped;
+    EXPECT_NEAR(std::abs(r.normal.y()) + std::abs(r.normal.z()), 1.0, 1e-12) << swapped;
+  }
+}
+
 namespace {
 /// The fuzzer's pose of the flat cone (height 1 m, radius 10 m) of the two needle cases below.
 Transform3 flatConePose() {

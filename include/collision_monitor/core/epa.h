@@ -74,6 +74,22 @@ struct EpaResult {
 
 namespace detail {
 
+/// True when `ids[0 .. n)` holds `id`.
+template <std::size_t N>
+bool contains(const std::array<int, N>& ids, int n, int id) {
+  return std::find(ids.begin(), ids.begin() + n, id) != ids.begin() + n;
+}
+
+/// True when p lies on the line through a and b to within 64 eps times the largest coordinate (the
+/// rounding of the points themselves), or a and b coincide.
+[[gnu::noinline, gnu::cold]] inline bool onLine(const Vec3& a, const Vec3& b, const Vec3& p) {
+  const double m =
+      std::max({a.cwiseAbs().maxCoeff(), b.cwiseAbs().maxCoeff(), p.cwiseAbs().maxCoeff()});
+  const double noise = 64.0 * std::numeric_limits<double>::epsilon() * m;
+  const Vec3 u = b - a;
+  return u.cross(p - a).squaredNorm() <= noise * noise * u.squaredNorm();
+}
+
 /// Witness points of the point d n on a face of the expanded polytope (barycentric weights of the
 /// face's support points).
 inline void epaWitness3(const SupportPoint<3>& p0, const SupportPoint<3>& p1,
@@ -167,6 +183,16 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
   // 2.5e-9 m outside a face, then faces 3 m too near and no convergence in 256 iterations;
   // fuzz/regressions/core/epa-jittered-cube-reflex-edge).
   const double vis_eps = 1e-2 * tol;
+  // A horizon edge whose line passes through the new point (to rounding at the coordinates' size)
+  // would give a face without area, its normal all rounding. The faces on both sides of such an
+  // edge contain the point's line, and rounding can put the point above one and below the other:
+  // in a 6,800 m needle prism (a box by a 3925 m hull) it was 1.9e-10 m above one and 2.5e-10 m
+  // below the other; the face on the edge came out inverted (the origin 0.15 m outside it) and
+  // EPA stopped unconverged (fuzz/regressions/core/epa-box-by-3925m-needle-hull-coplanar-horizon).
+  // The face the point is below is then replaced too (`forced`), and the walk starts again. Only
+  // faces the point is less than `suspect` below are checked (the test costs a cross product).
+  const double suspect = 1e3 * tol;
+  std::array<int, 4> forced;
   const int max_it = std::min(std::max(st.max_iterations, 0), kEpaMaxIterations);
 
   std::array<SupportPoint<3>, kMaxVerts> verts;
@@ -383,25 +409,51 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
     // Silhouette of the new point (van den Bergen's depth-first walk; an explicit stack in the
     // order of the recursive version, so the horizon comes out as one ordered loop).
     int nh = 0;
-    int ns = 0;
-    faces[bi].alive = false;
-    free_list[nfree++] = bi;
-    for (int i = 2; i >= 0; --i)
-      stack[ns++] = Edge{best.adj[i], best.adj_edge[i]};
-    while (ns > 0) {
-      const Edge e = stack[--ns];
-      Face& g = faces[e.face];
-      if (!g.alive) continue;
-      if (g.n.dot(p.w) - g.d <= -vis_eps) {
-        horizon[nh++] = e;
-        continue;
+    bool near = false;  // the point is less than `suspect` below a face of the horizon
+    int nforced = 0;
+    const int nfree0 = nfree;
+    const auto walk = [&] {
+      int ns = 0;
+      nh = 0;
+      faces[bi].alive = false;
+      free_list[nfree++] = bi;
+      for (int i = 2; i >= 0; --i)
+        stack[ns++] = Edge{best.adj[i], best.adj_edge[i]};
+      while (ns > 0) {
+        const Edge e = stack[--ns];
+        Face& g = faces[e.face];
+        if (!g.alive) continue;
+        const double h = g.n.dot(p.w) - g.d;
+        if (h <= -vis_eps && (nforced == 0 || !detail::contains(forced, nforced, e.face))) {
+          near |= h > -suspect;
+          horizon[nh++] = e;
+          continue;
+        }
+        g.alive = false;
+        free_list[nfree++] = e.face;
+        const int j1 = (e.edge + 1) % 3;
+        const int j2 = (e.edge + 2) % 3;
+        stack[ns++] = Edge{g.adj[j2], g.adj_edge[j2]};
+        stack[ns++] = Edge{g.adj[j1], g.adj_edge[j1]};
       }
-      g.alive = false;
-      free_list[nfree++] = e.face;
-      const int j1 = (e.edge + 1) % 3;
-      const int j2 = (e.edge + 2) % 3;
-      stack[ns++] = Edge{g.adj[j2], g.adj_edge[j2]};
-      stack[ns++] = Edge{g.adj[j1], g.adj_edge[j1]};
+    };
+    walk();
+    while (near && nforced < static_cast<int>(forced.size())) {
+      // A horizon edge on the point's line: replace its face too and walk again (see `suspect`).
+      near = false;
+      int lined = -1;
+      for (int k = 0; k < nh && lined < 0; ++k) {
+        const Face& g = faces[horizon[k].face];
+        const int j = horizon[k].edge;
+        if (g.n.dot(p.w) - g.d > -suspect &&
+            detail::onLine(verts[g.v[j]].w, verts[g.v[(j + 1) % 3]].w, p.w))
+          lined = horizon[k].face;
+      }
+      if (lined < 0) break;
+      forced[nforced++] = lined;
+      while (nfree > nfree0)
+        faces[free_list[--nfree]].alive = true;
+      walk();
     }
     bool ok = nh >= 3;
     for (int k = 0; ok && k < nh; ++k) {
