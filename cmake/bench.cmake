@@ -54,6 +54,12 @@ endif()
 # -Werror by treating their include directories as system headers.
 set_target_properties(collision_monitor_bench_core PROPERTIES NO_SYSTEM_FROM_IMPORTED OFF)
 
+# Instruction-count driver for callgrind (scripts/icount.sh): not a benchmark, no competitors.
+add_executable(collision_monitor_icount bench/icount.cpp bench/pools.cpp)
+target_link_libraries(collision_monitor_icount PRIVATE
+  collision_monitor_core PkgConfig::CCD Eigen3::Eigen)
+target_compile_options(collision_monitor_icount PRIVATE ${CM_WARNING_FLAGS})
+
 # Node-level benchmark (world update + check cycle): needs the world model, so only in the full
 # build, and only once src/world/world_model.cpp exists.
 if(TARGET collision_monitor_world AND EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/bench/bench_world.cpp")
