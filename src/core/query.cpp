@@ -154,7 +154,10 @@ constexpr double kHugeSize = 1e60;
 
 /// What every query needs about the pair: the relative transform and the size scale.
 struct PairFrame {
+  const ConvexShape* a;
+  const ConvexShape* b;
   const Transform3* pose_a;
+  const Transform3* pose_b;
   Transform3 T_AB;  ///< B's frame -> A's frame
   double rA, rB;    ///< radii (m)
   double size;      ///< bounding radii + |relative translation| (m): the tolerance scale
@@ -163,6 +166,8 @@ struct PairFrame {
   /// it.
   double scale;
   bool finite;  ///< false when a pose has NaN/Inf entries (no query is run then)
+  /// An uncertain answer may be retried in B's frame (retryInFrameOfB(); false there).
+  bool may_swap;
   /// The size in the units GJK and EPA work in (size * scale): the scale of their tolerances.
   double workSize() const { return size * scale; }
 };
@@ -177,9 +182,13 @@ double nonFinite(const M& m) {
 }
 
 PairFrame makeFrame(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
-                    const Transform3& pose_b) {
+                    const Transform3& pose_b, bool may_swap = true) {
   PairFrame f;
+  f.a = &a;
+  f.b = &b;
   f.pose_a = &pose_a;
+  f.pose_b = &pose_b;
+  f.may_swap = may_swap;
   // T_AB = T_A^-1 T_B = (R_A^T R_B, R_A^T (t_B - t_A)), written out (Eigen's products were calls).
   for (int c = 0; c < 3; ++c)
     f.T_AB.R.col(c) = mulTransposed<3>(pose_a.R, pose_b.R.col(c));
@@ -360,6 +369,9 @@ void finish(const PairFrame& f, const QueryOptions& o, double core_signed, const
   }
 }
 
+void retryInFrameOfB(const PairFrame& f, const QueryOptions& o, bool want_depth, ContactResult& r);
+
+/// GJK (and EPA) on one pair's Minkowski difference.
 template <class MD>
 ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const QueryOptions& o,
                     bool want_depth) {
@@ -380,6 +392,9 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
     // distance() reports 0 for overlapping shapes (query.h), even when the depth came for free
     // (separated cores, overlapping radii).
     if (!want_depth && r.status == Status::Penetrating) r.distance = 0.0;
+    if (__builtin_expect(g.uncertified, 0) && f.may_swap &&
+        g.distance - certifiedLower(g) > o.touch_tolerance * f.workSize())
+      retryInFrameOfB(f, o, want_depth, r);
     return r;
   }
   if (!want_depth) {
@@ -412,6 +427,62 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
   return r;
 }
 
+/// distance() and signedDistance() (kWantDepth); `may_swap`: PairFrame::may_swap.
+template <bool kWantDepth>
+CM_ALWAYS_INLINE ContactResult distanceIn(const ConvexShape& a, const Transform3& pose_a,
+                                          const ConvexShape& b, const Transform3& pose_b,
+                                          PairCache* cache, const QueryOptions& options,
+                                          bool may_swap);
+
+/// After a query in A's frame (`r`) whose GJK run stalled in rounding with the distance known only
+/// as an upper bound, by more than the touching band (GjkResult::uncertified): the query once more
+/// in B's frame, without the cache, and `r` becomes the answer with the smaller signed distance
+/// (mapped back to A first). Rounding sits differently there. A 1.78 m segment 5e-9 rad from
+/// parallel to a box's face, its lower end on the face: in the segment's frame v came out
+/// perpendicular to its axis to 4e-17 (its support a tie between the ends, decided by rounding),
+/// GJK stalled on the diagonal of the face with a lower bound of -2.3e-8 m and answered 4.48e-9 m,
+/// the distance of the segment's middle; in the box's frame the ends differ by 9e-9 m along v, and
+/// the answer was 4.4e-16 m (fuzz/regressions/core/gjk-segment-by-box-face-5e-9-rad-tie-frame).
+[[gnu::noinline, gnu::cold]] void retryInFrameOfB(const PairFrame& f, const QueryOptions& o,
+                                                  bool want_depth, ContactResult& r) {
+  ContactResult s = want_depth
+                        ? distanceIn<true>(*f.b, *f.pose_b, *f.a, *f.pose_a, nullptr, o, false)
+                        : distanceIn<false>(*f.b, *f.pose_b, *f.a, *f.pose_a, nullptr, o, false);
+  s.gjk_iterations += r.gjk_iterations;
+  s.epa_iterations += r.epa_iterations;
+  r.gjk_iterations = s.gjk_iterations;
+  r.epa_iterations = s.epa_iterations;
+  if (s.status == Status::FailedToConverge || !(s.distance < r.distance)) return;
+  std::swap(s.point_a, s.point_b);
+  s.normal = -s.normal;
+  r = s;
+}
+
+template <bool kWantDepth>
+CM_ALWAYS_INLINE ContactResult distanceIn(const ConvexShape& a, const Transform3& pose_a,
+                                          const ConvexShape& b, const Transform3& pose_b,
+                                          PairCache* cache, const QueryOptions& options,
+                                          bool may_swap) {
+  const PairFrame f = makeFrame(a, pose_a, b, pose_b, may_swap);
+  if (!f.finite) return ContactResult{};  // FailedToConverge, distance +inf, normal UnitX
+  const auto run = [&] {
+    return withPair(a, b, f, cache,
+                    [&](const auto& md) { return query(md, f, cache, options, kWantDepth); });
+  };
+  if constexpr (!kWantDepth) return run();
+  const bool warm = cache != nullptr && cache->size > 0;
+  const ContactResult r = run();
+  if (!warm || r.status != Status::FailedToConverge) return r;
+  // A warm seed that holds the origin only to rounding can start EPA on a polytope the origin is
+  // outside of: a capsule crossing a flat 4750 m box (vertices 2400 m out) cycled through the
+  // same three support points for 256 iterations (FailedToConverge, depth 0.38 m) where the cold
+  // query's EPA converged in 4 (0.217 m): fuzz/regressions/core/epa-warm-capsule-by-flat-4750m-box.
+  // Such a query runs again cold (and caches the cold simplex). Here, not inside query(): there
+  // the fallback cost 47 / 86 instructions per hull12 distance / warm query (code generation).
+  cache->size = 0;
+  return run();
+}
+
 }  // namespace
 
 bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
@@ -433,32 +504,13 @@ bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape
 
 ContactResult distance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                        const Transform3& pose_b, PairCache* cache, const QueryOptions& options) {
-  const PairFrame f = makeFrame(a, pose_a, b, pose_b);
-  if (!f.finite) return ContactResult{};  // FailedToConverge, distance +inf, normal UnitX
-  return withPair(a, b, f, cache,
-                  [&](const auto& md) { return query(md, f, cache, options, false); });
+  return distanceIn<false>(a, pose_a, b, pose_b, cache, options, true);
 }
 
 ContactResult signedDistance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                              const Transform3& pose_b, PairCache* cache,
                              const QueryOptions& options) {
-  const PairFrame f = makeFrame(a, pose_a, b, pose_b);
-  if (!f.finite) return ContactResult{};  // FailedToConverge, distance +inf, normal UnitX
-  const auto run = [&] {
-    return withPair(a, b, f, cache,
-                    [&](const auto& md) { return query(md, f, cache, options, true); });
-  };
-  const bool warm = cache != nullptr && cache->size > 0;
-  const ContactResult r = run();
-  if (!warm || r.status != Status::FailedToConverge) return r;
-  // A warm seed that holds the origin only to rounding can start EPA on a polytope the origin is
-  // outside of: a capsule crossing a flat 4750 m box (vertices 2400 m out) cycled through the
-  // same three support points for 256 iterations (FailedToConverge, depth 0.38 m) where the cold
-  // query's EPA converged in 4 (0.217 m): fuzz/regressions/core/epa-warm-capsule-by-flat-4750m-box.
-  // Such a query runs again cold (and caches the cold simplex). Here, not inside query(): there
-  // the fallback cost 47 / 86 instructions per hull12 distance / warm query (code generation).
-  cache->size = 0;
-  return run();
+  return distanceIn<true>(a, pose_a, b, pose_b, cache, options, true);
 }
 
 }  // namespace core

@@ -493,6 +493,97 @@ TEST(CoreHostile, SegmentByNeedleEllipseIsNotTouching) {
   }
 }
 
+TEST(CoreHostile, SegmentAlmostParallelToABoxFaceIsTouchingInEitherOrder) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-segment-by-box-face-5e-9-rad-tie-frame): a
+  // 1.78 m segment (a capsule of radius 0) 5e-9 rad from parallel to a box's 4.4 m x 2.8 m face,
+  // its lower end on the face, its middle over the face's centre. Box first: Touching. Segment
+  // first, GJK works in the segment's frame, where v came out perpendicular to the segment to
+  // 4e-17 (its support a tie between the ends, decided by rounding): it stalled on the face's
+  // diagonal with a lower bound of -2.3e-8 m and answered Separated, 4.48e-9 m, the middle's
+  // distance. An answer that uncertain is now retried in the other shape's frame. Oracle: the
+  // lower end's height over the face (it lies inside the face's rectangle), in long double.
+  const ConvexShape box = ConvexShape::box(Vec3(4.375, 1.421875, 2.8125));
+  const ConvexShape segment = ConvexShape::capsule(1.78125, 0.0);
+  Transform3 pb;
+  pb.R << -2.2204460492503131e-16, 1, 0, -1, -2.2204460492503131e-16, 0, 0, 0, 1;
+  Transform3 ps = at(0.71093750447847037, 0, 0);
+  ps.R << 0.99999999999999989, 1.4936239293840261e-08, 5.0284574589147569e-09,
+      -1.4936239216653292e-08, 0.99999999999999978, -1.5350028419970761e-08,
+      -5.0284576881864537e-09, 1.5350028344864515e-08, 0.99999999999999989;
+  using L3 = Eigen::Matrix<long double, 3, 1>;
+  const L3 end = ps.R.cast<long double>() * L3(0, 0, -0.890625L) + ps.t.cast<long double>();
+  const L3 local = pb.R.cast<long double>().transpose() * end;  // box at the origin
+  ASSERT_LT(std::abs(local.x()), 2.1875L);  // over the face at local y = +0.7109375
+  ASSERT_LT(std::abs(local.z()), 1.40625L);
+  const double exact = static_cast<double>(local.y() - 0.7109375L);
+  ASSERT_NEAR(exact, 4.5e-16, 1e-16);  // the case is what it claims to be
+  for (const bool swapped : {false, true}) {
+    const Ordered o = ordered(swapped, segment, ps, box, pb);
+    cm::PairCache cache;
+    const cm::ContactResult results[] = {cm::signedDistance(o.a, o.ta, o.b, o.tb, &cache),
+                                         cm::signedDistance(o.a, o.ta, o.b, o.tb, &cache),
+                                         cm::distance(o.a, o.ta, o.b, o.tb)};
+    for (const cm::ContactResult& r : results) {
+      SCOPED_TRACE(swapped ? "box first" : "segment first");
+      EXPECT_EQ(r.status, cm::Status::Touching);  // segment first: Separated, 4.48e-9 m
+      EXPECT_NEAR(r.distance, exact, 1e-12);
+      EXPECT_NEAR(std::abs(r.normal.x()), 1.0, 1e-9);  // the face's normal
+      // The contact: the segment's lower end, on the face.
+      EXPECT_NEAR(r.point_a.z(), -0.890625, 1e-6);
+      EXPECT_NEAR(r.point_b.z(), -0.890625, 1e-6);
+    }
+  }
+}
+
+TEST(CoreHostile, PointLikeConeByNeedleEllipseRefusesAnOutsideSliverProjection) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-needle-ellipse-sliver-weights-outside): a
+  // cone 1.06e-9 m tall of radius 0 (a segment) 4.03e-9 m from a flat ellipse 1.08e-9 m x 1.77 m
+  // (aspect 1.6e9). GJK formed a triangle 3.7 m long and 1.1e-9 m wide whose plane passes 2.68e-9
+  // m from the origin; the origin's projection is outside it (weights -0.98, 3.75, -1.77), but
+  // the loop's weights, from the plain normal, put it inside, and GJK's plane step took it: cold
+  // 2.68e-9 m, warm Touching (1.2e-10 m). The plane step now checks its projection with its own
+  // normal. Oracle: in the ellipse's frame the segment passes 5.1e-9 m beside its vertex (-a, 0,
+  // 0), within 1.9e-10 m of its axis, where the ellipse's boundary is the line x = -a to 1e-28 m:
+  // the 2D distance from the segment's (x, z) to (-a, 0), as in
+  // SegmentByNeedleEllipseIsNotTouching.
+  const double a = 1.0781250000000001e-09, h = 1.0625e-09;
+  const ConvexShape cone = ConvexShape::cone(h, 0.0);
+  const ConvexShape ellipse = ConvexShape::ellipsoid(Vec3(a, 1.765625, 4.9406564584124654e-324));
+  Transform3 pc = at(-0.109375, -0.109375, 0);
+  pc.R << 0.98422712933753942, -0.17665615141955843, -0.0094637223974763408, 0.16889104586265474,
+      0.92234894443096338, 0.34748847367143909, -0.052657122057752984, -0.34360592089298725,
+      0.93763649599611743;
+  Transform3 pe = at(-0.10937499488691674, -0.109375, 0);
+  pe.R << 0.99999999999996725, 2.8278841667581883e-09, -2.559023868039729e-07,
+      -2.827882508883971e-09, 1, 6.4785418001382169e-09, 2.5590238682229348e-07,
+      -6.4785410764761214e-09, 0.99999999999996725;
+  using L3 = Eigen::Matrix<long double, 3, 1>;
+  const Eigen::Matrix<long double, 3, 3> rc = pc.R.cast<long double>(),
+                                         re = pe.R.cast<long double>();
+  const L3 dt = pc.t.cast<long double>() - pe.t.cast<long double>();
+  const L3 e[2] = {re.transpose() * (rc * L3(0, 0, -h / 2) + dt),
+                   re.transpose() * (rc * L3(0, 0, h / 2) + dt)};
+  const long double x0 = e[0].x() + a, z0 = e[0].z(), dx = e[1].x() - e[0].x(),
+                    dz = e[1].z() - e[0].z();
+  const long double t = std::clamp(-(x0 * dx + z0 * dz) / (dx * dx + dz * dz), 0.0L, 1.0L);
+  const double exact = static_cast<double>(std::hypot(x0 + t * dx, z0 + t * dz));
+  ASSERT_NEAR(exact, 4.0347527505e-9, 1e-18);  // 60-digit minimisation: 4.03475275051475e-9
+  ASSERT_LT(std::max(std::abs(e[0].y()), std::abs(e[1].y())), 2e-10L);
+  const double tol = 1e-9 * 1.765625;  // the core's accuracy goal: 1e-9 of the size
+  cm::PairCache cache;
+  const cm::ContactResult results[] = {cm::signedDistance(cone, pc, ellipse, pe, &cache),
+                                       cm::signedDistance(cone, pc, ellipse, pe, &cache),
+                                       cm::distance(cone, pc, ellipse, pe),
+                                       cm::signedDistance(ellipse, pe, cone, pc)};
+  for (const cm::ContactResult& r : results) {
+    EXPECT_EQ(r.status, cm::Status::Separated);  // was Touching (warm)
+    // Measured: 3.6e-11 m (cold, warm and distance()) and 0 (swapped) above; before, 1.35e-9 m
+    // (cold) and 3.9e-9 m (warm) below.
+    EXPECT_GE(r.distance, exact - 1e-12);
+    EXPECT_NEAR(r.distance, exact, tol);
+  }
+}
+
 TEST(CoreHostile, WarmEpaOnAFlatBoxFallsBackToCold) {
   // Bug (found by fuzz_core, fuzz/regressions/core/epa-warm-capsule-by-flat-4750m-box): a capsule
   // (1.44 m, radius 1.1e-6 m) crossing a flat box 4.5 m x 4750 m (thickness 4.9e-324 m) 4 mm from

@@ -593,6 +593,25 @@ CM_ALWAYS_INLINE void offerSegment(const SupportPoint<3>* p, int i0, int i1, Loo
   offerVertex(p, w0.squaredNorm() <= w1.squaredNorm() ? i0 : i1, best);
 }
 
+/// Twice the signed areas, in the coordinate plane where the triangle's normal n is largest, of the
+/// triangle (mu = n[I]) and of the triangles with q, a point of its plane, in place of vertex m
+/// (C_m): q's barycentric coordinates are C_m / mu.
+struct PlaneAreas {
+  double mu, C0, C1, C2;
+  bool inside() const { return sameSign(mu, C0) && sameSign(mu, C1) && sameSign(mu, C2); }
+};
+CM_ALWAYS_INLINE PlaneAreas planeAreas(const Vec3& s0, const Vec3& s1, const Vec3& s2,
+                                       const Vec3& n, const Vec3& q) {
+  const double ax = std::abs(n.x()), ay = std::abs(n.y()), az = std::abs(n.z());
+  const int I = ax >= ay ? (ax >= az ? 0 : 2) : (ay >= az ? 1 : 2);  // first maximum
+  const int j = I == 2 ? 0 : I + 1;
+  const int k = I == 0 ? 2 : I - 1;
+  const auto area2 = [j, k](const Vec3& a, const Vec3& b, const Vec3& c) {
+    return (b[j] - a[j]) * (c[k] - a[k]) - (b[k] - a[k]) * (c[j] - a[j]);
+  };
+  return {n[I], area2(s1, s2, q), area2(s0, q, s2), area2(s0, s1, q)};
+}
+
 /// Triangle i0-i1-i2 whose newest vertex is i2: the arithmetic of s2d3(), without the edge
 /// i0-i1 (it does not hold the newest vertex). When the origin projects inside, the closest point
 /// is that projection q, not sum(lambda_i w_i): the sum rounds at the vertices' size, q's direction
@@ -612,19 +631,11 @@ inline void offerTriangle(const SupportPoint<3>* p, int i0, int i1, int i2, Loop
   bool edge12 = true, edge02 = true;
   if (nn > 0.0) {
     const Vec3 q = n * (s0.dot(n) / nn);  // projection of the origin onto the plane
-    const double ax = std::abs(n.x()), ay = std::abs(n.y()), az = std::abs(n.z());
-    const int I = ax >= ay ? (ax >= az ? 0 : 2) : (ay >= az ? 1 : 2);  // first maximum
-    const int j = I == 2 ? 0 : I + 1;
-    const int k = I == 0 ? 2 : I - 1;
-    const auto area2 = [j, k](const Vec3& a, const Vec3& b, const Vec3& c) {
-      return (b[j] - a[j]) * (c[k] - a[k]) - (b[k] - a[k]) * (c[j] - a[j]);
-    };
-    const double mu = n[I];
-    const double C0 = area2(s1, s2, q), C1 = area2(s0, q, s2), C2 = area2(s0, s1, q);
-    const bool in0 = sameSign(mu, C0), in1 = sameSign(mu, C1), in2 = sameSign(mu, C2);
-    if (in0 && in1 && in2) {
+    const PlaneAreas ar = planeAreas(s0, s1, s2, n, q);
+    const bool in0 = sameSign(ar.mu, ar.C0), in1 = sameSign(ar.mu, ar.C1);
+    if (in0 && in1 && sameSign(ar.mu, ar.C2)) {
       double w[3];
-      triangleWeights(longest, mu, C0, C1, C2, w);
+      triangleWeights(longest, ar.mu, ar.C0, ar.C1, ar.C2, w);
       const double a = w[0], b = w[1], c = w[2];
       Vec3 v = q;
       double d2 = v.squaredNorm();
@@ -839,6 +850,10 @@ struct GjkResult {
   bool normal_along_cert = false;
   /// The direction of -normal: cert_v or v.
   const Vec<D>& normalDirection() const { return normal_along_cert ? cert_v : v; }
+  /// Separated only: no lower bound the run saw (v.w / |v| at its exit, or the best of its
+  /// restarts) comes within the tolerance of |v|. A stall in rounding ended it (no progress, a
+  /// duplicate support point), and `distance` is an upper bound only.
+  bool uncertified = false;
   Vec<D> point_a = Vec<D>::Zero();  ///< witness point on A, A's frame
   Vec<D> point_b = Vec<D>::Zero();  ///< witness point on B, A's frame
   Simplex<D> simplex;               ///< terminal simplex (input of EPA; the warm-start cache)
@@ -900,6 +915,13 @@ double largestVertexSquared(const Simplex<D>& s, int n) {
   return m2;
 }
 
+/// planeAreas(...).inside(), out of line (the retries below are rare).
+__attribute__((noinline, cold)) inline bool projectsInside(const Vec3& s0, const Vec3& s1,
+                                                           const Vec3& s2, const Vec3& n,
+                                                           const Vec3& q) {
+  return planeAreas(s0, s1, s2, n, q).inside();
+}
+
 /// The origin's projection onto the plane of the triangle s.v[0..2], from triangleNormal<true>()
 /// (each component rounded once, from the edges at the largest angle); false when the triangle is
 /// degenerate, or when the projection is nearer than `lower` (a lower bound on the distance: the
@@ -910,11 +932,20 @@ double largestVertexSquared(const Simplex<D>& s, int n) {
 /// outside in exact arithmetic (the triangle is 3.9e-9 m away; the lower bound was 3.7e-9 m), and
 /// a segment 3.8e-9 m from a flat ellipse was "touching"
 /// (fuzz/regressions/core/gjk-needle-ellipse-plane-projection-outside).
+/// Also false when that projection is outside the triangle by the signed areas taken with this
+/// normal: the loop's (offerTriangle()) come from its plain normal, whose rounding on a sliver
+/// moves its projection off the plane, and so across the triangle's width in the coordinate plane.
+/// A 1e-9 m segment 4.03e-9 m from a flat ellipse 1.08e-9 x 1.77 m: a triangle 3.7 m long and
+/// 1.1e-9 m wide, the origin's projection outside by the weights (-0.98, 3.75, -1.77) (exact and
+/// these) and inside by the loop's (0.26, 0.63, 0.12); its plane passes 2.68e-9 m from the origin,
+/// GJK took that, and the warm query called them touching
+/// (fuzz/regressions/core/gjk-needle-ellipse-sliver-weights-outside).
 inline bool planeProjection(const Simplex<3>& s, Vec3& q, double lower) {
   const Vec3 n = triangleNormal<true>(s.v[0].w, s.v[1].w, s.v[2].w);
   const double nn = n.squaredNorm();
   if (!(nn > 0.0)) return false;
   q = n * (s.v[0].w.dot(n) / nn);
+  if (!projectsInside(s.v[0].w, s.v[1].w, s.v[2].w, n, q)) return false;
   if (lower > 0.0) {
     const double slack =
         64.0 * std::numeric_limits<double>::epsilon() * std::sqrt(largestVertexSquared(s, 3));
@@ -1153,10 +1184,20 @@ __attribute__((noinline, cold)) GjkResult<MD::kDim> restartFrom(const MD& md, co
   const double turn = (best.cert_v.normalized() - best.v.normalized()).norm();
   best.normal_along_cert =
       own < std::numeric_limits<double>::infinity() && best.cert_lower - own > best.distance * turn;
+  best.uncertified =
+      best.status == GjkStatus::Separated && !(best.distance - std::max(own, best.cert_lower) <=
+                                               st.rel_tolerance * best.distance + st.abs_tolerance);
   return best;
 }
 
 }  // namespace detail
+
+/// The highest lower bound on the distance that a Separated result's support points certify: v.w /
+/// |v| at its exit, or the best of its restarts (cert_lower); +inf for other statuses.
+template <int D>
+double certifiedLower(const GjkResult<D>& g) {
+  return std::max(detail::exitLower(g), g.cert_lower);
+}
 
 /// Distance between two convex shapes given as their Minkowski difference `md` (anything with
 /// kDim, support(d) -> SupportPoint, initialDirection(); normally a MinkowskiDifference).
@@ -1234,7 +1275,8 @@ GjkResult<MD::kDim> gjkRun(const MD& md, const GjkSettings& st, const Simplex<MD
   // regressions/core/gjk-tie-step-normal-length).
   if (retried & kRetriedTie) vv = v.squaredNorm();
   r.v = v;
-  if (kTrack && uncertified && r.status == GjkStatus::Separated) {
+  r.uncertified = uncertified && r.status == GjkStatus::Separated;
+  if (kTrack && r.uncertified) {
     r.cert_v = best.v;
     r.cert_lower = best.vw / best.vn;
   }
