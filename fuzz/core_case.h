@@ -785,9 +785,12 @@ inline Outcome runCase(const std::uint8_t* data, std::size_t len) {
   // Near contact the direction is ill-conditioned: rounding of the coordinates (1e-16 of the
   // size and of the far offset) over the cores' distance tilts it (the sweep's formula); measured:
   // two boxes touching 1e6 m from the origin, normal 6e-6 rad off (fuzz/regressions/core).
+  // size / gap first: multiplied first, the sizes of a 3.9e-163 m pair underflowed to 0 and left
+  // 1e-7 of the size to a touching normal 2.5e-7 rad off
+  // (fuzz/regressions/core/check-tiny-touching-normal-tolerance-underflow).
   const double core_gap = std::abs(sd.distance + A.radius() + B.radius());
   const double tol_n = std::max(
-      {tol, 1e-7 * size, (1e-14 * size + 1e-14 * far) * size / std::max(core_gap, 1e-300)});
+      {tol, 1e-7 * size, (1e-14 * size + 1e-14 * far) * (size / std::max(core_gap, 1e-300))});
   const Vec3 n = sd.normal;
   if (std::abs(gap(n) - sd.distance) > tol_n) {
     std::ostringstream o;

@@ -392,8 +392,13 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
     // distance() reports 0 for overlapping shapes (query.h), even when the depth came for free
     // (separated cores, overlapping radii).
     if (!want_depth && r.status == Status::Penetrating) r.distance = 0.0;
-    if (__builtin_expect(g.uncertified, 0) && f.may_swap &&
-        g.distance - certifiedLower(g) > o.touch_tolerance * f.workSize())
+    // Retried in B's frame where GJK's answer is uncertain by more than the touching band: a stall
+    // in rounding left its lower bound that far below |v|, or rounding left v that far from its
+    // witness points' difference (a sliver's weights; then |v| need not bound the distance).
+    const double band = o.touch_tolerance * f.workSize();
+    if (f.may_swap &&
+        ((__builtin_expect(g.uncertified, 0) && g.distance - certifiedLower(g) > band) ||
+         (g.point_a - g.point_b - g.v).squaredNorm() > band * band))
       retryInFrameOfB(f, o, want_depth, r);
     return r;
   }
@@ -434,15 +439,26 @@ CM_ALWAYS_INLINE ContactResult distanceIn(const ConvexShape& a, const Transform3
                                           PairCache* cache, const QueryOptions& options,
                                           bool may_swap);
 
-/// After a query in A's frame (`r`) whose GJK run stalled in rounding with the distance known only
-/// as an upper bound, by more than the touching band (GjkResult::uncertified): the query once more
-/// in B's frame, without the cache, and `r` becomes the answer with the smaller signed distance
-/// (mapped back to A first). Rounding sits differently there. A 1.78 m segment 5e-9 rad from
-/// parallel to a box's face, its lower end on the face: in the segment's frame v came out
-/// perpendicular to its axis to 4e-17 (its support a tie between the ends, decided by rounding),
-/// GJK stalled on the diagonal of the face with a lower bound of -2.3e-8 m and answered 4.48e-9 m,
-/// the distance of the segment's middle; in the box's frame the ends differ by 9e-9 m along v, and
-/// the answer was 4.4e-16 m (fuzz/regressions/core/gjk-segment-by-box-face-5e-9-rad-tie-frame).
+/// What an answer proves the signed distance is at most: its distance, or where its witness
+/// points are further apart than that (rounding), their distance.
+double upperBound(const ContactResult& r) {
+  return r.status == Status::Separated ? std::max(r.distance, (r.point_b - r.point_a).norm())
+                                       : r.distance;
+}
+
+/// After a query in A's frame (`r`) whose GJK answer is uncertain by more than the touching band
+/// (see query()): the query once more in B's frame, without the cache, and `r` becomes the answer
+/// with the smaller upper bound (upperBound(); mapped back to A first). Rounding sits differently
+/// there. A 1.78 m segment 5e-9 rad from parallel to a box's face, its lower end on the face: in
+/// the segment's frame v came out perpendicular to its axis to 4e-17 (its support a tie between
+/// the ends, decided by rounding), GJK stalled on the diagonal of the face with a lower bound of
+/// -2.3e-8 m and answered 4.48e-9 m, the distance of the segment's middle; in the box's frame the
+/// ends differ by 9e-9 m along v, and the answer was 4.4e-16 m
+/// (fuzz/regressions/core/gjk-segment-by-box-face-5e-9-rad-tie-frame). A disc 2.1 m across
+/// 7.84e-3 m from a needle ellipsoid 5.7e6 m long: in the disc's frame GJK's triangles spanned the
+/// needle, their weights lost 1e-16 of 2.9e6 m vertices times the sliver's condition, and v ended
+/// 3.06e-3 m long while its witness points were 1.6e-2 m apart; in the needle's frame 7.8424e-3 m,
+/// 1.5e-6 m above the truth (fuzz/regressions/core/gjk-disc-by-5.7e6m-needle-witness-mismatch).
 [[gnu::noinline, gnu::cold]] void retryInFrameOfB(const PairFrame& f, const QueryOptions& o,
                                                   bool want_depth, ContactResult& r) {
   ContactResult s = want_depth
@@ -452,7 +468,7 @@ CM_ALWAYS_INLINE ContactResult distanceIn(const ConvexShape& a, const Transform3
   s.epa_iterations += r.epa_iterations;
   r.gjk_iterations = s.gjk_iterations;
   r.epa_iterations = s.epa_iterations;
-  if (s.status == Status::FailedToConverge || !(s.distance < r.distance)) return;
+  if (s.status == Status::FailedToConverge || !(upperBound(s) < upperBound(r))) return;
   std::swap(s.point_a, s.point_b);
   s.normal = -s.normal;
   r = s;

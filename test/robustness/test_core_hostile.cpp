@@ -584,6 +584,66 @@ TEST(CoreHostile, PointLikeConeByNeedleEllipseRefusesAnOutsideSliverProjection) 
   }
 }
 
+TEST(CoreHostile, DiscByMegametreNeedleKeepsItsWitnessPointsApart) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-disc-by-5.7e6m-needle-witness-mismatch): a
+  // disc 2.1 m across (a cylinder 3e-6 m tall) 7.8e-3 m from a needle ellipsoid 5.7e6 m long
+  // (semi-axes 1.6e-9 m, 1.03e-3 m, 2.86e6 m). In the disc's frame GJK's triangles spanned the
+  // needle; their weights lost 1e-16 of the 2.9e6 m vertices times the slivers' condition and v
+  // ended certified at 3.06e-3 m, 4.8e-3 m below the truth, with witness points 1.6e-2 m apart. An
+  // answer whose v is that far from its witness points' difference is now retried in the other
+  // frame, and the one with the smaller upper bound kept. Oracle: near the disc the needle is a
+  // straight ribbon along z (x = c, |y| <= 1.03e-3 m; its 1.6e-9 m thickness and its curvature
+  // along z, 1e-12 m over the disc, are below the tolerance), so the distance is the 2D one, in
+  // (x, y), from the disc's rim (on either face) to that segment, minimised over the rim's angle.
+  const double h = 3.03125e-06, radius = 2.09375, c = 1.1602243205343747, half_y = 0.00103125;
+  const ConvexShape disc = ConvexShape::cylinder(h, radius);
+  const ConvexShape needle = ConvexShape::ellipsoid(Vec3(1.6250000000000001e-09, half_y, 2859375));
+  Transform3 pd;
+  pd.R << -0.29824561403508776, -0.46702964307320027, 0.83242589231699937, 0.77192982456140358,
+      -0.63097398669086524, -0.077434966727162713, 0.56140350877192979, 0.61947973381730193,
+      0.5486993345432547;
+  const Transform3 pn = at(c, 0, 0);
+  const Eigen::Matrix<long double, 3, 3> rd = pd.R.cast<long double>();
+  const auto gap = [&](long double t, long double s) {  // rim point at angle t, face s: 2D gap
+    const Eigen::Matrix<long double, 3, 1> p =
+        rd * Eigen::Matrix<long double, 3, 1>(radius * std::cos(t), radius * std::sin(t), s);
+    const long double x = p.x() - c, y = p.y() - std::clamp<long double>(p.y(), -half_y, half_y);
+    return std::hypot(x, y);
+  };
+  long double exact = 1e9L;
+  const long double pi = 3.14159265358979323846264338327950288L;
+  for (const long double s : {-h / 2, h / 2}) {
+    constexpr int kSamples = 20000;
+    int best = 0;
+    for (int k = 1; k < kSamples; ++k)
+      if (gap(2 * pi * k / kSamples, s) < gap(2 * pi * best / kSamples, s)) best = k;
+    long double lo = 2 * pi * (best - 1) / kSamples, hi = 2 * pi * (best + 1) / kSamples;
+    for (int i = 0; i < 200; ++i) {  // golden section: the gap is unimodal near its minimum
+      const long double m1 = hi - 0.6180339887L * (hi - lo), m2 = lo + 0.6180339887L * (hi - lo);
+      if (gap(m1, s) < gap(m2, s)) {
+        hi = m2;
+      } else {
+        lo = m1;
+      }
+    }
+    exact = std::min(exact, gap((lo + hi) / 2, s));
+  }
+  ASSERT_NEAR(static_cast<double>(exact), 7.8409013517e-3, 1e-12);  // 40-digit: 7.84090135174e-3
+  const double tol = 1e-9 * 2859375.0;  // the core's accuracy goal: 1e-9 of the size (2.9e-3 m)
+  cm::PairCache cache;
+  const cm::ContactResult results[] = {cm::signedDistance(disc, pd, needle, pn, &cache),
+                                       cm::signedDistance(disc, pd, needle, pn, &cache),
+                                       cm::distance(disc, pd, needle, pn),
+                                       cm::signedDistance(needle, pn, disc, pd)};
+  for (const cm::ContactResult& r : results) {
+    EXPECT_EQ(r.status, cm::Status::Separated);
+    // Measured: 1.5e-6 m above in every order (was 4.8e-3 m below, disc first).
+    EXPECT_GE(r.distance, static_cast<double>(exact) - 1e-5);
+    EXPECT_NEAR(r.distance, static_cast<double>(exact), tol);
+    EXPECT_NEAR((r.point_b - r.point_a).norm(), r.distance, 1e-5);  // was 1.6e-2 m vs 3.1e-3 m
+  }
+}
+
 TEST(CoreHostile, WarmEpaOnAFlatBoxFallsBackToCold) {
   // Bug (found by fuzz_core, fuzz/regressions/core/epa-warm-capsule-by-flat-4750m-box): a capsule
   // (1.44 m, radius 1.1e-6 m) crossing a flat box 4.5 m x 4750 m (thickness 4.9e-324 m) 4 mm from
