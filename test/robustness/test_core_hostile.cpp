@@ -56,6 +56,27 @@ Ordered ordered(bool swapped, const ConvexShape& x, const Transform3& tx, const 
   return swapped ? Ordered{y, x, ty, tx} : Ordered{x, y, tx, ty};
 }
 
+using L3 = Eigen::Matrix<long double, 3, 1>;
+
+/// Distance, in long double, from a segment of length `len` along the z axis of pose `ps` (a
+/// cylinder or cone of radius 0) to a flat needle ellipse at pose `pe` whose semi-axis across is
+/// `a`, where the segment passes beside its vertex (-a, 0, 0) close to its axis: the ellipse's
+/// boundary is the line x = -a there (radius of curvature b^2 / a, about 2e9 m for the needles
+/// below), so the distance is the 2D one in (x, z) from the segment to (-a, 0). `ends` (out): the
+/// segment's ends in the ellipse's frame (a caller checks that they are near the axis).
+long double besideNeedleVertex(const Transform3& ps, long double len, const Transform3& pe,
+                               long double a, L3 ends[2]) {
+  const Eigen::Matrix<long double, 3, 3> rs = ps.R.cast<long double>(),
+                                         re = pe.R.cast<long double>();
+  const L3 dt = ps.t.cast<long double>() - pe.t.cast<long double>();
+  ends[0] = re.transpose() * (rs * L3(0, 0, -len / 2) + dt);
+  ends[1] = re.transpose() * (rs * L3(0, 0, len / 2) + dt);
+  const long double x0 = ends[0].x() + a, z0 = ends[0].z(), dx = ends[1].x() - ends[0].x(),
+                    dz = ends[1].z() - ends[0].z();
+  const long double t = std::clamp(-(x0 * dx + z0 * dz) / (dx * dx + dz * dz), 0.0L, 1.0L);
+  return std::hypot(x0 + t * dx, z0 + t * dz);
+}
+
 double seconds(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -225,7 +246,6 @@ TEST(CoreHostile, DiscByFiveBillionAspectEllipseNormal) {
       -0.98778339010924432, 0.14471984024433218, 0.40737695289557146, 0.10900974979443204,
       0.90673088218019493;
   const Transform3 pb = at(9.1942086576619194e-07, 0, 0);
-  using L3 = Eigen::Matrix<long double, 3, 1>;
   const L3 axis = pa.R.col(2).cast<long double>();
   const auto toDisc = [&](const L3& p) {
     const long double h = p.dot(axis);
@@ -468,15 +488,8 @@ TEST(CoreHostile, SegmentByNeedleEllipseIsNotTouching) {
   Transform3 pb = at(5.349634782129725e-09, 0, 0);
   pb.R << 1, 3.1516901497729662e-09, 3.610183460774632e-09, -3.1516901628063903e-09, 1,
       3.6101834493964525e-09, -3.6101834493964525e-09, -3.610183460774632e-09, 1;
-  using L3 = Eigen::Matrix<long double, 3, 1>;
-  const Eigen::Matrix<long double, 3, 3> ra = pa.R.cast<long double>(),
-                                         rb = pb.R.cast<long double>();
-  const L3 e[2] = {rb.transpose() * (ra * L3(0, 0, -a / 2) - pb.t.cast<long double>()),
-                   rb.transpose() * (ra * L3(0, 0, a / 2) - pb.t.cast<long double>())};
-  const long double x0 = -a - e[0].x(), z0 = e[0].z(), dx = e[0].x() - e[1].x(),
-                    dz = e[1].z() - e[0].z();
-  const long double t = std::clamp(-(x0 * dx + z0 * dz) / (dx * dx + dz * dz), 0.0L, 1.0L);
-  const double exact = static_cast<double>(std::hypot(x0 + t * dx, z0 + t * dz));
+  L3 ends[2];
+  const double exact = static_cast<double>(besideNeedleVertex(pa, a, pb, a, ends));
   ASSERT_NEAR(exact, 3.8195e-9, 1e-13);  // the case is what it claims to be
   const double tol = 1e-9 * 1.515625;    // the core's accuracy goal: 1e-9 of the size
   cm::PairCache cache;
@@ -510,7 +523,6 @@ TEST(CoreHostile, SegmentAlmostParallelToABoxFaceIsTouchingInEitherOrder) {
   ps.R << 0.99999999999999989, 1.4936239293840261e-08, 5.0284574589147569e-09,
       -1.4936239216653292e-08, 0.99999999999999978, -1.5350028419970761e-08,
       -5.0284576881864537e-09, 1.5350028344864515e-08, 0.99999999999999989;
-  using L3 = Eigen::Matrix<long double, 3, 1>;
   const L3 end = ps.R.cast<long double>() * L3(0, 0, -0.890625L) + ps.t.cast<long double>();
   const L3 local = pb.R.cast<long double>().transpose() * end;  // box at the origin
   ASSERT_LT(std::abs(local.x()), 2.1875L);  // over the face at local y = +0.7109375
@@ -557,18 +569,10 @@ TEST(CoreHostile, PointLikeConeByNeedleEllipseRefusesAnOutsideSliverProjection) 
   pe.R << 0.99999999999996725, 2.8278841667581883e-09, -2.559023868039729e-07,
       -2.827882508883971e-09, 1, 6.4785418001382169e-09, 2.5590238682229348e-07,
       -6.4785410764761214e-09, 0.99999999999996725;
-  using L3 = Eigen::Matrix<long double, 3, 1>;
-  const Eigen::Matrix<long double, 3, 3> rc = pc.R.cast<long double>(),
-                                         re = pe.R.cast<long double>();
-  const L3 dt = pc.t.cast<long double>() - pe.t.cast<long double>();
-  const L3 e[2] = {re.transpose() * (rc * L3(0, 0, -h / 2) + dt),
-                   re.transpose() * (rc * L3(0, 0, h / 2) + dt)};
-  const long double x0 = e[0].x() + a, z0 = e[0].z(), dx = e[1].x() - e[0].x(),
-                    dz = e[1].z() - e[0].z();
-  const long double t = std::clamp(-(x0 * dx + z0 * dz) / (dx * dx + dz * dz), 0.0L, 1.0L);
-  const double exact = static_cast<double>(std::hypot(x0 + t * dx, z0 + t * dz));
+  L3 ends[2];
+  const double exact = static_cast<double>(besideNeedleVertex(pc, h, pe, a, ends));
   ASSERT_NEAR(exact, 4.0347527505e-9, 1e-18);  // 60-digit minimisation: 4.03475275051475e-9
-  ASSERT_LT(std::max(std::abs(e[0].y()), std::abs(e[1].y())), 2e-10L);
+  ASSERT_LT(std::max(std::abs(ends[0].y()), std::abs(ends[1].y())), 2e-10L);
   const double tol = 1e-9 * 1.765625;  // the core's accuracy goal: 1e-9 of the size
   cm::PairCache cache;
   const cm::ContactResult results[] = {cm::signedDistance(cone, pc, ellipse, pe, &cache),
