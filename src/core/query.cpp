@@ -447,8 +447,9 @@ double upperBound(const ContactResult& r) {
 }
 
 /// After a query in A's frame (`r`) whose GJK answer is uncertain by more than the touching band
-/// (see query()): the query once more in B's frame, without the cache, and `r` becomes the answer
-/// with the smaller upper bound (upperBound(); mapped back to A first). Rounding sits differently
+/// (see query()): the query once more in B's frame, without the cache, and `r` becomes that answer
+/// (mapped back to A first) unless its upper bound (upperBound()) is the larger by more than the
+/// touching band. Rounding sits differently
 /// there. A 1.78 m segment 5e-9 rad from parallel to a box's face, its lower end on the face: in
 /// the segment's frame v came out perpendicular to its axis to 4e-17 (its support a tie between
 /// the ends, decided by rounding), GJK stalled on the diagonal of the face with a lower bound of
@@ -459,6 +460,10 @@ double upperBound(const ContactResult& r) {
 /// needle, their weights lost 1e-16 of 2.9e6 m vertices times the sliver's condition, and v ended
 /// 3.06e-3 m long while its witness points were 1.6e-2 m apart; in the needle's frame 7.8424e-3 m,
 /// 1.5e-6 m above the truth (fuzz/regressions/core/gjk-disc-by-5.7e6m-needle-witness-mismatch).
+/// A flat ellipse touching a padded flat ellipse 5.3e6 m long: in A's frame GJK ended uncertain
+/// (lower bound -1.1 m) with v 2.3e-6 rad off, along which B reaches 6.1 m further; in B's frame
+/// certified, 8e-11 m above the first answer: that normal is kept
+/// (fuzz/regressions/core/gjk-ellipse-touching-padded-5.3e6m-ellipse-normal).
 [[gnu::noinline, gnu::cold]] void retryInFrameOfB(const PairFrame& f, const QueryOptions& o,
                                                   bool want_depth, ContactResult& r) {
   ContactResult s = want_depth
@@ -468,7 +473,12 @@ double upperBound(const ContactResult& r) {
   s.epa_iterations += r.epa_iterations;
   r.gjk_iterations = s.gjk_iterations;
   r.epa_iterations = s.epa_iterations;
-  if (s.status == Status::FailedToConverge || !(upperBound(s) < upperBound(r))) return;
+  // The retried answer unless the first one's upper bound is lower by more than the touching
+  // band: within it the retried one, certified unless rounding fails in both frames, also has the
+  // better normal (the flat ellipses above).
+  if (s.status == Status::FailedToConverge ||
+      upperBound(r) < upperBound(s) - o.touch_tolerance * f.size)
+    return;
   std::swap(s.point_a, s.point_b);
   s.normal = -s.normal;
   r = s;
