@@ -449,12 +449,12 @@ double upperBound(const ContactResult& r) {
 /// After a query in A's frame (`r`) whose GJK answer is uncertain by more than the touching band
 /// (see query()): the query once more in B's frame, without the cache, and `r` becomes that answer
 /// (mapped back to A first) unless its upper bound (upperBound()) is the larger by more than the
-/// touching band. Rounding sits differently
-/// there. A 1.78 m segment 5e-9 rad from parallel to a box's face, its lower end on the face: in
-/// the segment's frame v came out perpendicular to its axis to 4e-17 (its support a tie between
-/// the ends, decided by rounding), GJK stalled on the diagonal of the face with a lower bound of
-/// -2.3e-8 m and answered 4.48e-9 m, the distance of the segment's middle; in the box's frame the
-/// ends differ by 9e-9 m along v, and the answer was 4.4e-16 m
+/// touching band. Rounding sits differently there. A 1.78 m segment 5e-9 rad from parallel to a
+/// box's face, its lower end on the face: in the segment's frame v came out perpendicular to its
+/// axis to 4e-17 (its support a tie between the ends, decided by rounding), GJK stalled on the
+/// diagonal of the face with a lower bound of -2.3e-8 m and answered 4.48e-9 m, the distance of
+/// the segment's middle; in the box's frame the ends differ by 9e-9 m along v, and the answer was
+/// 4.4e-16 m
 /// (fuzz/regressions/core/gjk-segment-by-box-face-5e-9-rad-tie-frame). A disc 2.1 m across
 /// 7.84e-3 m from a needle ellipsoid 5.7e6 m long: in the disc's frame GJK's triangles spanned the
 /// needle, their weights lost 1e-16 of 2.9e6 m vertices times the sliver's condition, and v ended

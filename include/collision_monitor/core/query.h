@@ -80,8 +80,8 @@ bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape
 /// Separation distance and witness points; 0 with status Penetrating when the shapes overlap
 /// (no EPA run). GJK runs in A's frame; where rounding leaves its answer uncertain by more than
 /// the touching band (its best lower bound, or its witness points' distance, that far from it),
-/// the query runs once more in B's frame and keeps the answer with the smaller upper bound (also
-/// in signedDistance()): rare, and at most twice the cost.
+/// the query runs once more in B's frame and keeps that answer unless the first one's upper bound
+/// is lower by more than the band (also in signedDistance()): rare, and at most twice the cost.
 ContactResult distance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                        const Transform3& pose_b, PairCache* cache = nullptr,
                        const QueryOptions& options = {});
