@@ -36,6 +36,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/SVD>
 
 extern "C" {
 #include <libqhull_r/qhull_ra.h>
@@ -173,15 +174,58 @@ struct Hull {
   }
 };
 
-/// Hull of `pts` with qhull ("Qt": triangulated). Throws std::runtime_error if qhull fails
-/// (flat input: the tests never feed it any).
+/// The singular value decomposition (Jacobi: the small values to about 1e-16 of the large one)
+/// of a point set's coordinates about their mean: `sv` descending, `axes` their directions.
+struct Spread {
+  V3 mean = V3::Zero();
+  Eigen::Vector3d sv = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();
+};
+
+inline Spread spread(const std::vector<V3>& pts) {
+  Spread r;
+  if (pts.empty()) return r;
+  for (const V3& p : pts)
+    r.mean += p;
+  r.mean /= static_cast<double>(pts.size());
+  Eigen::MatrixX3d m(pts.size(), 3);
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    m.row(static_cast<Eigen::Index>(i)) = (pts[i] - r.mean).transpose();
+  const Eigen::JacobiSVD<Eigen::MatrixX3d> svd(m, Eigen::ComputeFullV);
+  r.sv = svd.singularValues();
+  r.axes = svd.matrixV();
+  return r;
+}
+
+/// Thinner than this (smallest singular value over the largest, spread()), makeHull() runs qhull
+/// on the set mapped to its principal axes and scaled to about round, and maps the planes back (an
+/// invertible affine map keeps a hull's combinatorics). qhull 8.0 can loop for ever merging the
+/// facets of such a slab with every option but joggling: the 16 vertex differences of a box
+/// 2.6e-9 x 4e-9 x 4.98 m by a 1000 m segment (thickness 2.7e-12 of the width) ran "Qt Qs" for
+/// over 10 minutes (fuzz/regressions/core/oracle-qhull-hang-needle-box-by-1000m-segment); the same
+/// set 0.1 or 10 times as thick took 0.2 ms, and mapped round 0.2 ms. The library calls such a set
+/// flat (buildConvexHull: 1e-10 of the extent) and never hands it to qhull.
+constexpr double kThinSpread = 1e-10;
+
+/// Hull of `pts` with qhull ("Qt": triangulated; a thin set mapped round, kThinSpread). Throws
+/// std::runtime_error if qhull fails or the set is flat (the tests never feed them any; the fuzz
+/// checks then have no oracle for the pair).
 inline Hull makeHull(const std::vector<V3>& pts) {
+  // A thin set goes to qhull as M (x - c): about the mean c, along its principal axes, each
+  // divided by its spread.
+  const Spread sp = spread(pts);
+  const bool mapped = sp.sv[0] > 0.0 && sp.sv[2] < kThinSpread * sp.sv[0];
+  if (mapped && !(sp.sv[2] > 0.0)) throw std::runtime_error("oracle qhull: flat input");
+  const Eigen::Matrix3d M =
+      mapped ? Eigen::Matrix3d(sp.sv.cwiseInverse().asDiagonal() * sp.axes.transpose())
+             : Eigen::Matrix3d::Identity();
   Hull h;
   h.points = pts;
   std::vector<coordT> coords(3 * pts.size());
   for (std::size_t i = 0; i < pts.size(); ++i) {
+    const V3 x = mapped ? V3(M * (pts[i] - sp.mean)) : pts[i];
     for (int k = 0; k < 3; ++k)
-      coords[3 * i + k] = pts[i][k];
+      coords[3 * i + k] = x[k];
   }
   char* text = nullptr;
   std::size_t size = 0;
@@ -202,8 +246,15 @@ inline Hull makeHull(const std::vector<V3>& pts) {
         if (k < 3) t[k] = qh_pointid(qh, vertex->point);
         ++k;
       }
-      h.normals.emplace_back(facet->normal[0], facet->normal[1], facet->normal[2]);
-      h.offsets.push_back(facet->offset);
+      V3 n(facet->normal[0], facet->normal[1], facet->normal[2]);
+      double offset = facet->offset;
+      if (mapped) {  // n . M (x - c) + offset = 0 is m . x + offset - m . c = 0, m = M^T n
+        const V3 m = M.transpose() * n;
+        n = m / m.norm();
+        offset = (offset - m.dot(sp.mean)) / m.norm();
+      }
+      h.normals.push_back(n);
+      h.offsets.push_back(offset);
       if (k == 3) h.triangles.push_back(t);
     }
   }
