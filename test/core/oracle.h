@@ -201,10 +201,11 @@ inline Spread spread(const std::vector<V3>& pts) {
 /// on the set mapped to its principal axes and scaled to about round, and maps the planes back (an
 /// invertible affine map keeps a hull's combinatorics). qhull 8.0 can loop for ever merging the
 /// facets of such a slab with every option but joggling: the 16 vertex differences of a box
-/// 2.6e-9 x 4e-9 x 4.98 m by a 1000 m segment (thickness 2.7e-12 of the width) ran "Qt Qs" for
-/// over 10 minutes (fuzz/regressions/core/oracle-qhull-hang-needle-box-by-1000m-segment); the same
-/// set 0.1 or 10 times as thick took 0.2 ms, and mapped round 0.2 ms. The library calls such a set
-/// flat (buildConvexHull: 1e-10 of the extent) and never hands it to qhull.
+/// 2.6e-9 x 4e-9 x 4.98 m by a 1000 m segment (thickness 2.7e-12 of the width) ran "Qt Qs" past
+/// 2 minutes, stopped there (fuzz/regressions/core/oracle-qhull-hang-needle-box-by-1000m-segment);
+/// the same set 0.1 or 10 times as thick took 0.2 ms, and mapped round 0.6 ms (on a busy machine).
+/// The library calls such a set flat (buildConvexHull: 1e-10 of the extent) and never hands it to
+/// qhull.
 constexpr double kThinSpread = 1e-10;
 
 /// Hull of `pts` with qhull ("Qt": triangulated; a thin set mapped round, kThinSpread). Throws
