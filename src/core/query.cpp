@@ -454,15 +454,15 @@ double upperBound(const ContactResult& r) {
 /// axis to 4e-17 (its support a tie between the ends, decided by rounding), GJK stalled on the
 /// diagonal of the face with a lower bound of -2.3e-8 m and answered 4.48e-9 m, the distance of
 /// the segment's middle; in the box's frame the ends differ by 9e-9 m along v, and the answer was
-/// 4.4e-16 m
-/// (fuzz/regressions/core/gjk-segment-by-box-face-5e-9-rad-tie-frame). A disc 2.1 m across
-/// 7.84e-3 m from a needle ellipsoid 5.7e6 m long: in the disc's frame GJK's triangles spanned the
-/// needle, their weights lost 1e-16 of 2.9e6 m vertices times the sliver's condition, and v ended
-/// 3.06e-3 m long while its witness points were 1.6e-2 m apart; in the needle's frame 7.8424e-3 m,
-/// 1.5e-6 m above the truth (fuzz/regressions/core/gjk-disc-by-5.7e6m-needle-witness-mismatch).
-/// A flat ellipse touching a padded flat ellipse 5.3e6 m long: in A's frame GJK ended uncertain
-/// (lower bound -1.1 m) with v 2.3e-6 rad off, along which B reaches 6.1 m further; in B's frame
-/// certified, 8e-11 m above the first answer: that normal is kept
+/// 4.4e-16 m (fuzz/regressions/core/gjk-segment-by-box-face-5e-9-rad-tie-frame). A disc 2.1 m
+/// across 7.84e-3 m from a needle ellipsoid 5.7e6 m long: in the disc's frame GJK's triangles
+/// spanned the needle, their weights lost 1e-16 of 2.9e6 m vertices times the sliver's condition,
+/// and v ended 3.06e-3 m long while its witness points were 1.6e-2 m apart; in the needle's
+/// frame 7.8424e-3 m, 1.5e-6 m above the truth
+/// (fuzz/regressions/core/gjk-disc-by-5.7e6m-needle-witness-mismatch). A flat ellipse touching a
+/// padded flat ellipse 5.3e6 m long: in A's frame GJK ended uncertain (lower bound -1.1 m) with
+/// v 2.3e-6 rad off, along which B reaches 6.1 m further; in B's frame certified, 8e-11 m above the
+/// first answer: that normal is kept
 /// (fuzz/regressions/core/gjk-ellipse-touching-padded-5.3e6m-ellipse-normal).
 [[gnu::noinline, gnu::cold]] void retryInFrameOfB(const PairFrame& f, const QueryOptions& o,
                                                   bool want_depth, ContactResult& r) {
