@@ -467,6 +467,63 @@ TEST(CoreHostile, DiscByCoplanarCornerBreaksTheSupportTie) {
   EXPECT_TRUE(cm::intersect(hull, identity, padded, identity));
 }
 
+TEST(CoreHostile, CollinearHullByNanoHullSharingAPointOverlaps) {
+  // Bug (found by fuzz_core, fuzz/regressions/core/gjk-collinear-hull-by-1e-9m-hull-tie-duplicate):
+  // A, the hull of collinear points (a segment on the x axis, x from -0.281 to 0.316 m), and B, a
+  // hull 1.8e-9 m across around the origin, both at the identity: they overlap (A - B is a
+  // needle prism 0.6 m long whose cross-section holds the origin 1.8e-10 m deep), yet all three
+  // queries, in both orders, said apart by 1.7e-10 m. GJK reached a segment of A - B along the
+  // needle whose closest point had its x component cancelled to 0, so every point of A tied in
+  // the support along -v; the end returned was a vertex of the segment already (a duplicate),
+  // and GJK stopped there. It now tilts the direction as for a no-progress tie. Oracle: since A
+  // passes through x = 0 with 0.28 m to spare on each side, the depth is the distance from the
+  // origin to the boundary of B's outline seen along x (the 2D hull of its (y, z)), in long
+  // double.
+  const std::vector<Vec3> points_a = {{-0.28143639949779897, 0, 0}, {-0.23162464737429475, 0, 0},
+                                      {-0.15939760679521359, 0, 0}, {0.31630462598425196, 0, 0},
+                                      {-0.27147404907309813, 0, 0}, {-0.042339989304978613, 0, 0},
+                                      {0.2640022862545725, 0, 0},   {-0.0024905876061752123, 0, 0}};
+  const std::vector<Vec3> points_b = {
+      {0, 0, 0},
+      {0, 0, -2.0669291338582677e-10},
+      {1.8946850393700788e-10, 6.2007874015748037e-10, 1.377952755905512e-10},
+      {-9.6456692913385823e-10, -2.842027559055118e-10, -1.7224409448818898e-10},
+      {8.9566929133858276e-10, -1.7224409448818898e-10, 8.7844488188976384e-10},
+      {0, 5.1673228346456693e-11, 3.1865157480314959e-10}};
+  // Depth: the smallest distance from (0, 0) to a line through two of B's (y, z) that has all
+  // of them on one side (an edge of the outline); the origin is inside it (checked: every such
+  // line has it on the points' side).
+  long double depth = std::numeric_limits<long double>::infinity();
+  for (std::size_t i = 0; i < points_b.size(); ++i) {
+    for (std::size_t j = 0; j < points_b.size(); ++j) {
+      const long double yi = points_b[i].y(), zi = points_b[i].z();
+      const long double ny = -(points_b[j].z() - zi), nz = points_b[j].y() - yi;
+      const long double len = std::hypot(ny, nz);
+      if (!(len > 0)) continue;
+      bool edge = true;
+      for (const Vec3& p : points_b)
+        edge = edge && ny * (p.y() - yi) + nz * (p.z() - zi) >= 0;
+      if (!edge) continue;
+      const long double origin_side = ny * (0 - yi) + nz * (0 - zi);
+      ASSERT_GT(origin_side, 0) << i << " " << j;  // the origin is strictly inside the outline
+      depth = std::min(depth, origin_side / len);
+    }
+  }
+  ASSERT_NEAR(static_cast<double>(depth), 1.8068e-10, 1e-14);  // the case is what it claims
+  const ConvexShape a = ConvexShape::convexHull(points_a);
+  const ConvexShape b = ConvexShape::convexHull(points_b);
+  const Transform3 identity = Transform3::Identity();
+  for (const bool swapped : {false, true}) {
+    const auto [x, y, tx, ty] = ordered(swapped, a, identity, b, identity);
+    const cm::ContactResult r = cm::signedDistance(x, tx, y, ty);
+    EXPECT_EQ(r.status, cm::Status::Penetrating) << swapped;  // was Separated
+    // Measured: the long-double value rounded, to the last bit; +1.7e-10 m before.
+    EXPECT_NEAR(r.distance, -static_cast<double>(depth), 1e-16) << swapped;
+    EXPECT_EQ(cm::distance(x, tx, y, ty).status, cm::Status::Penetrating) << swapped;
+    EXPECT_TRUE(cm::intersect(x, tx, y, ty)) << swapped;
+  }
+}
+
 TEST(CoreHostile, SegmentByNeedleEllipseIsNotTouching) {
   // Bug (found by fuzz_core, fuzz/regressions/core/gjk-needle-ellipse-plane-projection-outside):
   // a segment 1.08e-9 m long (a cylinder of radius 0) 3.8e-9 m from a flat ellipse 1.08e-9 m x

@@ -1098,6 +1098,23 @@ __attribute__((noinline, cold)) bool progressTilted(const MD& md, Simplex<MD::kD
   return false;
 }
 
+/// After a duplicate support point that does not certify v (and no projection retry left): the
+/// same tie as progressTilted()'s, met as a vertex of the simplex. A segment of A - B 0.3 m long
+/// and 1.7e-10 m from the origin had v's component along it rounded to 0 (-2.3e-19 m in exact
+/// arithmetic), so A (a segment along it) was all a tie and its support the end already in the
+/// simplex, 2.1e-10 m past v; GJK stopped there and called a hull of collinear points and a
+/// hull 1.8e-9 m across, which share a point, 1.7e-10 m apart
+/// (fuzz/regressions/core/gjk-collinear-hull-by-1e-9m-hull-tie-duplicate). Puts w after the
+/// simplex and tries the tilt; on failure the simplex is as before.
+template <class MD>
+__attribute__((noinline, cold)) bool progressTiltedFromDuplicate(const MD& md, Simplex<MD::kDim>& s,
+                                                                 Vec<MD::kDim>& v, double& vv) {
+  ++s.size;
+  if (progressTilted(md, s, v, vv)) return true;
+  --s.size;
+  return false;
+}
+
 /// The best lower bound on the distance seen in a GJK run, v.w / |v| (kept as the pair vw, vn,
 /// compared by cross-multiplication: no division in the loop), and its v
 /// (GjkResult::cert_v). A disc 2.8e-7 m from an ellipse 1e-9 x 4.98 m (aspect 5e9) stalled GJK
@@ -1248,7 +1265,9 @@ GjkResult<MD::kDim> gjkRun(const MD& md, const GjkSettings& st, const Simplex<MD
     // van den Bergen: upper bound |v| and lower bound v.w/|v| agree (plus an absolute floor).
     const bool certified = vv - vw <= st.rel_tolerance * vv + tol * vn;
     if (certified || detail::isDuplicate(s, w.w, tol2)) {
-      if (!certified && detail::retryProjected(s, v, vv, retried, vw / vn)) continue;
+      if (!certified && (detail::retryProjected(s, v, vv, retried, vw / vn) ||
+                         detail::progressTiltedFromDuplicate(md, s, v, vv)))
+        continue;
       r.status = GjkStatus::Separated;
       uncertified = !certified;
       break;
@@ -1332,7 +1351,9 @@ bool gjkIntersect(const MD& md, double margin, const GjkSettings& st,
     }
     const bool certified = vv - vw <= st.rel_tolerance * vv + tol * vn;
     if (certified || detail::isDuplicate(s, w.w, tol * tol)) {
-      if (!certified && detail::retryProjected(s, v, vv, retried, vw / vn)) continue;
+      if (!certified && (detail::retryProjected(s, v, vv, retried, vw / vn) ||
+                         detail::progressTiltedFromDuplicate(md, s, v, vv)))
+        continue;
       result = vn <= reach;  // converged: the distance is |v|
       break;
     }
