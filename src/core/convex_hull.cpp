@@ -58,6 +58,8 @@ struct Frame {
   Vec3 n = Vec3::UnitZ();  ///< unit plane normal u x v (dim >= 2)
   double extent = 0.0;     ///< |b - a|
   double floor = 0.0;      ///< rounding floor of the coordinates (absolute)
+  double h1 = 0.0;         ///< largest distance from the line (a, u) (dim >= 2)
+  double h2 = 0.0;         ///< largest distance from the plane (a, n) (dim == 3)
 };
 
 Frame analyse(const std::vector<Vec3>& pts) {
@@ -96,6 +98,7 @@ Frame analyse(const std::vector<Vec3>& pts) {
     const double h = (w - w.dot(f.u) * f.u).norm();
     if (h > h1) h1 = h, c = i;
   }
+  f.h1 = h1;
   if (!(h1 > flat)) {
     f.dim = 1;
     return f;
@@ -106,9 +109,57 @@ Frame analyse(const std::vector<Vec3>& pts) {
   double h2 = 0.0;
   for (int i = 0; i < count; ++i)
     h2 = std::max(h2, std::abs(f.n.dot(pts[i] - pts[f.a])));
+  f.h2 = h2;
   f.dim = h2 > flat ? 3 : 2;
   return f;
 }
+
+/// Thinner than this (the largest distance from analyse()'s plane over the extent), a solid set
+/// goes to qhull mapped round (Rounding). qhull 2020.2 can loop for ever merging and
+/// re-partitioning the facets of a long thin set: the 16 distinct vertex differences of a flat
+/// 1.1 x 4.7 m plate and a flat 2.1 x 1e6 m plate tilted by 8e-9 rad (a slanted prism 1e6 m x
+/// 3.2 m x 4.7 m, 6.7e5 m out) did not finish in minutes with "Qs", "Qt", "Qt Qs", "C-0" or
+/// "Q12", nor as 64 points with duplicates; mapped round, 0.1 ms
+/// (fuzz/regressions/core/hull-slanted-1e6m-prism-qhull-hang).
+constexpr double kRoundRel = 1e-3;
+
+/// The affine map x -> M (x - origin) qhull sees a thin solid set through: analyse()'s axes u, v,
+/// n, each divided by the set's spread along it (extent, h1, h2), so the set is about a unit cube
+/// across. An invertible affine map keeps the hull's combinatorics (which points are vertices,
+/// which pairs edges), so the vertices and edges are read off the run as they are; a facet's
+/// outward normal m in the mapped space is M^T m back here (not unit). The identity (not mapped)
+/// for sets at least kRoundRel * extent thick.
+struct Rounding {
+  bool mapped = false;
+  Vec3 origin = Vec3::Zero();
+  Mat3 M = Mat3::Identity();
+
+  Rounding(const std::vector<Vec3>& pts, const Frame& f) {
+    if (f.dim < 3 || !(f.h2 < kRoundRel * f.extent)) return;
+    mapped = true;
+    origin = pts[f.a];
+    M.row(0) = f.u.transpose() / f.extent;
+    M.row(1) = f.v.transpose() / f.h1;
+    M.row(2) = f.n.transpose() / f.h2;
+  }
+  /// The points as qhull gets them: `pts` itself, or mapped into `buffer`.
+  const std::vector<Vec3>& apply(const std::vector<Vec3>& pts, std::vector<Vec3>& buffer) const {
+    if (!mapped) return pts;
+    buffer.resize(pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i)
+      buffer[i] = M * (pts[i] - origin);
+    return buffer;
+  }
+  /// The plane normal . x' + offset = 0 of the mapped space as m . x = c here: m = M^T normal,
+  /// c = m . origin - offset; both divided by |m| (unit m). The identity when not mapped: (normal,
+  /// -offset).
+  std::pair<Vec3, double> planeBack(const Vec3& normal, double offset) const {
+    if (!mapped) return {normal, -offset};
+    const Vec3 m = M.transpose() * normal;
+    const double len = m.norm();
+    return {m / len, (m.dot(origin) - offset) / len};
+  }
+};
 
 /// Indices of the extreme points along f.u (segment end points).
 std::pair<int, int> segmentEnds(const std::vector<Vec3>& pts, const Frame& f) {
@@ -312,8 +363,9 @@ std::shared_ptr<const Polytope<3>> extractSolid(Qhull& q, const std::vector<Vec3
   return std::make_shared<const Polytope<3>>(std::move(verts), std::move(offsets), std::move(adj));
 }
 
-/// Outward, counter-clockwise triangles of a simplicial (triangulated) 3D qhull run.
-void collectTriangles(Qhull& q, const std::vector<Vec3>& pts,
+/// Outward, counter-clockwise triangles of a simplicial (triangulated) 3D qhull run on `pts`
+/// seen through `r`.
+void collectTriangles(Qhull& q, const std::vector<Vec3>& pts, const Rounding& r,
                       std::vector<std::array<int, 3>>* tris) {
   qhT* qh = q.get();
   facetT* facet;
@@ -326,7 +378,9 @@ void collectTriangles(Qhull& q, const std::vector<Vec3>& pts,
       ++k;
     }
     if (k != 3) continue;
-    const Vec3 nrm(facet->normal[0], facet->normal[1], facet->normal[2]);
+    const Vec3 nrm =
+        r.planeBack(Vec3(facet->normal[0], facet->normal[1], facet->normal[2]), facet->offset)
+            .first;
     const Vec3 c = (pts[t[1]] - pts[t[0]]).cross(pts[t[2]] - pts[t[0]]);
     if (c.dot(nrm) < 0.0) std::swap(t[1], t[2]);  // counter-clockwise seen from outside
     tris->push_back(t);
@@ -364,6 +418,8 @@ std::vector<Vec3> scaled(const std::vector<Vec3>& points, int e) {
 std::shared_ptr<const Polytope<3>> buildUnitHull(const std::vector<Vec3>& points) {
   const Frame f = analyse(points);
   if (f.dim < 3) return makeLowDim(points, f);
+  std::vector<Vec3> buffer;
+  const std::vector<Vec3>& qpoints = Rounding(points, f).apply(points, buffer);
   std::string why;
   {
     // Coplanar facets merged (qhull's default), so ridges are the real edges. "Qs": the initial
@@ -371,11 +427,11 @@ std::shared_ptr<const Polytope<3>> buildUnitHull(const std::vector<Vec3>& points
     // 1e6 m segment never left qhull's merging (qh_mergefacet, > 10 minutes; "Qs": 0.14 ms):
     // fuzz/regressions/core/hull-box-swept-1e6m-qhull-hang.
     Qhull q;
-    if (runSolid(q, points, "Qs", &why)) return extractSolid(q, points);
+    if (runSolid(q, qpoints, "Qs", &why)) return extractSolid(q, points);
   }
   {
     Qhull q;  // nearly flat input: joggled input always gives a (simplicial) hull
-    if (runSolid(q, points, "QJ", &why)) return extractSolid(q, points);
+    if (runSolid(q, qpoints, "QJ", &why)) return extractSolid(q, points);
   }
   // Both failed: the set is flat to qhull's precision; its in-plane hull is the best answer.
   Frame flat = f;
@@ -403,16 +459,20 @@ std::vector<std::array<int, 3>> hullTriangles(const Polytope<3>& poly) {
   const std::vector<Vec3>& pts = e != 0 ? unit : poly.vertices();
   std::vector<std::array<int, 3>> tris;
   if (pts.size() < 4) return tris;
-  if (analyse(pts).dim < 3) return tris;
+  const Frame f = analyse(pts);
+  if (f.dim < 3) return tris;
+  const Rounding r(pts, f);
+  std::vector<Vec3> buffer;
+  const std::vector<Vec3>& qpts = r.apply(pts, buffer);
   // Triangulated output ("Qt"); joggled ("QJ", simplicial by construction) if qhull finds the
   // set too flat for its precision.
   Qhull q;
-  if (!q.run(pts, "Qt")) {
+  if (!q.run(qpts, "Qt")) {
     Qhull qj;
-    if (qj.run(pts, "QJ")) collectTriangles(qj, pts, &tris);
+    if (qj.run(qpts, "QJ")) collectTriangles(qj, pts, r, &tris);
     return tris;
   }
-  collectTriangles(q, pts, &tris);
+  collectTriangles(q, pts, r, &tris);
   return tris;
 }
 
@@ -428,14 +488,17 @@ std::vector<HullPlane> hullPlanes(const std::vector<Vec3>& points) {
   const Frame f = analyse(points);
   std::vector<HullPlane> planes;
   if (f.dim == 3) {
+    const Rounding r(points, f);
+    std::vector<Vec3> buffer;
     Qhull q;
-    if (q.run(points, "")) {
+    if (q.run(r.apply(points, buffer), "")) {
       qhT* qh = q.get();
       facetT* facet;
       FORALLfacets {
         // qhull's hyperplane: normal . x + offset = 0, normal outward, interior negative.
-        planes.push_back(
-            HullPlane{Vec3(facet->normal[0], facet->normal[1], facet->normal[2]), -facet->offset});
+        const auto [n, offset] =
+            r.planeBack(Vec3(facet->normal[0], facet->normal[1], facet->normal[2]), facet->offset);
+        planes.push_back(HullPlane{n, offset});
       }
       return planes;
     }

@@ -200,13 +200,16 @@ inline Spread spread(const std::vector<V3>& pts) {
 /// Thinner than this (smallest singular value over the largest, spread()), makeHull() runs qhull
 /// on the set mapped to its principal axes and scaled to about round, and maps the planes back (an
 /// invertible affine map keeps a hull's combinatorics). qhull 8.0 can loop for ever merging the
-/// facets of such a slab with every option but joggling: the 16 vertex differences of a box
+/// facets of such a set with every option but joggling: the 16 vertex differences of a box
 /// 2.6e-9 x 4e-9 x 4.98 m by a 1000 m segment (thickness 2.7e-12 of the width) ran "Qt Qs" past
 /// 2 minutes, stopped there (fuzz/regressions/core/oracle-qhull-hang-needle-box-by-1000m-segment);
 /// the same set 0.1 or 10 times as thick took 0.2 ms, and mapped round 0.6 ms (on a busy machine).
-/// The library calls such a set flat (buildConvexHull: 1e-10 of the extent) and never hands it to
-/// qhull.
-constexpr double kThinSpread = 1e-10;
+/// Until the eighth session of 2026-11-24 the limit was 1e-10; then a slanted prism 1e6 m x 3.2 m
+/// x 4.7 m (singular values 2.4e-6 of each other) looped alike, raw, with any of five option sets
+/// tried, and mapped took 0.1 ms (fuzz/regressions/core/hull-slanted-1e6m-prism-qhull-hang). The
+/// library maps its thin sets too (convex_hull.cpp, kRoundRel, from its own frame); this is an
+/// independent computation of the same idea.
+constexpr double kThinSpread = 1e-3;
 
 /// Hull of `pts` with qhull ("Qt": triangulated; a thin set mapped round, kThinSpread). Throws
 /// std::runtime_error if qhull fails or the set is flat (the tests never feed them any; the fuzz

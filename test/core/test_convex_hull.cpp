@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <map>
 #include <random>
@@ -73,6 +74,30 @@ void expectSupportOfPoints(const cm::Polytope<3>& poly, const std::vector<Vec3>&
     int hint = -1;
     EXPECT_EQ(poly.vertices()[poly.supportIndex(d, hint)].dot(d), best) << what << " k " << k;
   }
+}
+
+/// Every input point within `tol` of the hull of `poly`'s vertices, measured by the oracle's
+/// qhull (test/core/oracle.h: thin sets mapped round by their singular vectors, independently of
+/// the library's mapping); returns the largest distance outside. Every triangle of hullTriangles()
+/// faces away from the vertices' centroid.
+double expectPointsNearHull(const cm::Polytope<3>& poly, const std::vector<Vec3>& pts, double tol,
+                            const std::string& what) {
+  const oracle::Hull h = oracle::makeHull(poly.vertices());
+  double worst = 0.0;
+  for (const Vec3& p : pts)
+    worst = std::max(worst, oracle::signedDistance(h, p));
+  EXPECT_LE(worst, tol) << what;
+  const auto tris = cm::hullTriangles(poly);
+  EXPECT_FALSE(tris.empty()) << what;
+  const std::vector<Vec3>& v = poly.vertices();
+  Vec3 centroid = Vec3::Zero();
+  for (const Vec3& x : v)
+    centroid += x / static_cast<double>(v.size());
+  for (const auto& t : tris) {
+    const Vec3 n = (v[t[1]] - v[t[0]]).cross(v[t[2]] - v[t[0]]);
+    EXPECT_LT(n.dot(centroid - v[t[0]]), 0.0) << what << ": a triangle facing inward";
+  }
+  return worst;
 }
 
 }  // namespace
@@ -662,8 +687,11 @@ TEST(ConvexHull, BoxSweptAlongAMegametreSegmentFinishes) {
   // never left its facet merging (qh_mergefacet; 30 s here, 4 minutes in the oracle, stopped);
   // a node would hang on such a mesh. "Qs" (initial simplex from all points): 0.3 ms. Checked:
   // the hull's support equals the brute-force maximum over the points in every direction tried;
-  // 8 vertices (the other 8 corners lie within 5e-9 m of the swept prism's long edges, which
-  // qhull merges).
+  // every point within 1e-10 m of the hull (the oracle's qhull). 12 vertices (14 in exact
+  // rational arithmetic, the other two 6e-15 m out): 4 of the other 8 corners lie up to 5e-9 m
+  // outside the swept prism's long edges. qhull merged them away (8 vertices) until the set went
+  // to it mapped round (kRoundRel, eighth session of 2026-11-24), where 5e-9 m is 1e-9 of the
+  // width instead of 5e-15 of the length.
   const Vec3 s0(-0.0011093750000000001, 1.390625e-09, -9.9999999999999995e-07), s1(0, 0, 1046875);
   std::vector<Vec3> pts;
   for (int i = 0; i < 8; ++i) {
@@ -673,10 +701,61 @@ TEST(ConvexHull, BoxSweptAlongAMegametreSegmentFinishes) {
     pts.push_back(c - s1);
   }
   const auto poly = cm::buildConvexHull(pts);
-  EXPECT_EQ(poly->size(), 8);
+  EXPECT_EQ(poly->size(), 12);
   expectWellFormedAdjacency(*poly);
   std::mt19937_64 rng(31);
   expectSupportOfPoints(*poly, pts, rng, 1000, "swept box");
+  std::printf("swept box: points at most %.3g m outside\n",
+              expectPointsNearHull(*poly, pts, 1e-10, "swept box"));
+}
+
+TEST(ConvexHull, SlantedMegametrePrismFinishes) {
+  // Bug (found by fuzz_core as a timeout,
+  // fuzz/regressions/core/hull-slanted-1e6m-prism-qhull-hang): the 64 vertex differences (16
+  // distinct) of a flat 1.08 x 4.66 m plate and a flat 2.14 m x 1e6 m plate 6.7e5 m away, tilted by
+  // 8e-9 rad: a slanted prism 1e6 m long and 3.2 x 4.7 m across. qhull 2020.2 looped for ever
+  // merging and re-partitioning its facets ("Qs", "Qt", "Qt Qs", "C-0", "Q12" alike), in
+  // buildConvexHull, hullTriangles and hullPlanes; a node would hang on such a mesh. Sets thinner
+  // than 1e-3 of their extent now go to qhull mapped round (kRoundRel): 0.1 ms. Checked: the hull's
+  // support equals the brute-force maximum over the points; every point within 2e-8 m of the
+  // hull (the oracle's qhull); every point is inside every plane, which touches one.
+  cm::Mat3 R;
+  R << 1, -1.7064143387928344e-11, 7.9274386713863995e-09, 1.7064151909187178e-11, 1,
+      -1.0749069384241901e-09, -7.927438671368056e-09, 1.0749069385594651e-09, 1;
+  const Vec3 t(0, 0, 671875.00000001141);
+  std::vector<Vec3> a, b, pts;
+  for (int i = 0; i < 8; ++i) {
+    // The fuzzer's boxes: half of a 4.9e-324 m side rounds to 0 (two plates, corners twice).
+    a.emplace_back((i & 1 ? 0.5 : -0.5) * 1.078125, (i & 2 ? 0.5 : -0.5) * 4.65625,
+                   (i & 4 ? 0.5 : -0.5) * 4.9406564584124654e-324);
+    b.push_back(R * Vec3((i & 1 ? 0.5 : -0.5) * 2.140625,
+                         (i & 2 ? 0.5 : -0.5) * 4.9406564584124654e-324,
+                         (i & 4 ? 0.5 : -0.5) * 1e6) +
+                t);
+  }
+  for (const Vec3& x : a)
+    for (const Vec3& y : b)
+      pts.push_back(x - y);
+  const auto poly = cm::buildConvexHull(pts);
+  // Exact rational arithmetic (every facet plane of the 16 points) gives 14 vertices: the 8
+  // corners and 6 points up to 1e-8 m outside the long edges. qhull keeps 13: one is left
+  // 8.6e-9 m outside (8.6e-15 of the length; the library drops up to 1e-10 of it, kFlatRel).
+  EXPECT_EQ(poly->size(), 13);
+  expectWellFormedAdjacency(*poly);
+  std::mt19937_64 rng(37);
+  expectSupportOfPoints(*poly, pts, rng, 1000, "slanted prism");
+  std::printf("slanted prism: points at most %.3g m outside\n",
+              expectPointsNearHull(*poly, pts, 2e-8, "slanted prism"));
+  // Every point inside every plane (to the rounding of 1e6 m coordinates), which touches one.
+  const auto planes = cm::hullPlanes(pts);
+  EXPECT_GE(planes.size(), 6u);
+  for (const cm::HullPlane& h : planes) {
+    EXPECT_NEAR(h.normal.norm(), 1.0, 1e-12);
+    double top = -std::numeric_limits<double>::infinity();
+    for (const Vec3& p : pts)
+      top = std::max(top, h.normal.dot(p));
+    EXPECT_NEAR(top, h.offset, 1e-9) << "a plane off the points";
+  }
 }
 
 TEST(Polytope, ScanIndexFirstMaximumOnTies) {
