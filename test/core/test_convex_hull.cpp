@@ -76,6 +76,16 @@ void expectSupportOfPoints(const cm::Polytope<3>& poly, const std::vector<Vec3>&
   }
 }
 
+/// The 8 corners of a box with full side lengths `sides`, centred at the origin (as the fuzzer's
+/// boxes: each coordinate is +-0.5 * side).
+std::vector<Vec3> boxCorners(const Vec3& sides) {
+  std::vector<Vec3> c;
+  for (int i = 0; i < 8; ++i)
+    c.emplace_back((i & 1 ? 0.5 : -0.5) * sides.x(), (i & 2 ? 0.5 : -0.5) * sides.y(),
+                   (i & 4 ? 0.5 : -0.5) * sides.z());
+  return c;
+}
+
 /// Every input point within `tol` of the hull of `poly`'s vertices, measured by the oracle's
 /// qhull (test/core/oracle.h: thin sets mapped round by their singular vectors, independently of
 /// the library's mapping); returns the largest distance outside. Every triangle of hullTriangles()
@@ -680,6 +690,24 @@ TEST(ConvexHull, DuplicatePointsLoseNoVertexAndNoEdge) {
   }
 }
 
+namespace {
+
+/// The megametre hull cases below: buildConvexHull keeps `vertices` vertices with a well-formed
+/// adjacency, its support is the points' brute-force maximum in 1000 random directions (`seed`),
+/// and every point is within `tol` of it (expectPointsNearHull; the largest distance printed).
+void expectMegametreHull(const std::vector<Vec3>& pts, int vertices, unsigned seed, double tol,
+                         const std::string& what) {
+  const auto poly = cm::buildConvexHull(pts);
+  EXPECT_EQ(poly->size(), vertices) << what;
+  expectWellFormedAdjacency(*poly);
+  std::mt19937_64 rng(seed);
+  expectSupportOfPoints(*poly, pts, rng, 1000, what);
+  std::printf("%s: points at most %.3g m outside\n", what.c_str(),
+              expectPointsNearHull(*poly, pts, tol, what));
+}
+
+}  // namespace
+
 TEST(ConvexHull, BoxSweptAlongAMegametreSegmentFinishes) {
   // Bug (found by fuzz_core as a timeout, fuzz/regressions/core/hull-box-swept-1e6m-qhull-hang):
   // the 16 corners of a 1.4 x 3.5 x 4.7 m box at both ends of a segment 1.05e6 m long (the
@@ -694,19 +722,11 @@ TEST(ConvexHull, BoxSweptAlongAMegametreSegmentFinishes) {
   // width instead of 5e-15 of the length.
   const Vec3 s0(-0.0011093750000000001, 1.390625e-09, -9.9999999999999995e-07), s1(0, 0, 1046875);
   std::vector<Vec3> pts;
-  for (int i = 0; i < 8; ++i) {
-    const Vec3 c((i & 1 ? 0.5 : -0.5) * 1.375, (i & 2 ? 0.5 : -0.5) * 3.46875,
-                 (i & 4 ? 0.5 : -0.5) * 4.703125);
+  for (const Vec3& c : boxCorners(Vec3(1.375, 3.46875, 4.703125))) {
     pts.push_back(c - s0);
     pts.push_back(c - s1);
   }
-  const auto poly = cm::buildConvexHull(pts);
-  EXPECT_EQ(poly->size(), 12);
-  expectWellFormedAdjacency(*poly);
-  std::mt19937_64 rng(31);
-  expectSupportOfPoints(*poly, pts, rng, 1000, "swept box");
-  std::printf("swept box: points at most %.3g m outside\n",
-              expectPointsNearHull(*poly, pts, 1e-10, "swept box"));
+  expectMegametreHull(pts, 12, 31, 1e-10, "swept box");
 }
 
 TEST(ConvexHull, SlantedMegametrePrismFinishes) {
@@ -723,29 +743,15 @@ TEST(ConvexHull, SlantedMegametrePrismFinishes) {
   R << 1, -1.7064143387928344e-11, 7.9274386713863995e-09, 1.7064151909187178e-11, 1,
       -1.0749069384241901e-09, -7.927438671368056e-09, 1.0749069385594651e-09, 1;
   const Vec3 t(0, 0, 671875.00000001141);
-  std::vector<Vec3> a, b, pts;
-  for (int i = 0; i < 8; ++i) {
-    // The fuzzer's boxes: half of a 4.9e-324 m side rounds to 0 (two plates, corners twice).
-    a.emplace_back((i & 1 ? 0.5 : -0.5) * 1.078125, (i & 2 ? 0.5 : -0.5) * 4.65625,
-                   (i & 4 ? 0.5 : -0.5) * 4.9406564584124654e-324);
-    b.push_back(R * Vec3((i & 1 ? 0.5 : -0.5) * 2.140625,
-                         (i & 2 ? 0.5 : -0.5) * 4.9406564584124654e-324,
-                         (i & 4 ? 0.5 : -0.5) * 1e6) +
-                t);
-  }
-  for (const Vec3& x : a)
-    for (const Vec3& y : b)
-      pts.push_back(x - y);
-  const auto poly = cm::buildConvexHull(pts);
+  // The fuzzer's boxes: half of a 4.9e-324 m side rounds to 0 (two plates, corners twice).
+  std::vector<Vec3> pts;
+  for (const Vec3& x : boxCorners(Vec3(1.078125, 4.65625, 4.9406564584124654e-324)))
+    for (const Vec3& y : boxCorners(Vec3(2.140625, 4.9406564584124654e-324, 1e6)))
+      pts.push_back(x - (R * y + t));
   // Exact rational arithmetic (every facet plane of the 16 points) gives 14 vertices: the 8
   // corners and 6 points up to 1e-8 m outside the long edges. qhull keeps 13: one is left
   // 8.6e-9 m outside (8.6e-15 of the length; the library drops up to 1e-10 of it, kFlatRel).
-  EXPECT_EQ(poly->size(), 13);
-  expectWellFormedAdjacency(*poly);
-  std::mt19937_64 rng(37);
-  expectSupportOfPoints(*poly, pts, rng, 1000, "slanted prism");
-  std::printf("slanted prism: points at most %.3g m outside\n",
-              expectPointsNearHull(*poly, pts, 2e-8, "slanted prism"));
+  expectMegametreHull(pts, 13, 37, 2e-8, "slanted prism");
   // Every point inside every plane (to the rounding of 1e6 m coordinates), which touches one.
   const auto planes = cm::hullPlanes(pts);
   EXPECT_GE(planes.size(), 6u);
