@@ -10,7 +10,8 @@
 ///     (projected into the plane, 2D hull by Andrew's monotone chain, adjacency = polygon cycle).
 /// The vertices kept are always input points (never projected ones). A 3D set that passes the
 /// flatness test but on which qhull still fails (e.g. thickness just above kFlatRel) is retried
-/// with joggling ("QJ") and then treated as flat.
+/// with joggling ("QJ") and then treated as flat. A solid set thinner than kRoundRel of its extent
+/// goes to qhull mapped round (Rounding): qhull can loop for ever on long thin sets.
 #include "collision_monitor/core/convex_hull.h"
 
 #include <algorithm>
