@@ -120,7 +120,7 @@ Frame analyse(const std::vector<Vec3>& pts) {
 /// re-partitioning the facets of a long thin set: the 16 distinct vertex differences of a flat
 /// 1.1 x 4.7 m plate and a flat 2.1 x 1e6 m plate tilted by 8e-9 rad (a slanted prism 1e6 m x
 /// 3.2 m x 4.7 m, 6.7e5 m out) did not finish in minutes with "Qs", "Qt", "Qt Qs", "C-0" or
-/// "Q12", nor as 64 points with duplicates; mapped round, 0.1 ms
+/// "Q12", nor as 64 points with duplicates; mapped round, 0.07 ms
 /// (fuzz/regressions/core/hull-slanted-1e6m-prism-qhull-hang).
 constexpr double kRoundRel = 1e-3;
 

@@ -206,7 +206,7 @@ inline Spread spread(const std::vector<V3>& pts) {
 /// the same set 0.1 or 10 times as thick took 0.2 ms, and mapped round 0.6 ms (on a busy machine).
 /// Until the eighth session of 2026-11-24 the limit was 1e-10; then a slanted prism 1e6 m x 3.2 m
 /// x 4.7 m (singular values 2.4e-6 of each other) looped alike, raw, with any of five option sets
-/// tried, and mapped took 0.1 ms (fuzz/regressions/core/hull-slanted-1e6m-prism-qhull-hang). The
+/// tried, and mapped took 0.07 ms (fuzz/regressions/core/hull-slanted-1e6m-prism-qhull-hang). The
 /// library maps its thin sets too (convex_hull.cpp, kRoundRel, from its own frame); this is an
 /// independent computation of the same idea.
 constexpr double kThinSpread = 1e-3;

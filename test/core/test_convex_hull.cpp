@@ -736,8 +736,8 @@ TEST(ConvexHull, SlantedMegametrePrismFinishes) {
   // 8e-9 rad: a slanted prism 1e6 m long and 3.2 x 4.7 m across. qhull 2020.2 looped for ever
   // merging and re-partitioning its facets ("Qs", "Qt", "Qt Qs", "C-0", "Q12" alike), in
   // buildConvexHull, hullTriangles and hullPlanes; a node would hang on such a mesh. Sets thinner
-  // than 1e-3 of their extent now go to qhull mapped round (kRoundRel): 0.1 ms. Checked: the hull's
-  // support equals the brute-force maximum over the points; every point within 2e-8 m of the
+  // than 1e-3 of their extent now go to qhull mapped round (kRoundRel): 0.07 ms. Checked: the
+  // hull's support equals the brute-force maximum over the points; every point within 2e-8 m of the
   // hull (the oracle's qhull); every point is inside every plane, which touches one.
   cm::Mat3 R;
   R << 1, -1.7064143387928344e-11, 7.9274386713863995e-09, 1.7064151909187178e-11, 1,
