@@ -134,23 +134,22 @@ struct Rounding {
   bool mapped = false;
   Vec3 origin = Vec3::Zero();
   Mat3 M = Mat3::Identity();
+  const std::vector<Vec3>* input;
+  std::vector<Vec3> mapped_points;
 
-  Rounding(const std::vector<Vec3>& pts, const Frame& f) {
+  Rounding(const std::vector<Vec3>& pts, const Frame& f) : input(&pts) {
     if (f.dim < 3 || !(f.h2 < kRoundRel * f.extent)) return;
     mapped = true;
     origin = pts[f.a];
     M.row(0) = f.u.transpose() / f.extent;
     M.row(1) = f.v.transpose() / f.h1;
     M.row(2) = f.n.transpose() / f.h2;
+    mapped_points.reserve(pts.size());
+    for (const Vec3& p : pts)
+      mapped_points.push_back(M * (p - origin));
   }
-  /// The points as qhull gets them: `pts` itself, or mapped into `buffer`.
-  const std::vector<Vec3>& apply(const std::vector<Vec3>& pts, std::vector<Vec3>& buffer) const {
-    if (!mapped) return pts;
-    buffer.resize(pts.size());
-    for (std::size_t i = 0; i < pts.size(); ++i)
-      buffer[i] = M * (pts[i] - origin);
-    return buffer;
-  }
+  /// The points as qhull gets them: the input itself, or mapped.
+  const std::vector<Vec3>& points() const { return mapped ? mapped_points : *input; }
   /// The plane normal . x' + offset = 0 of the mapped space as m . x = c here: m = M^T normal,
   /// c = m . origin - offset; both divided by |m| (unit m). The identity when not mapped: (normal,
   /// -offset).
@@ -419,8 +418,7 @@ std::vector<Vec3> scaled(const std::vector<Vec3>& points, int e) {
 std::shared_ptr<const Polytope<3>> buildUnitHull(const std::vector<Vec3>& points) {
   const Frame f = analyse(points);
   if (f.dim < 3) return makeLowDim(points, f);
-  std::vector<Vec3> buffer;
-  const std::vector<Vec3>& qpoints = Rounding(points, f).apply(points, buffer);
+  const Rounding r(points, f);
   std::string why;
   {
     // Coplanar facets merged (qhull's default), so ridges are the real edges. "Qs": the initial
@@ -428,11 +426,11 @@ std::shared_ptr<const Polytope<3>> buildUnitHull(const std::vector<Vec3>& points
     // 1e6 m segment never left qhull's merging (qh_mergefacet, > 10 minutes; "Qs": 0.14 ms):
     // fuzz/regressions/core/hull-box-swept-1e6m-qhull-hang.
     Qhull q;
-    if (runSolid(q, qpoints, "Qs", &why)) return extractSolid(q, points);
+    if (runSolid(q, r.points(), "Qs", &why)) return extractSolid(q, points);
   }
   {
     Qhull q;  // nearly flat input: joggled input always gives a (simplicial) hull
-    if (runSolid(q, qpoints, "QJ", &why)) return extractSolid(q, points);
+    if (runSolid(q, r.points(), "QJ", &why)) return extractSolid(q, points);
   }
   // Both failed: the set is flat to qhull's precision; its in-plane hull is the best answer.
   Frame flat = f;
@@ -463,14 +461,12 @@ std::vector<std::array<int, 3>> hullTriangles(const Polytope<3>& poly) {
   const Frame f = analyse(pts);
   if (f.dim < 3) return tris;
   const Rounding r(pts, f);
-  std::vector<Vec3> buffer;
-  const std::vector<Vec3>& qpts = r.apply(pts, buffer);
   // Triangulated output ("Qt"); joggled ("QJ", simplicial by construction) if qhull finds the
   // set too flat for its precision.
   Qhull q;
-  if (!q.run(qpts, "Qt")) {
+  if (!q.run(r.points(), "Qt")) {
     Qhull qj;
-    if (qj.run(qpts, "QJ")) collectTriangles(qj, pts, r, &tris);
+    if (qj.run(r.points(), "QJ")) collectTriangles(qj, pts, r, &tris);
     return tris;
   }
   collectTriangles(q, pts, r, &tris);
@@ -490,9 +486,8 @@ std::vector<HullPlane> hullPlanes(const std::vector<Vec3>& points) {
   std::vector<HullPlane> planes;
   if (f.dim == 3) {
     const Rounding r(points, f);
-    std::vector<Vec3> buffer;
     Qhull q;
-    if (q.run(r.apply(points, buffer), "")) {
+    if (q.run(r.points(), "")) {
       qhT* qh = q.get();
       facetT* facet;
       FORALLfacets {
