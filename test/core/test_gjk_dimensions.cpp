@@ -102,6 +102,40 @@ TEST(Gjk2D, PolygonToPoint) {
   expectVecNear<2>(r.point_a, cm::Vec2(1, 1), 1e-12);
 }
 
+TEST(Gjk2D, WitnessOfAFarPointIsThePointItself) {
+  // A point 950 m from its frame's origin (three coincident vertices), 4 cm from a 3 mm 170-gon
+  // in many placements: GJK's terminal simplex holds the point as every vertex's A side, so its
+  // witness on A is the point, bit for bit. Summing weights times the vertices put it up to
+  // 3.8e-11 m off (the weights of the point-edge segment sum to 1 only to 4e-14, the ratio of
+  // A - B's size to B's edges times the rounding; test_gjk_2d_sweep pair 1734 before the sweep's
+  // placement changed).
+  const cm::Vec2 p(748.77440271237697, -581.19107608039621);
+  const cm::Polytope<2> point({p, p, p});
+  std::vector<cm::Vec2> ring;
+  for (int i = 0; i < 170; ++i)
+    ring.emplace_back(3e-3 * std::cos(2 * M_PI * i / 170), 3e-3 * std::sin(2 * M_PI * i / 170));
+  const cm::Polytope<2> gon(ring);
+  std::mt19937_64 rng(1734);
+  std::uniform_real_distribution<double> u(0.0, 2 * M_PI);
+  int off = 0;
+  double worst = 0.0;
+  for (int i = 0; i < 2000; ++i) {
+    const double dir = u(rng);
+    const cm::PolytopeSupport<2> a{&point}, b{&gon};
+    const cm::MinkowskiDifference<2, cm::PolytopeSupport<2>, cm::PolytopeSupport<2>> md(
+        a, b, rot2(u(rng), p + 0.043 * cm::Vec2(std::cos(dir), std::sin(dir))));
+    const auto r = cm::gjkDistance(md, settings(1e3));
+    ASSERT_EQ(r.status, cm::GjkStatus::Separated);
+    // 43 mm minus the ring's 3 mm at a vertex, up to its sagitta 3 mm (1 - cos(pi / 170)) more.
+    EXPECT_GT(r.distance, 0.04 - 1e-12);
+    EXPECT_LT(r.distance, 0.04 + 5.13e-7);
+    if (r.point_a != p) ++off;
+    worst = std::max(worst, (r.point_a - p).norm());
+  }
+  EXPECT_EQ(off, 0) << "of 2000 placements, witnesses not exactly the point; up to " << worst
+                    << " m off";
+}
+
 TEST(Gjk2D, IntersectWithMargins) {
   const Box2 a{cm::Vec2(1, 1)};
   const Box2 b{cm::Vec2(0.5, 0.5)};

@@ -603,6 +603,34 @@ TEST(ExactScale, LargeCoordinatesAndARotatedCommonFrame) {
   EXPECT_NEAR(r.distance, 3.5, 1e-10);
 }
 
+TEST(ExactScale, WitnessOfAFarPointIsThePointItself) {
+  // A hull of one point 1.2 km from its frame's origin, 4 cm from a 3 mm hull of 60 points, in
+  // many placements: the witness on A is the point, bit for bit (as Gjk2D's test of the same).
+  const cm::Vec3 p(748.77440271237697, -581.19107608039621, 702.5);
+  const cm::ConvexShape a = cm::ConvexShape::convexHull({p});
+  std::mt19937_64 rng(1734);
+  std::normal_distribution<double> n(0.0, 1.0);
+  std::vector<cm::Vec3> ball;
+  for (int i = 0; i < 60; ++i)
+    ball.push_back(3e-3 * cm::Vec3(n(rng), n(rng), n(rng)).normalized());
+  const cm::ConvexShape b = cm::ConvexShape::convexHull(ball);
+  int off = 0;
+  double worst = 0.0;
+  for (int i = 0; i < 2000; ++i) {
+    cm::Transform3 pose_b;
+    pose_b.R = Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized().toRotationMatrix();
+    pose_b.t = p + 0.043 * cm::Vec3(n(rng), n(rng), n(rng)).normalized();
+    const cm::ContactResult r = cm::distance(a, cm::Transform3(), b, pose_b);
+    ASSERT_EQ(r.status, cm::Status::Separated);
+    EXPECT_GT(r.distance, 0.04 - 1e-12);
+    EXPECT_LT(r.distance, 0.041);
+    if (r.point_a != p) ++off;
+    worst = std::max(worst, (r.point_a - p).norm());
+  }
+  EXPECT_EQ(off, 0) << "of 2000 placements, witnesses not exactly the point; up to " << worst
+                    << " m off";
+}
+
 TEST(ExactScale, MillimetreSphereAgainstTenMetreBox) {
   // Box 10 m (face x = 5), sphere r = 1 mm centred 2 mm off the face: 1 mm gap.
   const ConvexShape box = ConvexShape::box(Vec3(10, 10, 10));

@@ -62,13 +62,23 @@ struct Simplex {
       p += bary[i] * v[i].w;
     return p;
   }
-  /// Witness points sum(bary_i a_i) on A and sum(bary_i b_i) on B, A's frame.
+  /// Witness points sum(bary_i a_i) on A and sum(bary_i b_i) on B, A's frame, as the first
+  /// vertex plus the weighted differences to it: the weights, ratios of lengths, areas or volumes
+  /// of A - B, sum to 1 only to a rounding that the ratio of A - B's size to its edges amplifies,
+  /// and so the points move by that rounding times the vertices' differences, not times their
+  /// distance from the origin. A point 950 m from its frame's origin, 0.04 m from a 3 mm polygon:
+  /// the plain sum put the witness 3.8e-11 m off the point (test_gjk_2d_sweep), 180 ulps at 950 m.
   CM_ALWAYS_INLINE void witnesses(Vec<D>& a, Vec<D>& b) const {
-    a.setZero();
-    b.setZero();
-    for (int i = 0; i < size; ++i) {
-      a += bary[i] * v[i].a;
-      b += bary[i] * v[i].b;
+    if (size <= 0) {
+      a.setZero();
+      b.setZero();
+      return;
+    }
+    a = v[0].a;
+    b = v[0].b;
+    for (int i = 1; i < size; ++i) {
+      a += bary[i] * (v[i].a - v[0].a);
+      b += bary[i] * (v[i].b - v[0].b);
     }
   }
 };
