@@ -10,6 +10,11 @@ cm_add_gtest(test_oracle_sweep
   SOURCES test/core/test_oracle_sweep.cpp
   LIBS collision_monitor_core Qhull::qhull_r)
 
+# 2D (footprints): its own oracle (a long double hull of A - B), no qhull.
+cm_add_gtest(test_gjk_2d_sweep
+  SOURCES test/core/test_gjk_2d_sweep.cpp
+  LIBS collision_monitor_core)
+
 cm_add_gtest(test_ccd_backend
   SOURCES test/core/test_ccd_backend.cpp
   LIBS collision_monitor_core Qhull::qhull_r PkgConfig::CCD)

@@ -529,9 +529,9 @@ inline std::optional<double> oracleDistance(const Placed& a, const Placed& b) {
     x *= unit;
   double d = 0.0;
   try {
-    d = oracle::signedDistance(oracle::makeHull(diff), Vec3::Zero()) / unit;
+    d = oracle::originSignedDistance(diff) / unit;
   } catch (const std::runtime_error&) {
-    return std::nullopt;  // flat difference
+    return std::nullopt;  // qhull failed
   }
   // Apart and few points: the distance again from every point-triangle and segment-segment pair
   // of the two point sets (the closest features of two separated hulls are among them; the others

@@ -42,6 +42,8 @@ extern "C" {
 #include <libqhull_r/qhull_ra.h>
 }
 
+#include "oracle2d.h"
+
 namespace oracle {
 
 using V3 = Eigen::Vector3d;
@@ -309,6 +311,39 @@ inline double signedDistance(const Hull& h, const V3& x, V3* outward = nullptr) 
   return best;
 }
 
+/// Thinner than this (smallest singular value over the largest, spread()), a set is flat to
+/// rounding for originSignedDistance(): mapped round (kThinSpread) for qhull, its rounding noise
+/// becomes the thickness, the mapped-back planes of its sides turn towards its normal, and the
+/// origin beside it came out inside. The difference of a 7e-10 m segment and a 3.7 mm segment
+/// (singular values 4.6e-22 of each other), 9.42e-11 m apart, was "-3.4e-27 m"
+/// (fuzz/regressions/core/oracle-flat-difference-of-two-segments).
+constexpr double kFlatSpread = 1e-12;
+
+/// Signed distance of the origin to the convex hull of `pts`: qhull (makeHull()) for a solid set;
+/// for a set flat to rounding (kFlatSpread; also exactly flat, collinear or a single point) the
+/// distance to the polygon it spans, found in its plane (the first two principal axes, oracle2d.h,
+/// long double) and combined with the offset along the third (never negative: no interior).
+/// Throws std::runtime_error if qhull fails.
+inline double originSignedDistance(const std::vector<V3>& pts) {
+  const Spread sp = spread(pts);
+  if (!(sp.sv[2] <= kFlatSpread * sp.sv[0])) return signedDistance(makeHull(pts), V3::Zero());
+  using L = long double;
+  const auto along = [&sp](const V3& x, int k) {
+    L s = 0;
+    for (int i = 0; i < 3; ++i)
+      s += (static_cast<L>(x[i]) - sp.mean[i]) * sp.axes(i, k);
+    return s;
+  };
+  const V3 origin = V3::Zero();
+  const L u0 = along(origin, 0), v0 = along(origin, 1), w0 = along(origin, 2);
+  std::vector<oracle2d::P2> flat;
+  flat.reserve(pts.size());
+  for (const V3& p : pts)
+    flat.push_back({along(p, 0) - u0, along(p, 1) - v0});
+  const L in_plane = std::max<L>(0, oracle2d::signedDistance(oracle2d::hull(flat)));
+  return static_cast<double>(std::sqrt(in_plane * in_plane + w0 * w0));
+}
+
 /// A convex shape as the oracle sees it: world-frame core vertices and a radius.
 ///   Point:   one vertex (sphere core),
 ///   Segment: two vertices (capsule core),
@@ -519,18 +554,11 @@ inline Answer solve(const Shape& a, const Shape& b) {
 #include <random>
 
 #include "collision_monitor/core/convex_shape.h"
+#include "sweep_scale.h"
 
 namespace oracle {
 
 namespace cmc = collision_monitor::core;
-
-/// Pair count of a sweep scaled by the environment variable CM_SWEEP_SCALE (default 1; the
-/// sanitizer build in CI runs 0.1), at least 20.
-inline int scaled(int n) {
-  const char* env = std::getenv("CM_SWEEP_SCALE");
-  const double s = env != nullptr ? std::atof(env) : 1.0;
-  return std::max(20, static_cast<int>(std::lround(n * (s > 0.0 ? s : 1.0))));
-}
 
 /// Shape-pair categories of the sweeps. "Poly" means a box or a random hull (coin flip).
 enum class Category {
