@@ -18,7 +18,8 @@
 ///   1. factories throw std::invalid_argument exactly for invalid input (non-finite or negative
 ///      sizes, non-finite points, no points) and nothing else ever;
 ///   2. inside the domain (finite, |x| <= 1e7): every query returns finite numbers, a unit
-///      normal, iteration counts within the bound, and does not report FailedToConverge;
+///      normal, iteration counts within the bounds (twice the per-run bounds: a query may run in
+///      both frames), and does not report FailedToConverge;
 ///   3. intersect / distance / signedDistance, the warm-started repeat, the swapped pair and the
 ///      libccd backend agree with each other outside a tolerance band;
 ///   4. polytope-like pairs (point, segment, box, hull, with radii) agree with the exact oracle
@@ -711,9 +712,10 @@ inline Outcome runCase(const std::uint8_t* data, std::size_t len) {
                     " failed to converge on polytope cores: " + describe(r));
       out.unconverged = true;
     }
+    // Per frame: a query retried in B's frame (query.h) counts both frames' runs.
     const cmc::QueryOptions bounds;
-    if (r.gjk_iterations > bounds.max_iterations || r.epa_iterations > bounds.max_epa_iterations ||
-        r.gjk_iterations < 0)
+    if (r.gjk_iterations > 2 * bounds.max_iterations ||
+        r.epa_iterations > 2 * bounds.max_epa_iterations || r.gjk_iterations < 0)
       return fail(std::string(names[i]) + " iteration count out of bound: " + describe(r));
   }
 

@@ -215,7 +215,7 @@ constexpr double kThinSpread = 1e-3;
 
 /// Hull of `pts` with qhull ("Qt": triangulated; a thin set mapped round, kThinSpread). Throws
 /// std::runtime_error if qhull fails or the set is flat (the tests never feed them any; the fuzz
-/// checks then have no oracle for the pair).
+/// checks take flat sets in their plane, originSignedDistance()).
 inline Hull makeHull(const std::vector<V3>& pts) {
   // A thin set goes to qhull as M (x - c): about the mean c, along its principal axes, each
   // divided by its spread.

@@ -54,7 +54,10 @@ struct ContactResult {
   /// Unit vector from A towards B, common frame: the direction in which to move B (or -A) to
   /// increase the distance. Defined (not NaN) even when the shapes touch.
   Vec3 normal = Vec3::UnitX();
+  /// GJK iterations of all the query's runs: at most QueryOptions::max_iterations in A's frame
+  /// (restarts included), as many again where the query is retried in B's frame (distance()).
   int gjk_iterations = 0;
+  /// EPA iterations, likewise: at most twice QueryOptions::max_epa_iterations.
   int epa_iterations = 0;
   double depth() const { return distance < 0.0 ? -distance : 0.0; }
 };
