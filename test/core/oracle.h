@@ -216,10 +216,10 @@ constexpr double kThinSpread = 1e-3;
 /// Hull of `pts` with qhull ("Qt": triangulated; a thin set mapped round, kThinSpread). Throws
 /// std::runtime_error if qhull fails or the set is flat (the tests never feed them any; the fuzz
 /// checks take flat sets in their plane, originSignedDistance()).
-inline Hull makeHull(const std::vector<V3>& pts) {
+/// `sp`: spread(pts), when the caller has it.
+inline Hull makeHull(const std::vector<V3>& pts, const Spread& sp) {
   // A thin set goes to qhull as M (x - c): about the mean c, along its principal axes, each
   // divided by its spread.
-  const Spread sp = spread(pts);
   const bool mapped = sp.sv[0] > 0.0 && sp.sv[2] < kThinSpread * sp.sv[0];
   if (mapped && !(sp.sv[2] > 0.0)) throw std::runtime_error("oracle qhull: flat input");
   const Eigen::Matrix3d M =
@@ -283,6 +283,9 @@ inline Hull makeHull(const std::vector<V3>& pts) {
   h.vertices.erase(std::unique(h.vertices.begin(), h.vertices.end()), h.vertices.end());
   return h;
 }
+inline Hull makeHull(const std::vector<V3>& pts) {
+  return makeHull(pts, spread(pts));
+}
 
 /// Signed distance of x to the hull: > 0 outside (exact, nearest triangle), < 0 inside (exact,
 /// nearest facet plane). `outward` (if given) is the unit direction in which moving x increases
@@ -326,7 +329,7 @@ constexpr double kFlatSpread = 1e-12;
 /// Throws std::runtime_error if qhull fails.
 inline double originSignedDistance(const std::vector<V3>& pts) {
   const Spread sp = spread(pts);
-  if (!(sp.sv[2] <= kFlatSpread * sp.sv[0])) return signedDistance(makeHull(pts), V3::Zero());
+  if (!(sp.sv[2] <= kFlatSpread * sp.sv[0])) return signedDistance(makeHull(pts, sp), V3::Zero());
   using L = long double;
   const auto along = [&sp](const V3& x, int k) {
     L s = 0;
