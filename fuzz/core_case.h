@@ -719,12 +719,14 @@ inline Outcome runCase(const std::uint8_t* data, std::size_t len) {
       return fail(std::string(names[i]) + " iteration count out of bound: " + describe(r));
   }
 
-  // Tolerance: relative to the pair's size (the core's own scale) plus the far-offset rounding.
+  // Tolerance: relative to the pair's size (the cores' own scale, about their origins:
+  // ConvexShape::offset()) plus the rounding of world coordinates `far` out.
   // stableNorm(): norm() squares, and below about 1e-154 m the squares underflow (a 1.8e-163 m
   // offset had a size of 0, a tolerance of 1e-300 and an exact normal "failing" by 3e-179 m:
   // fuzz/regressions/core/oracle-size-underflow-1.8e-163m-offset).
-  const double size = A.boundingRadius() + B.boundingRadius() + (b.pose.t - a.pose.t).stableNorm();
-  const double far = std::max(a.pose.t.stableNorm(), b.pose.t.stableNorm());
+  const Vec3 core_a = a.pose * A.offset(), core_b = b.pose * B.offset();
+  const double size = A.localRadius() + B.localRadius() + (core_b - core_a).stableNorm();
+  const double far = std::max(core_a.stableNorm(), core_b.stableNorm());
   // An unconverged estimate (curved cores only) is checked to kLooseTolerance of the size.
   const double rel = out.unconverged ? kLooseTolerance : 1e-9;
   const double tol = rel * size + 1e-13 * far + 1e-300;
@@ -765,7 +767,10 @@ inline Outcome runCase(const std::uint8_t* data, std::size_t len) {
   // agreement with the oracle is tested on the realistic sweep (test_ccd_backend). The backend's
   // signedDistance is checked against the supports and our GJK (ccd_backend.cpp): its sign must
   // agree outside a 1e-4 band.
-  const double ccd_tol = 1e-4 * size + tol;
+  // libccd runs about the shapes' frame origins (not offset()), so its scale includes the offsets.
+  const double ccd_size =
+      A.boundingRadius() + B.boundingRadius() + (b.pose.t - a.pose.t).stableNorm();
+  const double ccd_tol = 1e-4 * ccd_size + tol;
   (void)hit_ccd;
   // Its depth is not checked: on degenerate cores (a zero-width box) libccd reports touching
   // (depth 0) where the depth is hundreds of metres (test_core_hostile, LibccdFlatBoxDepth).

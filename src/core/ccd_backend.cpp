@@ -69,8 +69,9 @@ void toCcd(const Vec3& p, ccd_vec3_t* v) {
   ccdVec3Set(v, p.x(), p.y(), p.z());
 }
 
-/// A point inside the core, shape frame (MPR needs an interior point as its portal origin).
-Vec3 interiorPoint(const ConvexShape& s) {
+/// A point inside the core, about the core's origin (ConvexShape::offset()); MPR needs an interior
+/// point as its portal origin.
+Vec3 coreInteriorPoint(const ConvexShape& s) {
   return std::visit(
       [](const auto& c) -> Vec3 {
         using T = std::decay_t<decltype(c)>;
@@ -153,8 +154,8 @@ struct CcdPair {
     budget.limit = o.max_support_calls;
     a.budget = b.budget = &budget;
     a.first = true;
-    a.centre = s * interiorPoint(sa);
-    b.centre = s * (b.pose * interiorPoint(sb));
+    a.centre = s * (sa.offset() + coreInteriorPoint(sa));
+    b.centre = s * (b.pose * (sb.offset() + coreInteriorPoint(sb)));
     CCD_INIT(&ccd);
     ccd.first_dir = firstDir;
     ccd.support1 = support;

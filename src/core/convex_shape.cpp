@@ -51,35 +51,65 @@ Vec3 coreSupportOf(const ConvexShape::Core& core, const Vec3& d) {
       core);
 }
 
-}  // namespace
+/// ConvexShape::offset() of a finite point set: the centre of its bounding box along the axes
+/// where that lies further out than four half-extents, when the centre lies further out than four
+/// half-diagonals; else zero. On those axes every coordinate is within 1/4 of the centre's, so
+/// subtracting the centre is exact (Sterbenz). Halves first: lo + hi may overflow.
+Vec3 coordinatesOffset(const std::vector<Vec3>& pts) {
+  Vec3 lo = pts.front(), hi = pts.front();
+  for (const Vec3& p : pts) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  const Vec3 mid = 0.5 * lo + 0.5 * hi;
+  const Vec3 half = 0.5 * hi - 0.5 * lo;
+  Vec3 offset = Vec3::Zero();
+  if (!(mid.stableNorm() > 4.0 * half.stableNorm())) return offset;
+  for (int k = 0; k < 3; ++k)
+    if (std::abs(mid[k]) > 4.0 * half[k]) offset[k] = mid[k];
+  return offset;
+}
 
-ConvexShape::ConvexShape(Core core, double radius, std::string kind)
-    : core_(std::move(core)), radius_(radius), kind_(std::move(kind)) {
-  // Bounding radius of the core about the frame origin, plus the radius. stableNorm(): a plain
-  // norm of a 1e-277 m box is 0 (its square underflows), and the radius sets the query's scale
-  // (query.cpp: tiny pairs run scaled; fuzz/regressions/core/flat-box-1.4e-277-holds-point).
-  double rc = std::visit(
-      [](const auto& c) -> double {
+std::vector<Vec3> shifted(std::vector<Vec3> pts, const Vec3& offset) {
+  for (Vec3& p : pts)
+    p -= offset;
+  return pts;
+}
+
+/// Radius of a ball about `centre` that contains the core. stableNorm(): a plain norm of a
+/// 1e-277 m box is 0 (its square underflows), and the radius sets the query's scale (query.cpp:
+/// tiny pairs run scaled; fuzz/regressions/core/flat-box-1.4e-277-holds-point).
+double coreRadius(const ConvexShape::Core& core, const Vec3& centre) {
+  return std::visit(
+      [&centre](const auto& c) -> double {
         using T = std::decay_t<decltype(c)>;
         if constexpr (std::is_same_v<T, PointShape<3>>) {
-          return c.p.stableNorm();
+          return (c.p - centre).stableNorm();
         } else if constexpr (std::is_same_v<T, SegmentShape<3>>) {
-          return std::max(c.a.stableNorm(), c.b.stableNorm());
+          return std::max((c.a - centre).stableNorm(), (c.b - centre).stableNorm());
         } else if constexpr (std::is_same_v<T, BoxShape<3>>) {
-          return c.half.stableNorm();
+          return c.half.stableNorm() + centre.stableNorm();
         } else if constexpr (std::is_same_v<T, CylinderShape> || std::is_same_v<T, ConeShape>) {
-          return std::hypot(c.half_height, c.radius);
+          return std::hypot(c.half_height, c.radius) + centre.stableNorm();
         } else if constexpr (std::is_same_v<T, EllipsoidShape<3>>) {
-          return c.semi.maxCoeff();
+          return c.semi.maxCoeff() + centre.stableNorm();
         } else {
           double m = 0.0;
           for (const Vec3& v : c->vertices())
-            m = std::max(m, v.stableNorm());
+            m = std::max(m, (v - centre).stableNorm());
           return m;
         }
       },
-      core_);
-  bounding_radius_ = rc + radius_;
+      core);
+}
+
+}  // namespace
+
+ConvexShape::ConvexShape(Core core, double radius, std::string kind, const Vec3& offset)
+    : core_(std::move(core)), offset_(offset), radius_(radius), kind_(std::move(kind)) {
+  local_radius_ = coreRadius(core_, Vec3::Zero()) + radius_;
+  // About the frame origin: the core's points are offset() away from where the core has them.
+  bounding_radius_ = offset_.isZero(0.0) ? local_radius_ : coreRadius(core_, -offset_) + radius_;
 }
 
 ConvexShape ConvexShape::sphere(double radius) {
@@ -128,25 +158,29 @@ ConvexShape ConvexShape::ellipsoid(const Vec3& semi_axes) {
 
 ConvexShape ConvexShape::point(const Vec3& p) {
   checkPoint("point", "p", p);
+  const Vec3 offset = coordinatesOffset({p});
   PointShape<3> s;
-  s.p = p;
-  return ConvexShape(s, 0.0, "point");
+  s.p = p - offset;
+  return ConvexShape(s, 0.0, "point", offset);
 }
 
 ConvexShape ConvexShape::segment(const Vec3& a, const Vec3& b) {
   checkPoint("segment", "a", a);
   checkPoint("segment", "b", b);
+  const Vec3 offset = coordinatesOffset({a, b});
   SegmentShape<3> s;
-  s.a = a;
-  s.b = b;
-  return ConvexShape(s, 0.0, "segment");
+  s.a = a - offset;
+  s.b = b - offset;
+  return ConvexShape(s, 0.0, "segment", offset);
 }
 
 ConvexShape ConvexShape::convexHull(const std::vector<Vec3>& points) {
   if (points.empty()) throw std::invalid_argument("ConvexShape::convexHull: no points");
   for (std::size_t i = 0; i < points.size(); ++i)
     checkPoint("convexHull", "points[" + std::to_string(i) + "]", points[i]);
-  return polytope(buildConvexHull(points));
+  // Hulled about the offset: the same points (exact), and qhull sees them about their centre.
+  const Vec3 offset = coordinatesOffset(points);
+  return polytopeAt(buildConvexHull(offset.isZero(0.0) ? points : shifted(points, offset)), offset);
 }
 
 ConvexShape ConvexShape::polytope(std::shared_ptr<const Polytope<3>> poly) {
@@ -154,8 +188,17 @@ ConvexShape ConvexShape::polytope(std::shared_ptr<const Polytope<3>> poly) {
   if (poly->size() == 0) throw std::invalid_argument("ConvexShape::polytope: no vertices");
   for (int i = 0; i < poly->size(); ++i)
     checkPoint("polytope", "vertices[" + std::to_string(i) + "]", poly->vertices()[i]);
+  const Vec3 offset = coordinatesOffset(poly->vertices());
+  if (offset.isZero(0.0)) return polytopeAt(std::move(poly), offset);
+  return polytopeAt(
+      std::make_shared<const Polytope<3>>(shifted(poly->vertices(), offset),
+                                          poly->adjacencyOffsets(), poly->adjacency()),
+      offset);
+}
+
+ConvexShape ConvexShape::polytopeAt(std::shared_ptr<const Polytope<3>> poly, const Vec3& offset) {
   const int n = poly->size();
-  return ConvexShape(std::move(poly), 0.0, "polytope(" + std::to_string(n) + ")");
+  return ConvexShape(std::move(poly), 0.0, "polytope(" + std::to_string(n) + ")", offset);
 }
 
 ConvexShape ConvexShape::padded(double padding) const {
@@ -163,11 +206,12 @@ ConvexShape ConvexShape::padded(double padding) const {
   ConvexShape out = *this;
   out.radius_ += padding;
   out.bounding_radius_ += padding;
+  out.local_radius_ += padding;
   return out;
 }
 
 Vec3 ConvexShape::coreSupport(const Vec3& d) const {
-  return coreSupportOf(core_, d);
+  return coreSupportOf(core_, d) + offset_;
 }
 
 Vec3 ConvexShape::support(const Vec3& d) const {

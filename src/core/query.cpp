@@ -158,9 +158,9 @@ struct PairFrame {
   const ConvexShape* b;
   const Transform3* pose_a;
   const Transform3* pose_b;
-  Transform3 T_AB;  ///< B's frame -> A's frame
+  Transform3 T_AB;  ///< B's core frame -> A's core frame (ConvexShape::offset())
   double rA, rB;    ///< radii (m)
-  double size;      ///< bounding radii + |relative translation| (m): the tolerance scale
+  double size;      ///< local radii + |relative translation| (m): the tolerance scale
   /// Power of two the Minkowski difference is scaled by (1 unless the size is outside [kTinySize,
   /// kHugeSize]): GJK and EPA lengths are size-proportional by this factor, results are divided by
   /// it.
@@ -193,11 +193,14 @@ PairFrame makeFrame(const ConvexShape& a, const Transform3& pose_a, const Convex
   for (int c = 0; c < 3; ++c)
     f.T_AB.R.col(c) = mulTransposed<3>(pose_a.R, pose_b.R.col(c));
   f.T_AB.t = mulTransposed<3>(pose_a.R, pose_b.t - pose_a.t);
+  // Between the cores' frames (ConvexShape::offset()): (T_A O_A)^-1 T_B O_B.
+  if (__builtin_expect(!a.offset().isZero(0.0) || !b.offset().isZero(0.0), 0))
+    f.T_AB.t += f.T_AB.R * b.offset() - a.offset();
   f.rA = a.radius();
   f.rB = b.radius();
   double tn = f.T_AB.t.norm();
   if (!(tn >= 1e-150 && tn <= 1e150)) tn = f.T_AB.t.stableNorm();  // |t|^2 under- or overflowed
-  f.size = a.boundingRadius() + b.boundingRadius() + tn;
+  f.size = a.localRadius() + b.localRadius() + tn;
   // A NaN or Inf in either pose reaches T_AB (0 * NaN and 0 * Inf are NaN): checking T_AB.R and
   // the size (which holds |T_AB.t|) covers both poses.
   f.finite = nonFinite(f.T_AB.R) == 0.0 && std::isfinite(f.size);
@@ -354,11 +357,12 @@ Vec3 flatNormal(const EpaResult<3>& e, const Vec3& t_AB) {
 void finish(const PairFrame& f, const QueryOptions& o, double core_signed, const Vec3& pa_core,
             const Vec3& pb_core, const Vec3& n, bool failed, ContactResult& r) {
   const Transform3& Ta = *f.pose_a;
+  const Vec3& oA = f.a->offset();
   const double unscale = 1.0 / f.scale;
   r.distance = core_signed * unscale - (f.rA + f.rB);
   r.normal = Ta.R * n;
-  r.point_a = Ta * Vec3(pa_core * unscale + f.rA * n);
-  r.point_b = Ta * Vec3(pb_core * unscale - f.rB * n);
+  r.point_a = Ta * Vec3(pa_core * unscale + f.rA * n + oA);
+  r.point_b = Ta * Vec3(pb_core * unscale - f.rB * n + oA);
   const double band = o.touch_tolerance * f.size;
   if (failed) {
     r.status = Status::FailedToConverge;

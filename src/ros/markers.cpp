@@ -112,7 +112,8 @@ int severity(PairStatus s) {
 
 /// True when two shapes have the same geometry (so cached triangles stay valid).
 bool sameShape(const ConvexShape& a, const ConvexShape& b) {
-  if (a.radius() != b.radius() || a.core().index() != b.core().index()) return false;
+  if (a.radius() != b.radius() || a.offset() != b.offset() || a.core().index() != b.core().index())
+    return false;
   return std::visit(
       [&b](const auto& ca) -> bool {
         using T = std::decay_t<decltype(ca)>;
@@ -158,7 +159,7 @@ void tessellate(const ConvexShape& shape, double radius, int n, Marker* m) {
       pts.push_back(shape.coreSupport(d) + radius * d);
     }
   }
-  const double scale = std::max(shape.boundingRadius(), radius) + kMinSize;
+  const double scale = std::max(shape.localRadius(), radius) + kMinSize;
   const double min_area2 = 1e-14 * scale * scale * scale * scale;
   auto idx = [segments](int i, int j) { return i * segments + (j % segments); };
   auto add = [&](int a, int b, int c) {
@@ -221,7 +222,7 @@ void solidMarker(const ConvexShape& shape, double radius, int n, Marker* m) {
         const auto& v = (*poly)->vertices();
         for (const auto& t : triangles) {
           for (int k : t)
-            m->points.push_back(toPoint(v[static_cast<std::size_t>(k)]));
+            m->points.push_back(toPoint(v[static_cast<std::size_t>(k)] + shape.offset()));
         }
         return;
       }
@@ -305,7 +306,8 @@ const MarkerBuilder::BodyGeometry& MarkerBuilder::geometryOf(const world::BodySp
     pg.solid.pose = identityPose();
     // Spheres are drawn as SPHERE markers centred on their core point; everything else is
     // given in the part frame itself.
-    if (const auto* point = std::get_if<core::PointShape<3>>(&shape.core())) pg.offset = point->p;
+    if (const auto* point = std::get_if<core::PointShape<3>>(&shape.core()))
+      pg.offset = shape.offset() + point->p;
     solidMarker(shape, own_radius, options_.tessellation, &pg.solid);
     pg.solid_shade = shadeFaces(pg.solid);
     if (padding > 0.0 && shape.radius() > 0.0) {

@@ -106,7 +106,8 @@ core::Aabb shapeAabb(const core::ConvexShape& shape, const Transform3& pose) {
   } else {
     return shape.aabb(pose);
   }
-  return core::Aabb{lo.array() + (pose.t.array() - r), hi.array() + (pose.t.array() + r)};
+  const Vec3 t = pose.t + R * shape.offset();  // the core's origin (ConvexShape::offset())
+  return core::Aabb{lo.array() + (t.array() - r), hi.array() + (t.array() + r)};
 }
 
 namespace {

@@ -290,3 +290,93 @@ TEST(OracleExact, SupportTieAlongAnEdgePerpendicularToV) {
     }
   }
 }
+
+// Hulls given in far-off coordinates with identity poses (a CONVEX body written in map
+// coordinates, a mesh exported in a site frame): 1 to 12 mm hulls 1e3 to 1e6 m from their frame's
+// origin, a few millimetres apart or overlapping. The shapes are exactly the doubles given, so the
+// answers owe nothing to the distance from the origin: 1e-9 of the pair's own size, as the sweep
+// above. Until the tenth session of 2026-11-25 tolerances scaled with the vertices' distance from
+// their origin (ConvexShape::offset()): 2.5e-5 of the size at 1e5 m. The same pairs moved by one
+// rigid transform to near the world origin (the pose then carries 1e5 m and rounds at 1e-14 of
+// it, the sweep's `far` term).
+TEST(OracleFar, HullsGivenFarFromTheirOrigin) {
+  std::mt19937_64 rng(20261125);
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const auto unit = [&rng] { return oracle::randomUnit(rng); };
+  const auto blob = [&](const cm::Vec3& centre, double size) {
+    const cm::Vec3 semi(size * (0.2 + 0.8 * u01(rng)), size * (0.2 + 0.8 * u01(rng)),
+                        size * (0.2 + 0.8 * u01(rng)));
+    std::vector<cm::Vec3> pts;
+    const int n = 6 + static_cast<int>(u01(rng) * 11);
+    for (int i = 0; i < n; ++i)
+      pts.push_back(centre + semi.cwiseProduct(unit()));
+    return pts;
+  };
+  const auto minus = [](const std::vector<cm::Vec3>& pts, const cm::Vec3& c) {
+    std::vector<oracle::V3> out;
+    for (const cm::Vec3& p : pts)
+      out.push_back(p - c);
+    return out;
+  };
+  const int pairs = oracle::scaled(500);
+  for (const double far : {1e3, 1e4, 1e5, 1e6}) {
+    SCOPED_TRACE("far " + std::to_string(far));
+    int failures = 0, colliding = 0;
+    double worst[2] = {0.0, 0.0};  // in place, moved home
+    for (int i = 0; i < pairs; ++i) {
+      const cm::Vec3 c = far * unit();
+      const double ra = 1e-3 + 11e-3 * u01(rng), rb = 1e-3 + 11e-3 * u01(rng);
+      const double gap = (0.05 + 0.5 * u01(rng)) * (ra + rb);  // between the centres
+      const std::vector<cm::Vec3> pa = blob(c, 0.5 * ra);
+      const std::vector<cm::Vec3> pb = blob(c + gap * unit(), 0.5 * rb);
+      // The oracle about c (differences of the given doubles, within rounding of 1e-16 * 12 mm).
+      const oracle::Hull ha = oracle::makeHull(minus(pa, c)), hb = oracle::makeHull(minus(pb, c));
+      std::vector<oracle::V3> diff;
+      for (const cm::Vec3& x : pa) {
+        for (const cm::Vec3& y : pb)
+          diff.push_back(x - y);
+      }
+      const double exact = oracle::originSignedDistance(diff);
+      if (exact < 0.0) ++colliding;
+      const double size = ra + rb + gap;
+      const cm::ConvexShape a = cm::ConvexShape::convexHull(pa);
+      const cm::ConvexShape b = cm::ConvexShape::convexHull(pb);
+      cm::Transform3 home;  // the pair brought near the world origin, turned
+      home.R = Eigen::Quaterniond(oracle::randomUnit(rng).x(), 0.3, -0.5, 0.7)
+                   .normalized()
+                   .toRotationMatrix();
+      home.t = -(home.R * c);
+      for (const bool moved : {false, true}) {
+        const cm::Transform3 pose = moved ? home : cm::Transform3();
+        const double tol = 1e-9 * size + (moved ? 1e-14 * far : 0.0);
+        // A witness point in coordinates 1e6 m out is a double: 1.2e-10 m apart (4 ulps here).
+        const double tol_w = tol + 5e-16 * far;
+        const cm::ContactResult r = cm::signedDistance(a, pose, b, pose);
+        const bool hit = cm::intersect(a, pose, b, pose);
+        const cm::Transform3 back = pose.inverse();
+        const double wa = std::abs(oracle::signedDistance(ha, back * r.point_a - c));
+        const double wb = std::abs(oracle::signedDistance(hb, back * r.point_b - c));
+        const double err = std::abs(r.distance - exact);
+        worst[moved] = std::max(worst[moved], err / size);
+        const bool ok =
+            err <= tol && wa <= tol_w && wb <= tol_w &&
+            (std::abs(exact) <= 2e-10 * size + tol || hit == (exact < 0.0)) &&
+            (std::abs(exact) <= 2e-10 * size + tol ||
+             r.status == (exact < 0.0 ? cm::Status::Penetrating : cm::Status::Separated));
+        if (!ok && ++failures <= 3) {
+          ADD_FAILURE() << "pair " << i << (moved ? " moved home" : " in place") << ": oracle "
+                        << exact << " ours " << r.distance << " (" << cm::toString(r.status)
+                        << "), intersect " << hit << ", witnesses off " << wa << " / " << wb
+                        << ", size " << size;
+        }
+      }
+    }
+    std::printf(
+        "[far] %.0e m: %d pairs, %d colliding, failures %d, max|err|/size %.2e in place, %.2e "
+        "moved\n",
+        far, pairs, colliding, failures, worst[0], worst[1]);
+    EXPECT_EQ(failures, 0);
+    EXPECT_GT(colliding, pairs / 5);
+    EXPECT_LT(colliding, pairs * 4 / 5);
+  }
+}

@@ -1,5 +1,6 @@
 // ConvexShape factories, validation messages, support mappings, AABBs and bounding radii.
 // Expected values are worked out by hand from the shape definitions.
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -223,6 +224,54 @@ TEST(ShapeBoundingRadius, ContainsTheFullShape) {
   EXPECT_DOUBLE_EQ(ConvexShape::cone(6.0, 4.0).boundingRadius(), 5.0);
   EXPECT_DOUBLE_EQ(ConvexShape::ellipsoid(Vec3(1.0, 3.0, 2.0)).boundingRadius(), 3.0);
   EXPECT_DOUBLE_EQ(ConvexShape::point(Vec3(3.0, 4.0, 0.0)).padded(1.0).boundingRadius(), 6.0);
+}
+
+TEST(ShapeOffset, FarCoordinatesAreKeptAboutTheirCentreExactly) {
+  // A 1 cm hull written 1e5 m out: its core is about the bounding box's centre, and core plus
+  // offset() gives back every given point bit for bit (no rounding: Sterbenz).
+  const Vec3 c(1.2345678901234e5, -6.5e4, 3.25);
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 8; ++i)
+    pts.push_back(c + 0.005 * Vec3(i & 1 ? 1.0 : -1.0, i & 2 ? 1.0 : -0.7, i & 4 ? 1.0 : -0.3));
+  const ConvexShape hull = ConvexShape::convexHull(pts);
+  // x and y lie out by more than four half-extents; z (3.25 m, 5 mm across) too.
+  EXPECT_NE(hull.offset().x(), 0.0);
+  EXPECT_NE(hull.offset().y(), 0.0);
+  EXPECT_NE(hull.offset().z(), 0.0);
+  const auto& poly = std::get<std::shared_ptr<const cm::Polytope<3>>>(hull.core());
+  ASSERT_EQ(poly->size(), 8);
+  for (const Vec3& v : poly->vertices()) {
+    const Vec3 back = v + hull.offset();
+    EXPECT_TRUE(std::find(pts.begin(), pts.end(), back) != pts.end()) << back.transpose();
+  }
+  for (const Vec3& d : {Vec3(1, 0, 0), Vec3(-1, 2, 3), Vec3(0.3, -1, -0.2)}) {
+    const Vec3 s = hull.support(d);
+    EXPECT_TRUE(std::find(pts.begin(), pts.end(), s) != pts.end()) << s.transpose();
+  }
+  EXPECT_LT(hull.localRadius(), 0.01);
+  EXPECT_GE(hull.boundingRadius(), c.norm());
+  EXPECT_LE(hull.boundingRadius(), c.norm() + 0.01);
+  EXPECT_NEAR(hull.padded(0.5).localRadius(), hull.localRadius() + 0.5, 1e-15);
+  // A polytope built elsewhere is recentred alike.
+  const ConvexShape again = ConvexShape::polytope(std::make_shared<const cm::Polytope<3>>(pts));
+  EXPECT_EQ(again.offset(), hull.offset());
+  // A point is its own offset; a far segment is about its midpoint.
+  const ConvexShape p = ConvexShape::point(c);
+  EXPECT_EQ(p.offset(), c);
+  EXPECT_EQ(p.support(Vec3(0.3, 0.4, -1.0)), c);
+  EXPECT_EQ(p.localRadius(), 0.0);
+  const ConvexShape sg = ConvexShape::segment(c, c + Vec3(0.01, 0.0, 0.0));
+  EXPECT_EQ(sg.support(Vec3(1, 0, 0)), c + Vec3(0.01, 0.0, 0.0));
+  EXPECT_EQ(sg.support(Vec3(-1, 0, 0)), c);
+  EXPECT_NEAR(sg.localRadius(), 0.005, 1e-10);  // c + 0.01 rounds to 1.5e-11 m
+  // Near their origin, shapes keep their coordinates: a unit box moved by 0.3 m.
+  std::vector<Vec3> box;
+  for (int i = 0; i < 8; ++i)
+    box.push_back(Vec3(0.3, 0.0, 0.0) +
+                  Vec3(i & 1 ? 0.5 : -0.5, i & 2 ? 0.5 : -0.5, i & 4 ? 0.5 : -0.5));
+  EXPECT_EQ(ConvexShape::convexHull(box).offset(), Vec3::Zero());
+  EXPECT_EQ(ConvexShape::segment(Vec3(0.1, 0, 0), Vec3(-0.3, 0.2, 0.5)).offset(), Vec3::Zero());
+  EXPECT_EQ(ConvexShape::box(Vec3(1, 2, 3)).offset(), Vec3::Zero());
 }
 
 TEST(ShapeDescribe, NamesTheCore) {

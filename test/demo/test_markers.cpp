@@ -203,6 +203,63 @@ TEST(MarkerBuilder, CubeHullIsTwelveTriangles) {
   }
 }
 
+TEST(MarkerBuilder, ShapesGivenFarOutAreDrawnWhereTheyAre) {
+  // Coordinates 1e4 m out are kept about their centre (ConvexShape::offset()): the hull's
+  // triangles, its padding shell and a padded point still land on the given coordinates.
+  cm::world::WorldModel world;
+  cm::world::BodySpec spec;
+  spec.id = "far";
+  spec.frame = kFrame;
+  spec.pose_source = cm::world::PoseSource::Topic;
+  const Vec3 c(1e4, -2e4, 3.0);
+  std::vector<Vec3> corners;
+  for (int i = 0; i < 8; ++i)
+    corners.push_back(c + Vec3(i & 1 ? 0.1 : -0.1, i & 2 ? 0.1 : -0.1, i & 4 ? 0.1 : -0.1));
+  const ConvexShape hull = ConvexShape::convexHull(corners);
+  ASSERT_NE(hull.offset(), Vec3::Zero());
+  spec.parts.push_back(cm::world::Part{hull.padded(0.02), Transform3::Identity()});
+  spec.parts.push_back(
+      cm::world::Part{ConvexShape::point(c + Vec3(0, 0, 1)).padded(0.05), Transform3::Identity()});
+  spec.padding = 0.02;
+  addBody(world, spec, at(0.0, 0.0, 0.0));
+  MarkerBuilder builder(everyCycle());
+  const MarkerArray out = builder.build(world, cm::world::CycleResult(), kFrame);
+  const auto bodies = find(out, "bodies", Marker::ADD);
+  ASSERT_EQ(bodies.size(), 2u);
+  int triangles = 0, spheres = 0;
+  for (const Marker* m : bodies) {
+    if (m->type == Marker::TRIANGLE_LIST) {
+      ++triangles;
+      EXPECT_EQ(m->points.size(), 36u);
+      for (const auto& p : m->points) {
+        EXPECT_NEAR(std::abs(p.x - c.x()), 0.1, 1e-9);
+        EXPECT_NEAR(std::abs(p.y - c.y()), 0.1, 1e-9);
+        EXPECT_NEAR(std::abs(p.z - c.z()), 0.1, 1e-9);
+      }
+    } else {
+      ++spheres;
+      EXPECT_EQ(m->type, Marker::SPHERE);
+      EXPECT_NEAR(m->pose.position.x, c.x(), 1e-9);
+      EXPECT_NEAR(m->pose.position.y, c.y(), 1e-9);
+      EXPECT_NEAR(m->pose.position.z, c.z() + 1.0, 1e-9);
+    }
+  }
+  EXPECT_EQ(triangles, 1);
+  EXPECT_EQ(spheres, 1);
+  const auto shell = find(out, "padding", Marker::ADD);
+  ASSERT_EQ(shell.size(), 2u);
+  for (const Marker* m : shell) {
+    if (m->type != Marker::TRIANGLE_LIST) continue;
+    ASSERT_GT(m->points.size(), 30u);
+    double max_x = -1e300;
+    for (const auto& p : m->points) {
+      EXPECT_LE((Vec3(p.x, p.y, p.z) - c).cwiseAbs().maxCoeff(), 0.12 + 1e-9);
+      max_x = std::max(max_x, p.x);
+    }
+    EXPECT_NEAR(max_x, c.x() + 0.12, 1e-9) << "the shell is the hull inflated by the padding";
+  }
+}
+
 TEST(MarkerBuilder, PrimitivesAndTessellations) {
   cm::world::WorldModel world;
   cm::world::BodySpec spec;

@@ -683,19 +683,20 @@ TEST(WorldModel, ShapeAabbEqualsTheSupportBox) {
   std::vector<Vec3> many;
   for (int k = 0; k < 200; ++k)
     many.emplace_back(u(-1, 1), u(-1, 1), u(-1, 1));
+  std::vector<Vec3> far_pts;
+  for (const Vec3& p : pts)
+    far_pts.push_back(p + Vec3(-3e4, 1e4, 2e4));
   const std::vector<ConvexShape> shapes = {
-      ConvexShape::sphere(0.1),
-      ConvexShape::point(Vec3(0.1, -0.2, 0.3)),
-      ConvexShape::segment(Vec3(0.1, 0, 0), Vec3(-0.3, 0.2, 0.5)),
-      ConvexShape::capsule(0.4, 0.05),
-      ConvexShape::box(Vec3(0.2, 0.4, 0.1)),
-      ConvexShape::cylinder(0.3, 0.1),
-      ConvexShape::cone(0.3, 0.1),
-      ConvexShape::ellipsoid(Vec3(0.1, 0.2, 0.3)),
-      ConvexShape::convexHull(pts),
-      ConvexShape::convexHull(many),
-      ConvexShape::box(Vec3(0.2, 0.4, 0.1)).padded(0.02),
-      ConvexShape::convexHull(pts).padded(0.01)};
+      ConvexShape::sphere(0.1), ConvexShape::point(Vec3(0.1, -0.2, 0.3)),
+      ConvexShape::segment(Vec3(0.1, 0, 0), Vec3(-0.3, 0.2, 0.5)), ConvexShape::capsule(0.4, 0.05),
+      ConvexShape::box(Vec3(0.2, 0.4, 0.1)), ConvexShape::cylinder(0.3, 0.1),
+      ConvexShape::cone(0.3, 0.1), ConvexShape::ellipsoid(Vec3(0.1, 0.2, 0.3)),
+      ConvexShape::convexHull(pts), ConvexShape::convexHull(many),
+      ConvexShape::box(Vec3(0.2, 0.4, 0.1)).padded(0.02), ConvexShape::convexHull(pts).padded(0.01),
+      // Given 2e4 m out (kept about their centres: ConvexShape::offset()).
+      ConvexShape::point(Vec3(2e4, -1.5e4, 0.3)).padded(0.05),
+      ConvexShape::segment(Vec3(2e4, 0.1, 0), Vec3(2e4 + 0.3, 0.2, 0.5)),
+      ConvexShape::convexHull(far_pts)};
   for (int trial = 0; trial < 200; ++trial) {
     Transform3 T = at(u(-5, 5), u(-5, 5), u(-5, 5));
     T.R =
@@ -704,8 +705,9 @@ TEST(WorldModel, ShapeAabbEqualsTheSupportBox) {
     for (const ConvexShape& sh : shapes) {
       const core::Aabb a = shapeAabb(sh, T);
       const core::Aabb b = sh.aabb(T);
-      EXPECT_LE((a.min - b.min).cwiseAbs().maxCoeff(), 1e-12) << sh.describe();
-      EXPECT_LE((a.max - b.max).cwiseAbs().maxCoeff(), 1e-12) << sh.describe();
+      const double tol = 1e-12 * std::max(1.0, sh.boundingRadius());  // rounding 2e4 m out
+      EXPECT_LE((a.min - b.min).cwiseAbs().maxCoeff(), tol) << sh.describe();
+      EXPECT_LE((a.max - b.max).cwiseAbs().maxCoeff(), tol) << sh.describe();
     }
   }
 }

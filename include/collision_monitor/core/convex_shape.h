@@ -3,6 +3,10 @@
 /// mapping (one of the shapes in shapes.h) plus a radius (sphere/capsule radius + padding).
 /// Construction validates its input and throws std::invalid_argument with a clear message;
 /// a constructed ConvexShape is always valid (finite, non-negative sizes).
+///
+/// Shapes given by coordinates (points, segments, hulls) far from their frame's origin are kept
+/// about their own centre (offset()): a hull written in map coordinates 1e5 m out answers to 1e-9
+/// of its own size, as one given about its origin and placed by its pose.
 #pragma once
 
 #include <memory>
@@ -35,40 +39,56 @@ class ConvexShape {
   static ConvexShape cone(double height, double radius);
   /// Ellipsoid with semi-axes (a, b, c) along x, y, z.
   static ConvexShape ellipsoid(const Vec3& semi_axes);
-  /// A single point.
+  /// A single point (its core is the point at offset() = p).
   static ConvexShape point(const Vec3& p);
-  /// Segment from a to b.
+  /// Segment from a to b (its core about offset(), see there).
   static ConvexShape segment(const Vec3& a, const Vec3& b);
   /// Convex hull of `points` (qhull). Degenerate sets (coincident, collinear, coplanar points)
   /// are valid and give a flat or lower-dimensional polytope. Throws on empty input or on
-  /// non-finite coordinates.
+  /// non-finite coordinates. The core is the hull of the points less offset() (see there).
   static ConvexShape convexHull(const std::vector<Vec3>& points);
-  /// A polytope built elsewhere (e.g. by buildConvexHull()).
+  /// A polytope built elsewhere (e.g. by buildConvexHull()); used as it is unless its vertices lie
+  /// far from its origin (offset()): then the core is a copy less offset().
   static ConvexShape polytope(std::shared_ptr<const Polytope<3>> poly);
 
   /// This shape inflated by `padding` (m, >= 0): Minkowski sum with a sphere.
   ConvexShape padded(double padding) const;
 
+  /// The core support mapping, about offset(): the shape is core() moved by offset(), inflated by
+  /// radius().
   const Core& core() const { return core_; }
+  /// Where the core's origin lies in the shape frame. Zero for the centred primitives and for
+  /// coordinates near their origin. For points, segments and polytopes whose bounding box's centre
+  /// lies further from the origin than four half-diagonals, that centre along each axis where it
+  /// lies further out than four half-extents (there, subtracting it from a coordinate is exact, so
+  /// the core plus offset() is the given point set, bit for bit): the queries run about it, and
+  /// their tolerances follow localRadius() instead of the distance from the origin.
+  const Vec3& offset() const { return offset_; }
   /// Radius added to the core after GJK converges (sphere/capsule radius plus padding), m.
   double radius() const { return radius_; }
 
   /// Support point of the full shape (core + radius) in the shape frame.
   Vec3 support(const Vec3& d) const;
-  /// Support point of the core only.
+  /// Support point of the core only, in the shape frame (offset() included).
   Vec3 coreSupport(const Vec3& d) const;
   /// Exact axis-aligned bounding box of the full shape placed at `pose` (6 support queries).
   Aabb aabb(const Transform3& pose) const;
   /// Radius of a ball about the shape-frame origin that contains the full shape.
   double boundingRadius() const { return bounding_radius_; }
+  /// Radius of a ball about offset() that contains the full shape (the queries' size scale).
+  double localRadius() const { return local_radius_; }
   /// Short human-readable name of the core type ("sphere", "box", "polytope(42)", ...).
   std::string describe() const;
 
  private:
-  ConvexShape(Core core, double radius, std::string kind);
+  ConvexShape(Core core, double radius, std::string kind, const Vec3& offset = Vec3::Zero());
+  /// A polytope core (non-empty, finite vertices) at `offset`.
+  static ConvexShape polytopeAt(std::shared_ptr<const Polytope<3>> poly, const Vec3& offset);
   Core core_;
+  Vec3 offset_ = Vec3::Zero();
   double radius_ = 0.0;
   double bounding_radius_ = 0.0;
+  double local_radius_ = 0.0;
   std::string kind_;
 };
 
