@@ -144,18 +144,21 @@ struct BodyState {
   BodySpec spec;
   std::vector<core::Aabb> part_boxes;  ///< fixed frame
   std::vector<Transform3> part_poses;  ///< part frame -> fixed frame
-  std::vector<double> part_radii;      ///< bounding radius about the part origin, m
+  std::vector<Vec3> part_centres;      ///< the cores' origins (ConvexShape::offset()), fixed frame
+  std::vector<double> part_radii;      ///< bounding radius about the part's centre, m
 
   void place() {
     const std::size_t n = spec.parts.size();
     part_boxes.resize(n);
     part_poses.resize(n);
+    part_centres.resize(n);
     part_radii.resize(n);
     box = core::Aabb();
     for (std::size_t i = 0; i < n; ++i) {
       part_poses[i] = pose * spec.parts[i].pose;
       part_boxes[i] = shapeAabb(spec.parts[i].shape, part_poses[i]);
-      part_radii[i] = spec.parts[i].shape.boundingRadius();
+      part_centres[i] = part_poses[i] * spec.parts[i].shape.offset();
+      part_radii[i] = spec.parts[i].shape.localRadius();
       box.extend(part_boxes[i]);
     }
   }
@@ -356,7 +359,7 @@ struct WorldModel::Impl {
       for (std::size_t j = 0; j < nb; ++j) {
         const double gap = A.part_boxes[i].distance(B.part_boxes[j]);
         const double sphere =
-            (B.part_poses[j].t - A.part_poses[i].t).norm() - A.part_radii[i] - B.part_radii[j];
+            (B.part_centres[j] - A.part_centres[i]).norm() - A.part_radii[i] - B.part_radii[j];
         const double lb = gap > 0.0 ? std::max(gap, sphere) : sphere;
         if (lb > cutoff) continue;
         part_pairs.push_back(PartPair{lb, static_cast<int>(i), static_cast<int>(j)});
