@@ -106,10 +106,14 @@ double coreRadius(const ConvexShape::Core& core, const Vec3& centre) {
 }  // namespace
 
 ConvexShape::ConvexShape(Core core, double radius, std::string kind, const Vec3& offset)
-    : core_(std::move(core)), offset_(offset), radius_(radius), kind_(std::move(kind)) {
+    : core_(std::move(core)),
+      offset_(offset),
+      has_offset_(!offset.isZero(0.0)),
+      radius_(radius),
+      kind_(std::move(kind)) {
   local_radius_ = coreRadius(core_, Vec3::Zero()) + radius_;
   // About the frame origin: the core's points are offset() away from where the core has them.
-  bounding_radius_ = offset_.isZero(0.0) ? local_radius_ : coreRadius(core_, -offset_) + radius_;
+  bounding_radius_ = has_offset_ ? coreRadius(core_, -offset_) + radius_ : local_radius_;
 }
 
 ConvexShape ConvexShape::sphere(double radius) {

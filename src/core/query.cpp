@@ -194,7 +194,7 @@ PairFrame makeFrame(const ConvexShape& a, const Transform3& pose_a, const Convex
     f.T_AB.R.col(c) = mulTransposed<3>(pose_a.R, pose_b.R.col(c));
   f.T_AB.t = mulTransposed<3>(pose_a.R, pose_b.t - pose_a.t);
   // Between the cores' frames (ConvexShape::offset()): (T_A O_A)^-1 T_B O_B.
-  if (__builtin_expect(!a.offset().isZero(0.0) || !b.offset().isZero(0.0), 0))
+  if (__builtin_expect(a.hasOffset() || b.hasOffset(), 0))
     f.T_AB.t += f.T_AB.R * b.offset() - a.offset();
   f.rA = a.radius();
   f.rB = b.radius();

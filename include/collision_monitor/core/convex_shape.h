@@ -64,6 +64,8 @@ class ConvexShape {
   /// the core plus offset() is the given point set, bit for bit): the queries run about it, and
   /// their tolerances follow localRadius() instead of the distance from the origin.
   const Vec3& offset() const { return offset_; }
+  /// offset() is not zero.
+  bool hasOffset() const { return has_offset_; }
   /// Radius added to the core after GJK converges (sphere/capsule radius plus padding), m.
   double radius() const { return radius_; }
 
@@ -86,6 +88,7 @@ class ConvexShape {
   static ConvexShape polytopeAt(std::shared_ptr<const Polytope<3>> poly, const Vec3& offset);
   Core core_;
   Vec3 offset_ = Vec3::Zero();
+  bool has_offset_ = false;
   double radius_ = 0.0;
   double bounding_radius_ = 0.0;
   double local_radius_ = 0.0;
