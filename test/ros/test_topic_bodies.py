@@ -365,6 +365,42 @@ class TopicBodies(unittest.TestCase):
             self.m.add(Body(id=f, operation=Body.REMOVE))
         self.assertTrue(wait_for(lambda: self.m.ids() == present, 3.0, 0.05))
 
+    def test_12_convex_bodies_in_far_coordinates(self):
+        # CONVEX vertices written 1e5 m out (map coordinates, identity pose): 1 cm cubes 2.5 mm
+        # apart along x. The monitor keeps them about their centres (ConvexShape::offset()), so
+        # distance and witness points are those of the given doubles: the gap is the difference of
+        # two faces' x coordinates (exact in floating point, Sterbenz), the witness points lie on
+        # those faces, in world coordinates.
+        c = (1e5, -2e4, 3.0)
+
+        def cube(body_id, dx):
+            b = Body(id=body_id, operation=Body.ADD, pose_from_topic=False)
+            b.header.frame_id = 'world'
+            b.parts = [shape(Shape.CONVEX, vertices=[
+                Point(c[0] + dx + sx * 0.005, c[1] + sy * 0.005, c[2] + sz * 0.005)
+                for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])]
+            return b
+
+        self.m.add(cube('far_a', 0.0))
+        self.m.add(cube('far_b', 0.0125))
+        self.assertTrue(self.m.wait_listed('far_a') and self.m.wait_listed('far_b'))
+        a_max = c[0] + 0.005
+        b_min = c[0] + 0.0125 - 0.005
+        r = wait_for(lambda: (lambda r: r if r.success else None)(self.distance('far_a', 'far_b')),
+                     3.0, 0.05)
+        self.assertIsNotNone(r, self.distance('far_a', 'far_b'))
+        self.assertAlmostEqual(r.result.distance, b_min - a_max, delta=1e-12)
+        self.assertEqual(r.result.point_a.x, a_max)
+        self.assertEqual(r.result.point_b.x, b_min)
+        for p in (r.result.point_a, r.result.point_b):
+            self.assertLessEqual(abs(p.y - c[1]), 0.005 + 1e-11)
+            self.assertLessEqual(abs(p.z - c[2]), 0.005 + 1e-11)
+        self.assertTrue(point_close(r.result.normal, (1, 0, 0), 1e-9), r.result.normal)
+        self.assertEqual(r.result.status, PairState.WARNING)
+        for f in ('far_a', 'far_b'):
+            self.m.add(Body(id=f, operation=Body.REMOVE))
+            self.assertTrue(self.m.wait_listed(f, present=False))
+
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'topic_bodies', TopicBodies, sys.argv)
