@@ -720,13 +720,18 @@ inline Outcome runCase(const std::uint8_t* data, std::size_t len) {
   }
 
   // Tolerance: relative to the pair's size (the cores' own scale, about their origins:
-  // ConvexShape::offset()) plus the rounding of world coordinates `far` out.
+  // ConvexShape::offset()) plus the rounding of coordinates `far` out: the checks' own support
+  // functions (gap() below, the oracle) work with the given coordinates and poses, up to
+  // |t| + bounding radius. A point given 2890625 m out and posed back to 3.7e-9 m from a padded
+  // 4.6e-9 m box: ours exact, gap() 2.8e-13 m high by its own rounding of products with 2.9e6 m
+  // (fuzz/regressions/core/check-far-given-point-posed-home-rounding).
   // stableNorm(): norm() squares, and below about 1e-154 m the squares underflow (a 1.8e-163 m
   // offset had a size of 0, a tolerance of 1e-300 and an exact normal "failing" by 3e-179 m:
   // fuzz/regressions/core/oracle-size-underflow-1.8e-163m-offset).
   const Vec3 core_a = a.pose * A.offset(), core_b = b.pose * B.offset();
   const double size = A.localRadius() + B.localRadius() + (core_b - core_a).stableNorm();
-  const double far = std::max(core_a.stableNorm(), core_b.stableNorm());
+  const double far = std::max(a.pose.t.stableNorm() + A.boundingRadius(),
+                              b.pose.t.stableNorm() + B.boundingRadius());
   // An unconverged estimate (curved cores only) is checked to kLooseTolerance of the size.
   const double rel = out.unconverged ? kLooseTolerance : 1e-9;
   const double tol = rel * size + 1e-13 * far + 1e-300;
