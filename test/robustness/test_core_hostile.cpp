@@ -1043,6 +1043,56 @@ TEST(CoreHostile, LibccdFlatBoxDepth) {
   }
 }
 
+TEST(CoreHostile, EpaWitnessOnANeedleFaceOfAJitteredCube) {
+  // fuzz/regressions/core/epa-witness-off-face-jittered-2640m-cube-holding-point: a cube 5281.25 m
+  // across, corners jittered by up to 2.4e-6 m (27 points, 11 hull vertices; its top face z =
+  // 2640.625 holds two vertices 4.05e-6 m apart), holding a point at its centre. Depth and normal
+  // were right, but the witness on the cube was weighted from the cube's points on EPA's needle
+  // face: (0, 4.9e-4, 2640.62549). Now the point carries the weights (its witness is itself) and
+  // the cube's witness is it plus depth times normal, in both orders.
+  const std::vector<Vec3> pts{{-2640.625, -2640.625, -2640.625},
+                              {2640.6250001247536, -2640.6250016841782, -2640.625},
+                              {-2640.625, 2640.625, -2640.625},
+                              {2640.625, 2640.625, -2640.6250013099161},
+                              {-2640.6249976296754, -2640.625, 2640.625},
+                              {2640.625, -2640.625, 2640.625},
+                              {-2640.625, 2640.625, 2640.625},
+                              {2640.6249986900839, 2640.6250023703246, 2640.625},
+                              {-2640.6250013099161, -2640.6249976296754, -2640.6249984197834},
+                              {2640.625, -2640.625, -2640.624999875246},
+                              {-2640.6250016841782, 2640.625, -2640.624999875246},
+                              {2640.6249983158218, 2640.625, -2640.624999875246},
+                              {-2640.6250016841782, -2640.625, 2640.625},
+                              {2640.625, -2640.625, 2640.625},
+                              {-2640.625, 2640.625, 2640.625},
+                              {2640.625, 2640.625, 2640.625},
+                              {-2640.625, -2640.625, -2640.625},
+                              {2640.625, -2640.625, -2640.625},
+                              {-2640.625, 2640.625, -2640.625},
+                              {2640.625, 2640.625, -2640.625},
+                              {-2640.625, -2640.625, 2640.625},
+                              {2640.625, -2640.625, 2640.625},
+                              {-2640.625, 2640.625, 2640.625},
+                              {2640.625, 2640.625, 2640.625},
+                              {-2640.625, -2640.625, -2640.625},
+                              {2640.625, -2640.625, -2640.625},
+                              {-2640.625, 2640.625, -2640.625}};
+  const ConvexShape cube = ConvexShape::convexHull(pts);
+  const ConvexShape point = ConvexShape::sphere(0.0);
+  const Transform3 I;
+  const cm::ContactResult r = cm::signedDistance(cube, I, point, I);
+  EXPECT_EQ(r.status, cm::Status::Penetrating);
+  EXPECT_EQ(r.distance, -2640.625);
+  EXPECT_EQ(r.normal, Vec3(0, 0, 1));
+  EXPECT_EQ(r.point_a, Vec3(0, 0, 2640.625));
+  EXPECT_EQ(r.point_b, Vec3::Zero());
+  const cm::ContactResult s = cm::signedDistance(point, I, cube, I);
+  EXPECT_EQ(s.distance, -2640.625);
+  EXPECT_EQ(s.point_a, Vec3::Zero());
+  EXPECT_NEAR(s.point_b.z(), 2640.625, 1e-9);
+  EXPECT_NEAR(s.point_b.head<2>().norm(), 0.0, 1e-9);
+}
+
 TEST(CoreHostile, FactoriesRefuseWithInvalidArgumentOnly) {
   const double nan = std::numeric_limits<double>::quiet_NaN();
   const double inf = std::numeric_limits<double>::infinity();

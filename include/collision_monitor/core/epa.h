@@ -90,8 +90,13 @@ bool contains(const std::array<int, N>& ids, int n, int id) {
   return u.cross(p - a).squaredNorm() <= noise * noise * u.squaredNorm();
 }
 
-/// Witness points of the point d n on a face of the expanded polytope (barycentric weights of the
-/// face's support points).
+/// Witness points of the point p = d n on a face of the expanded polytope: barycentric weights of
+/// the face's support points, applied to the shape whose points on the face lie closer together
+/// (as its first point plus weighted differences), the other witness that one plus or minus p, so
+/// that a - b = p. On a needle face the weights lose eps times the coordinates over its width:
+/// a jittered 5281 m cube holding a point put the witness on the cube 4.9e-4 m off its face,
+/// weighting the cube's points (fuzz/regressions/core/epa-witness-off-face-jittered-2640m-cube-
+/// holding-point); the point's own witness is now the point, and the cube's is it plus p.
 inline void epaWitness3(const SupportPoint<3>& p0, const SupportPoint<3>& p1,
                         const SupportPoint<3>& p2, const Vec3& p, Vec3& a, Vec3& b) {
   const Vec3 n = (p1.w - p0.w).cross(p2.w - p0.w);
@@ -103,8 +108,16 @@ inline void epaWitness3(const SupportPoint<3>& p0, const SupportPoint<3>& p1,
     l1 = n.dot((p2.w - p).cross(p0.w - p)) / nn;
   }
   const double l2 = 1.0 - l0 - l1;
-  a = l0 * p0.a + l1 * p1.a + l2 * p2.a;
-  b = l0 * p0.b + l1 * p1.b + l2 * p2.b;
+  const Vec3 da1 = p1.a - p0.a, da2 = p2.a - p0.a;
+  const Vec3 db1 = p1.b - p0.b, db2 = p2.b - p0.b;
+  if (std::max(db1.squaredNorm(), db2.squaredNorm()) <=
+      std::max(da1.squaredNorm(), da2.squaredNorm())) {
+    b = p0.b + l1 * db1 + l2 * db2;
+    a = b + p;
+  } else {
+    a = p0.a + l1 * da1 + l2 * da2;
+    b = a - p;
+  }
 }
 
 /// The smallest overlap EPA has seen along a support direction: h_{A-B}(n) >= depth for every
