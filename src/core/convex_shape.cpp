@@ -56,13 +56,11 @@ Vec3 coreSupportOf(const ConvexShape::Core& core, const Vec3& d) {
 /// half-diagonals; else zero. On those axes every coordinate is within 1/4 of the centre's, so
 /// subtracting the centre is exact (Sterbenz). Halves first: lo + hi may overflow.
 Vec3 coordinatesOffset(const std::vector<Vec3>& pts) {
-  Vec3 lo = pts.front(), hi = pts.front();
-  for (const Vec3& p : pts) {
-    lo = lo.cwiseMin(p);
-    hi = hi.cwiseMax(p);
-  }
-  const Vec3 mid = 0.5 * lo + 0.5 * hi;
-  const Vec3 half = 0.5 * hi - 0.5 * lo;
+  Aabb box;
+  for (const Vec3& p : pts)
+    box.extend(p);
+  const Vec3 mid = 0.5 * box.min + 0.5 * box.max;
+  const Vec3 half = 0.5 * box.max - 0.5 * box.min;
   Vec3 offset = Vec3::Zero();
   if (!(mid.stableNorm() > 4.0 * half.stableNorm())) return offset;
   for (int k = 0; k < 3; ++k)
