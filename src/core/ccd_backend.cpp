@@ -51,7 +51,8 @@ struct CcdBudget {
   bool exhausted = false;
 };
 
-/// One body as libccd sees it: the full shape (core + radius) posed in A's frame, scaled.
+/// One body as libccd sees it: the full shape (core + radius) posed in A's core frame (A's frame
+/// moved to A's ConvexShape::offset()), scaled.
 struct CcdBody {
   CcdBudget* budget = nullptr;
   bool first = false;  ///< libccd's obj1 (support1)
@@ -107,8 +108,7 @@ void support(const void* obj, const ccd_vec3_t* dir, ccd_vec3_t* out) {
     return;
   }
   const Vec3 d_local = body->pose.R.transpose() * toEigen(dir);
-  const Vec3 s =
-      body->core_only ? body->shape->coreSupport(d_local) : body->shape->support(d_local);
+  const Vec3 s = body->shape->localSupport(d_local, body->core_only);
   toCcd(body->scale * (body->pose * s), out);
 }
 
@@ -123,11 +123,15 @@ void firstDir(const void* o1, const void* o2, ccd_vec3_t* dir) {
   toCcd(d.squaredNorm() > 0.0 ? d : Vec3::UnitX(), dir);
 }
 
-/// The pair in A's frame, scaled to unit size, and the ccd_t to query it with.
+/// The pair in A's core frame (A's frame moved to A's offset()), scaled to unit size, and the
+/// ccd_t to query it with. About the cores' offsets, as our GJK (query.cpp): with a hull given
+/// 1e3 m from its frame's origin, sized by the radii about that origin, libccd saw 1 cm cubes as
+/// 3.5e-6 of its unit frame, and its absolute EPA tolerance gave a depth of 2.26 mm for 2 mm.
 struct CcdPair {
   CcdBody a, b;
   ccd_t ccd;
-  double size = 1.0;         ///< max(boundingRadius(A) + boundingRadius(B), |t_AB|), m
+  /// max(localRadius(A) + localRadius(B), distance between the cores' origins), m
+  double size = 1.0;
   mutable CcdBudget budget;  ///< a and b point here: not copyable
   CcdPair(const CcdPair&) = delete;
   CcdPair& operator=(const CcdPair&) = delete;
@@ -137,13 +141,14 @@ struct CcdPair {
     a.shape = &sa;
     a.pose = Transform3::Identity();
     b.shape = &sb;
-    b.pose = pose_a.inverse() * pose_b;
-    // Or the distance between the origins where that is larger (bounding balls apart: the
+    b.pose = pose_a.inverse() * pose_b;  // B's frame -> A's frame; then B's core -> A's core frame
+    b.pose.t += b.pose.R * sb.offset() - sa.offset();
+    // Or the distance between the cores' origins where that is larger (bounding balls apart: the
     // backend leaves such pairs to our GJK, libccdCanAnswer()): with the radii alone, a
     // 8.9e-308 m cylinder and a point 1140 m away were scaled by 2.2e307, B's points overflowed
     // to inf and ccdGJKPenetration dereferenced a null pointer (fuzz/regressions/core/
     // libccd-segv-point-1140m-from-8.9e-308m-cylinder). Every coordinate is at most about 1.
-    size = std::max(sa.boundingRadius() + sb.boundingRadius(), b.pose.t.stableNorm());
+    size = std::max(sa.localRadius() + sb.localRadius(), b.pose.t.stableNorm());
     // Two points at one place (size 0) or sub-normal sizes (1/size overflows to inf and every
     // support point becomes NaN, on which ccdGJKPenetration dereferences a null pointer): any
     // finite scale works for those, so use 1.
@@ -154,8 +159,8 @@ struct CcdPair {
     budget.limit = o.max_support_calls;
     a.budget = b.budget = &budget;
     a.first = true;
-    a.centre = s * (sa.offset() + coreInteriorPoint(sa));
-    b.centre = s * (b.pose * (sb.offset() + coreInteriorPoint(sb)));
+    a.centre = s * coreInteriorPoint(sa);
+    b.centre = s * (b.pose * coreInteriorPoint(sb));
     CCD_INIT(&ccd);
     ccd.first_dir = firstDir;
     ccd.support1 = support;
@@ -191,18 +196,19 @@ bool finitePoses(const Transform3& pose_a, const Transform3& pose_b) {
 }
 
 /// Pairs libccd is asked about: finite poses (libccd crashes on NaN), bounding balls that meet
-/// (the distance between the shapes' origins at most the bounding radii's sum; else the shapes
-/// are apart, and libccd has no distance query) and a size (the bounding radii's sum) of at most
-/// 1e9 m. libccd works in a frame scaled to unit size with absolute epsilons; a box 8e165 m long
-/// by a 2.5 m box (fuzz/regressions/core/libccd-segv-8e165m-box-by-subnormal-box) is a segment
-/// in that frame and ccdGJKPenetration dereferenced a null pointer; so did a point 3e151 m from a
-/// 1e-163 m cylinder (fuzz/regressions/core/libccd-segv-point-3e151m-from-cylinder) and one
-/// 1140 m from a 8.9e-308 m cylinder (see CcdPair). No workspace is 1e9 m across; our GJK answers
-/// the rest.
+/// (the distance between the cores' origins, ConvexShape::offset(), at most the sum of the radii
+/// about them, localRadius(); else the shapes are apart, and libccd has no distance query) and a
+/// size (that sum) of at most 1e9 m. libccd works in a frame scaled to unit size with absolute
+/// epsilons; a box 8e165 m long by a 2.5 m box
+/// (fuzz/regressions/core/libccd-segv-8e165m-box-by-subnormal-box) is a segment in that frame and
+/// ccdGJKPenetration dereferenced a null pointer; so did a point 3e151 m from a 1e-163 m cylinder
+/// (fuzz/regressions/core/libccd-segv-point-3e151m-from-cylinder) and one 1140 m from a 8.9e-308 m
+/// cylinder (see CcdPair). No workspace is 1e9 m across; our GJK answers the rest.
 bool libccdCanAnswer(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                      const Transform3& pose_b) {
-  const double radii = a.boundingRadius() + b.boundingRadius();
-  return finitePoses(pose_a, pose_b) && radii <= 1e9 && (pose_b.t - pose_a.t).stableNorm() <= radii;
+  const double radii = a.localRadius() + b.localRadius();
+  return finitePoses(pose_a, pose_b) && radii <= 1e9 &&
+         (pose_b * b.offset() - pose_a * a.offset()).stableNorm() <= radii;
 }
 
 class LibccdNarrowPhase final : public NarrowPhase {
@@ -244,11 +250,11 @@ class LibccdNarrowPhase final : public NarrowPhase {
       if (contradicts(a, pose_a, b, pose_b, r.normal, -r.distance, tolerance)) {
         return core::signedDistance(a, pose_a, b, pose_b, cache, query_);
       }
+      // And along our normal: for any axis the cores' overlap along it bounds the depth from
+      // above, so a separating axis of ours, or an overlap along our EPA normal smaller than
+      // libccd's depth, refutes libccd's answer.
       const ContactResult ours = core::signedDistance(a, pose_a, b, pose_b, cache, query_);
-      if (ours.distance + a.radius() + b.radius() > tolerance &&
-          contradicts(a, pose_a, b, pose_b, ours.normal, 0.0, tolerance)) {
-        return ours;
-      }
+      if (contradicts(a, pose_a, b, pose_b, ours.normal, -r.distance, tolerance)) return ours;
       r.distance -= a.radius() + b.radius();
       r.point_a += a.radius() * r.normal;
       r.point_b -= b.radius() * r.normal;
@@ -305,7 +311,7 @@ bool ccdPenetration(const ConvexShape& a, const Transform3& pose_a, const Convex
     n = c.squaredNorm() > 0.0 ? Vec3(c.normalized()) : Vec3::UnitX();
   }
   const double d = std::isfinite(depth) ? std::max(0.0, static_cast<double>(depth)) * p.size : 0.0;
-  const Vec3 c = toEigen(&pos) * p.size;
+  const Vec3 c = toEigen(&pos) * p.size + a.offset();  // A's frame
   r.distance = -d;
   r.normal = pose_a.R * n;
   r.point_a = pose_a * (c + 0.5 * d * n);

@@ -51,6 +51,13 @@ Vec3 coreSupportOf(const ConvexShape::Core& core, const Vec3& d) {
       core);
 }
 
+/// p plus the radius `r` along d (the full shape's support from its core's): unchanged for d = 0.
+Vec3 withRadius(Vec3 p, const Vec3& d, double r) {
+  const double n = d.norm();
+  if (n > 0.0 && r > 0.0) p += (r / n) * d;
+  return p;
+}
+
 /// ConvexShape::offset() of a finite point set: the centre of its bounding box along the axes
 /// where that lies further out than four half-extents, when the centre lies further out than four
 /// half-diagonals; else zero. On those axes every coordinate is within 1/4 of the centre's, so
@@ -217,10 +224,12 @@ Vec3 ConvexShape::coreSupport(const Vec3& d) const {
 }
 
 Vec3 ConvexShape::support(const Vec3& d) const {
-  Vec3 p = coreSupport(d);
-  const double n = d.norm();
-  if (n > 0.0 && radius_ > 0.0) p += (radius_ / n) * d;
-  return p;
+  return withRadius(coreSupport(d), d, radius_);
+}
+
+Vec3 ConvexShape::localSupport(const Vec3& d, bool core_only) const {
+  const Vec3 p = coreSupportOf(core_, d);
+  return core_only ? p : withRadius(p, d, radius_);
 }
 
 Aabb ConvexShape::aabb(const Transform3& pose) const {

@@ -650,6 +650,53 @@ inline V3 randomUnit(std::mt19937_64& rng) {
   }
 }
 
+/// Two small hulls given far from their frame's origin (a mesh exported in a site frame): 6 to 16
+/// points on random ellipsoids 1 to 12 mm across, about a point `far` metres out in a random
+/// direction, their centres 5 to 55 % of the sizes' sum apart. The exact signed distance is that
+/// of the given doubles (qhull on their differences).
+struct FarPair {
+  std::vector<V3> a, b;  ///< the points as given
+  V3 centre;             ///< the point they lie about (A's centre)
+  Hull ha, hb;           ///< the hulls about `centre` (rounding of 1e-16 of 12 mm there)
+  double exact = 0.0;    ///< signed distance, m
+  double size = 0.0;     ///< the sizes plus the distance between the centres, m
+};
+inline FarPair makeFarPair(std::mt19937_64& rng, double far) {
+  std::uniform_real_distribution<double> u01(0.0, 1.0);
+  const auto unit = [&rng] { return randomUnit(rng); };
+  const auto blob = [&](const V3& centre, double size) {
+    const V3 semi(size * (0.2 + 0.8 * u01(rng)), size * (0.2 + 0.8 * u01(rng)),
+                  size * (0.2 + 0.8 * u01(rng)));
+    std::vector<V3> pts;
+    const int n = 6 + static_cast<int>(u01(rng) * 11);
+    for (int i = 0; i < n; ++i)
+      pts.push_back(centre + semi.cwiseProduct(unit()));
+    return pts;
+  };
+  const auto minus = [](const std::vector<V3>& pts, const V3& c) {
+    std::vector<V3> out;
+    for (const V3& q : pts)
+      out.push_back(q - c);
+    return out;
+  };
+  FarPair p;
+  p.centre = far * unit();
+  const double ra = 1e-3 + 11e-3 * u01(rng), rb = 1e-3 + 11e-3 * u01(rng);
+  const double gap = (0.05 + 0.5 * u01(rng)) * (ra + rb);  // between the centres
+  p.a = blob(p.centre, 0.5 * ra);
+  p.b = blob(p.centre + gap * unit(), 0.5 * rb);
+  p.ha = makeHull(minus(p.a, p.centre));
+  p.hb = makeHull(minus(p.b, p.centre));
+  std::vector<V3> diff;
+  for (const V3& x : p.a) {
+    for (const V3& y : p.b)
+      diff.push_back(x - y);
+  }
+  p.exact = originSignedDistance(diff);
+  p.size = ra + rb + gap;
+  return p;
+}
+
 /// 1 mm .. 10 m, log-uniform.
 inline double randomSize(std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(-3.0, 1.0);

@@ -301,23 +301,6 @@ TEST(OracleExact, SupportTieAlongAnEdgePerpendicularToV) {
 // it, the sweep's `far` term).
 TEST(OracleFar, HullsGivenFarFromTheirOrigin) {
   std::mt19937_64 rng(20261125);
-  std::uniform_real_distribution<double> u01(0.0, 1.0);
-  const auto unit = [&rng] { return oracle::randomUnit(rng); };
-  const auto blob = [&](const cm::Vec3& centre, double size) {
-    const cm::Vec3 semi(size * (0.2 + 0.8 * u01(rng)), size * (0.2 + 0.8 * u01(rng)),
-                        size * (0.2 + 0.8 * u01(rng)));
-    std::vector<cm::Vec3> pts;
-    const int n = 6 + static_cast<int>(u01(rng) * 11);
-    for (int i = 0; i < n; ++i)
-      pts.push_back(centre + semi.cwiseProduct(unit()));
-    return pts;
-  };
-  const auto minus = [](const std::vector<cm::Vec3>& pts, const cm::Vec3& c) {
-    std::vector<oracle::V3> out;
-    for (const cm::Vec3& p : pts)
-      out.push_back(p - c);
-    return out;
-  };
   const int pairs = oracle::scaled(500);
   int all_colliding = 0;
   for (const double far : {1e3, 1e4, 1e5, 1e6}) {
@@ -325,23 +308,12 @@ TEST(OracleFar, HullsGivenFarFromTheirOrigin) {
     int failures = 0, colliding = 0;
     double worst[2] = {0.0, 0.0};  // in place, moved home
     for (int i = 0; i < pairs; ++i) {
-      const cm::Vec3 c = far * unit();
-      const double ra = 1e-3 + 11e-3 * u01(rng), rb = 1e-3 + 11e-3 * u01(rng);
-      const double gap = (0.05 + 0.5 * u01(rng)) * (ra + rb);  // between the centres
-      const std::vector<cm::Vec3> pa = blob(c, 0.5 * ra);
-      const std::vector<cm::Vec3> pb = blob(c + gap * unit(), 0.5 * rb);
-      // The oracle about c (differences of the given doubles, within rounding of 1e-16 * 12 mm).
-      const oracle::Hull ha = oracle::makeHull(minus(pa, c)), hb = oracle::makeHull(minus(pb, c));
-      std::vector<oracle::V3> diff;
-      for (const cm::Vec3& x : pa) {
-        for (const cm::Vec3& y : pb)
-          diff.push_back(x - y);
-      }
-      const double exact = oracle::originSignedDistance(diff);
+      const oracle::FarPair p = oracle::makeFarPair(rng, far);
+      const cm::Vec3& c = p.centre;
+      const double exact = p.exact, size = p.size;
       if (exact < 0.0) ++colliding;
-      const double size = ra + rb + gap;
-      const cm::ConvexShape a = cm::ConvexShape::convexHull(pa);
-      const cm::ConvexShape b = cm::ConvexShape::convexHull(pb);
+      const cm::ConvexShape a = cm::ConvexShape::convexHull(p.a);
+      const cm::ConvexShape b = cm::ConvexShape::convexHull(p.b);
       cm::Transform3 home;  // the pair brought near the world origin, turned
       home.R = Eigen::Quaterniond(oracle::randomUnit(rng).x(), 0.3, -0.5, 0.7)
                    .normalized()
@@ -355,8 +327,8 @@ TEST(OracleFar, HullsGivenFarFromTheirOrigin) {
         const cm::ContactResult r = cm::signedDistance(a, pose, b, pose);
         const bool hit = cm::intersect(a, pose, b, pose);
         const cm::Transform3 back = pose.inverse();
-        const double wa = std::abs(oracle::signedDistance(ha, back * r.point_a - c));
-        const double wb = std::abs(oracle::signedDistance(hb, back * r.point_b - c));
+        const double wa = std::abs(oracle::signedDistance(p.ha, back * r.point_a - c));
+        const double wb = std::abs(oracle::signedDistance(p.hb, back * r.point_b - c));
         const double err = std::abs(r.distance - exact);
         worst[moved] = std::max(worst[moved], err / size);
         const bool ok =

@@ -73,6 +73,9 @@ class ConvexShape {
   Vec3 support(const Vec3& d) const;
   /// Support point of the core only, in the shape frame (offset() included).
   Vec3 coreSupport(const Vec3& d) const;
+  /// Support point about offset(): support(d) - offset(), or coreSupport(d) - offset() when
+  /// `core_only`, without the rounding of that subtraction (for frames centred on the core).
+  Vec3 localSupport(const Vec3& d, bool core_only = false) const;
   /// Exact axis-aligned bounding box of the full shape placed at `pose` (6 support queries).
   Aabb aabb(const Transform3& pose) const;
   /// Radius of a ball about the shape-frame origin that contains the full shape.
