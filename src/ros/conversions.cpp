@@ -7,6 +7,8 @@
 #include <set>
 #include <sstream>
 
+#include <ros/names.h>
+
 namespace collision_monitor {
 namespace ros_layer {
 
@@ -112,11 +114,10 @@ Expected<ConvexShape> primitive(const collision_monitor::Shape& msg) {
 
 }  // namespace
 
-std::string quoteInput(const std::string& s, std::size_t max_bytes) {
+std::string escapeInput(const std::string& s, std::size_t max_bytes) {
   const std::size_t n = std::min(s.size(), max_bytes);
   std::string out;
   out.reserve(n + 32);
-  out.push_back('\'');
   static const char kHex[] = "0123456789abcdef";
   for (std::size_t i = 0; i < n; ++i) {
     const auto c = static_cast<unsigned char>(s[i]);
@@ -128,6 +129,12 @@ std::string quoteInput(const std::string& s, std::size_t max_bytes) {
       out.push_back(static_cast<char>(c));
     }
   }
+  return out;
+}
+
+std::string quoteInput(const std::string& s, std::size_t max_bytes) {
+  const std::size_t n = std::min(s.size(), max_bytes);
+  std::string out = "'" + escapeInput(s, n);
   if (n < s.size()) {
     out += "...' (" + std::to_string(s.size()) + " bytes)";
   } else {
@@ -296,6 +303,13 @@ Expected<world::BodySpec> bodyFromMsg(const collision_monitor::Body& msg, world:
         std::make_pair("group", &msg.group), std::make_pair("pose_topic", &msg.pose_topic)}) {
     const std::string too_long = checkLength(*value, kMaxNameLength, field);
     if (!too_long.empty()) return Error{too_long};
+  }
+  if (std::string why; !msg.pose_topic.empty() && !ros::names::validate(msg.pose_topic, why)) {
+    // Refused here, before anything changes: roscpp's subscribe() throws on it. Its reason names
+    // the character, then repeats the name (quoted already).
+    why = why.substr(0, why.find(" in Graph Resource Name"));
+    return Error{"pose_topic " + quoteInput(msg.pose_topic) +
+                 " is not a valid ROS name: " + escapeInput(why, kQuoteLength)};
   }
   if (msg.operation != collision_monitor::Body::ADD) {
     return Error{"operation " + std::to_string(msg.operation) + " is not ADD"};

@@ -154,8 +154,14 @@ Expected<core::ConvexShape> MeshCache::load(const std::string& uri, const core::
   auto hull = loadMeshHull(*path, scale, max_vertices_);
   if (!hull) return hull;
   std::lock_guard<std::mutex> lock(mutex_);
+  if (cache_.size() >= kMaxEntries) cache_.clear();
   cache_.emplace(key, *hull);
   return hull;
+}
+
+std::size_t MeshCache::size() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return cache_.size();
 }
 
 }  // namespace ros_layer

@@ -286,13 +286,17 @@ void Monitor::loadParameterBodies() {
       rejectAtStartup(where + ": " + msg.error());
       continue;
     }
-    auto spec = bodyFromMsg(*msg, world::BodyOrigin::Parameter, limits_, mesh_loader_);
-    if (!spec) {
-      rejectAtStartup(where + " body " + quoteInput(msg->id) + " refused: " + spec.error());
-      continue;
+    try {
+      auto spec = bodyFromMsg(*msg, world::BodyOrigin::Parameter, limits_, mesh_loader_);
+      if (!spec) {
+        rejectAtStartup(where + " body " + quoteInput(msg->id) + " refused: " + spec.error());
+        continue;
+      }
+      const std::string err = addBody(std::move(spec).value());
+      if (!err.empty()) rejectAtStartup(where + ": " + err);
+    } catch (const std::exception& e) {  // as onBody(): one body, not the node
+      rejectAtStartup(where + " body " + quoteInput(msg->id) + ": internal error: " + e.what());
     }
-    const std::string err = addBody(std::move(spec).value());
-    if (!err.empty()) rejectAtStartup(where + ": " + err);
   }
 }
 
@@ -306,7 +310,8 @@ void Monitor::disablePair(const std::string& a, const std::string& b, const std:
 // inputs
 
 std::string Monitor::count(const std::string& what) {
-  std::string text = capped(what, kMaxRejectionText);
+  // Escaped whole: the world model's errors name bodies by their raw ids.
+  std::string text = capped(escapeInput(what), kMaxRejectionText);
   std::lock_guard<std::mutex> lock(stats_mutex_);
   ++stats_.rejected;
   stats_.last_rejection = text;
@@ -712,11 +717,17 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
     std::stable_sort(pairs.begin(), pairs.end(),
                      [](const auto& x, const auto& y) { return x.distance < y.distance; });
     res.in_collision = false;
+    std::size_t unknown = 0;
     for (const auto& p : pairs) {
       if (p.status == world::PairStatus::Collision || p.distance <= settings_.contact_distance) {
         res.in_collision = true;
       }
+      if (p.status == world::PairStatus::Unknown) ++unknown;
       res.pairs.push_back(toMsg(p));
+    }
+    if (unknown > 0) {
+      res.message = std::to_string(unknown) +
+                    " bodies without a fresh pose (or whose check failed): their pairs are UNKNOWN";
     }
     res.success = true;
   } catch (const std::exception& e) {

@@ -302,9 +302,26 @@ struct WorldModel::Impl {
     if (group.empty()) return 0;
     auto it = group_ids.find(group);
     if (it != group_ids.end()) return it->second;
+    // Groups no body uses any more are forgotten once they outnumber the bodies: a stream of
+    // bodies with ever new group names does not grow the table without bound.
+    if (group_ids.size() >= 2 * count + 64) {
+      renumberGroups();  // the body asking may already hold `group`
+      it = group_ids.find(group);
+      if (it != group_ids.end()) return it->second;
+    }
     const int id = static_cast<int>(group_ids.size()) + 1;
     group_ids.emplace(group, id);
     return id;
+  }
+
+  /// group_ids from the bodies' groups only (ids renumbered alike in the bodies).
+  void renumberGroups() {
+    group_ids.clear();
+    for (BodyState& b : bodies) {
+      if (!b.used || b.spec.group.empty()) continue;
+      const int id = static_cast<int>(group_ids.size()) + 1;
+      b.group = group_ids.emplace(b.spec.group, id).first->second;
+    }
   }
 
   void refreshRanks() {
@@ -376,8 +393,9 @@ struct WorldModel::Impl {
           narrow->signedDistance(A.spec.parts[pp.i].shape, A.part_poses[pp.i],
                                  B.spec.parts[pp.j].shape, B.part_poses[pp.j], cache);
       ++out.gjk_runs;
-      if (std::isnan(r.distance)) {
-        // A failed query poisons the pair: UNKNOWN, never CLEAR.
+      if (!std::isfinite(r.distance)) {
+        // A failed query poisons the pair: UNKNOWN, never CLEAR. Shapes have finite distances;
+        // +inf is a query that did not run (a pair whose size overflows: two 1e308 m spheres).
         out.distance = std::numeric_limits<double>::quiet_NaN();
         out.exact = true;
         return out;
@@ -908,14 +926,28 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, double now,
   const BodyState& A = m.bodies[sa];
   if (!A.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(sa, now));
   // Candidates by a lower bound on the signed distance (box gap, or -inf when boxes overlap).
+  // A body without a fresh pose may be the nearest: then the nearest is unknown (its pairs are
+  // UNKNOWN, never CLEAR), not the nearest of the others.
   std::vector<std::pair<double, int>> order;
+  std::vector<int> stale;
   for (int o = 0; o < static_cast<int>(m.bodies.size()); ++o) {
     const BodyState& O = m.bodies[o];
-    if (!O.used || !m.allowed(sa, o) || !O.isFresh(now, settings_.pose_timeout)) continue;
+    if (!O.used || !m.allowed(sa, o)) continue;
+    if (!O.isFresh(now, settings_.pose_timeout)) {
+      stale.push_back(o);
+      continue;
+    }
     const double gap = A.box.distance(O.box);
     order.emplace_back(gap > 0.0 ? gap : -kInf, o);
   }
-  if (order.empty()) return fail("no other body with a fresh pose that '" + a + "' may touch");
+  if (!stale.empty()) {
+    std::sort(stale.begin(), stale.end(),
+              [&](int x, int y) { return m.bodies[x].spec.id < m.bodies[y].spec.id; });
+    std::string msg = "the nearest body to '" + a + "' is unknown: " + m.whyStale(stale[0], now);
+    if (stale.size() > 1) msg += " (and " + std::to_string(stale.size() - 1) + " more)";
+    return fail(msg);
+  }
+  if (order.empty()) return fail("no other body that '" + a + "' may touch");
   std::sort(order.begin(), order.end());
   int best_slot = -1;
   Narrow best;
@@ -947,15 +979,33 @@ std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, cons
   H.pose = pose;
   H.has_pose = true;
   H.place();
-  // Report every body closer than `margin`, and every one in COLLISION whatever the margin.
+  // Report every body closer than `margin`, and every one in COLLISION whatever the margin; a body
+  // without a fresh pose (or whose query failed) as UNKNOWN, as in ~state: never left out as if
+  // clear. UNKNOWN pairs sort last (distance +inf).
   const double reach = std::max(margin, settings_.contact_distance);
+  std::size_t unknown = 0;
+  const auto addUnknown = [&](const BodyState& O) {
+    if (unknown++ >= settings_.max_unknown_pairs) return;
+    PairResult r;
+    r.body_a = body.id;
+    r.body_b = O.spec.id;
+    out.push_back(std::move(r));  // PairResult's defaults: UNKNOWN, distance +inf
+  };
   for (int o = 0; o < static_cast<int>(m.bodies.size()); ++o) {
     const BodyState& O = m.bodies[o];
-    if (!O.used || O.spec.id == body.id || !O.isFresh(now, settings_.pose_timeout)) continue;
+    if (!O.used || O.spec.id == body.id) continue;
     if (!body.group.empty() && body.group == O.spec.group) continue;
     if (m.isDisabled(body.id, O.spec.id)) continue;
+    if (!O.isFresh(now, settings_.pose_timeout)) {
+      addUnknown(O);
+      continue;
+    }
     if (H.box.distance(O.box) > reach) continue;
     const Narrow n = m.narrowPhase(H, O, reach, nullptr);
+    if (n.exact && std::isnan(n.distance)) {
+      addUnknown(O);
+      continue;
+    }
     if (!n.exact || !(n.distance <= reach)) continue;
     PairResult r;
     r.body_a = body.id;
@@ -989,6 +1039,10 @@ const BodySpec* WorldModel::body(const std::string& id) const {
 
 std::size_t WorldModel::size() const {
   return impl_->count;
+}
+
+std::size_t WorldModel::groupNames() const {
+  return impl_->group_ids.size();
 }
 
 }  // namespace world

@@ -390,11 +390,12 @@ class HostileInput(unittest.TestCase):
         self.assert_world_intact('after 100,000 bodies')
         self.assertLess(hwm, 2 * 1024 * 1024, 'node peak RSS above 2 GB')
 
-    def start_node_with_urdf(self, ns, urdf):
-        """Puts `urdf` on <ns>/robot_description and starts a second monitor in <ns> (name
-        deep_monitor: its /diagnostics do not mix with the main node's). Returns the process, its
-        log file, the seconds until its services answered and its peak RSS then (kB)."""
-        rosgraph.Master('/test_hostile_input').setParam(ns + '/robot_description', urdf)
+    def start_node(self, ns, params):
+        """Sets `params` (name -> value) and starts a second monitor in <ns> (name deep_monitor:
+        its /diagnostics do not mix with the main node's). Returns the process, its log file, the
+        seconds until its services answered and its peak RSS then (kB)."""
+        for name, value in params.items():
+            rosgraph.Master('/test_hostile_input').setParam(name, value)
         exe = roslib.packages.find_node('collision_monitor', 'collision_monitor_node')[0]
         log = tempfile.NamedTemporaryFile(prefix='deep_monitor_', suffix='.log', delete=False)
         t0 = time.monotonic()
@@ -434,7 +435,7 @@ class HostileInput(unittest.TestCase):
         ]
         for k, (name, urdf, n_bodies, error) in enumerate(cases):
             ns = '/deep_urdf_%d' % k
-            proc, log, up, hwm = self.start_node_with_urdf(ns, urdf)
+            proc, log, up, hwm = self.start_node(ns, {ns + '/robot_description': urdf})
             try:
                 self.assertIsNotNone(up, '%s: the node did not come up (exit code %s)'
                                      % (name, proc.poll()))
@@ -463,6 +464,34 @@ class HostileInput(unittest.TestCase):
             self.assertEqual(code, 0, '%s: the node did not exit cleanly on SIGINT' % name)
             self.assertLess(hwm, 1024 * 1024, '%s: peak RSS above 1 GB' % name)
             self.assert_world_intact('while a second node loaded a URDF with ' + name)
+
+    def test_6_invalid_yaml_bodies(self):
+        # Bug: a ~bodies parameter entry whose pose_topic is no ROS name made roscpp's subscribe()
+        # throw out of the node's constructor: the node exited at start-up. Now that body is
+        # refused (one log line, its id escaped) and the others load.
+        ns = '/yaml_bodies'
+        sphere = [{'type': 'sphere', 'dimensions': [0.1]}]
+        bodies = [{'id': 'wand\n[ERROR] injected', 'pose_topic': '/mocap/wand-1/pose',
+                   'parts': sphere},
+                  {'id': 'good', 'frame_id': 'world', 'parts': sphere},
+                  {'id': 'tracked', 'pose_topic': '/mocap/wand_1/pose', 'parts': sphere}]
+        proc, log, up, _ = self.start_node(ns, {ns + '/deep_monitor/bodies': bodies})
+        try:
+            self.assertIsNotNone(up, 'the node did not come up (exit code %s)' % proc.poll())
+            ids = rospy.ServiceProxy(ns + '/deep_monitor/list_bodies', ListBodies)().ids
+        finally:
+            code = self.stop_node(proc)
+        with open(log, errors='replace') as f:
+            text = f.read()
+        os.unlink(log)
+        lines = [x for x in text.splitlines() if 'injected' in x]
+        figure('~bodies parameter with an invalid pose_topic: node up in %.2f s, bodies %s; %s'
+               % (up, sorted(ids), lines[0][lines[0].find('parameter'):][:160] if lines else ''))
+        self.assertEqual(sorted(ids), ['good', 'tracked'])
+        self.assertEqual(len(lines), 1, text)
+        self.assertIn("parameter ~bodies[0] body 'wand\\x0a[ERROR] injected' refused: pose_topic "
+                      "'/mocap/wand-1/pose' is not a valid ROS name: Character [-]", lines[0])
+        self.assertEqual(code, 0, 'the node did not exit cleanly on SIGINT')
 
     @classmethod
     def tearDownClass(cls):

@@ -247,6 +247,35 @@ TEST(Body, RefusesWithReasons) {
   Limits few;
   few.max_parts_per_body = 1;
   EXPECT_TRUE(contains(err(body("a", {sphere, sphere}), few), "max_parts_per_body"));
+  // Bug: a pose_topic that is no ROS name got as far as roscpp's subscribe(), which threw after
+  // the body had been replaced (and at start-up, from the ~bodies parameter, ended the node).
+  for (const std::string topic : {"/mocap/tool-1/pose", "1pose", "a b", "/x.y", "~/p\n"}) {
+    auto bad_topic = body("a", {sphere});
+    bad_topic.pose_topic = topic;
+    const std::string t = err(bad_topic);
+    EXPECT_TRUE(contains(t, "is not a valid ROS name")) << topic << ": " << t;
+  }
+  auto dash = body("a", {sphere});
+  dash.pose_topic = "/mocap/tool-1/pose";
+  EXPECT_EQ(err(dash),
+            "pose_topic '/mocap/tool-1/pose' is not a valid ROS name: Character [-] at element "
+            "[11] is not valid");
+  auto control = body("a", {sphere});
+  control.pose_topic = "/x\ny";
+  EXPECT_EQ(err(control).find('\n'), std::string::npos);  // quoted, escaped: one line
+  auto good = body("a", {sphere});
+  for (const std::string topic : {"/mocap/tool_1/pose", "tool_pose", "~tool_pose", "ns/p"}) {
+    good.pose_topic = topic;
+    EXPECT_TRUE(bodyFromMsg(good, world::BodyOrigin::Topic, Limits(), kNoMeshes)) << topic;
+  }
+}
+
+TEST(InputText, EscapedForOneLogLine) {
+  EXPECT_EQ(escapeInput("body 'x\n[ERROR] y'\t\x7f\xc3\xa9"),
+            "body 'x\\x0a[ERROR] y'\\x09\\x7f\\xc3\\xa9");
+  EXPECT_EQ(escapeInput("plain ascii: 'a' \\x0a"), "plain ascii: 'a' \\x0a");  // as it is
+  EXPECT_EQ(escapeInput("abcdef", 3), "abc");
+  EXPECT_EQ(quoteInput(std::string("a\0b", 3)), "'a\\x00b'");
 }
 
 TEST(BodyPoses, Validates) {

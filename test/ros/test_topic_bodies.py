@@ -348,7 +348,8 @@ class TopicBodies(unittest.TestCase):
         present = self.m.ids()
         room = 8 - len(present)   # max_bodies = 8
         self.assertGreater(room, 0, present)
-        fills = ['fill_%d' % k for k in range(room + 1)]
+        # The one refused has a newline in its id: logged and reported on one line (escaped).
+        fills = ['fill_%d' % k for k in range(room)] + ['fill\n[ERROR] injected']
         for k, f in enumerate(fills):
             self.m.add(sphere_body(f, 0.1))
             if k < room:
@@ -361,6 +362,9 @@ class TopicBodies(unittest.TestCase):
         self.assertTrue(wait_for(lambda: 'max_bodies' in (self.m.diag_value('last rejection')
                                                           or ''), 3.0, 0.1),
                         self.m.diag_value('last rejection'))
+        last = self.m.diag_value('last rejection')
+        self.assertIn("body 'fill\\x0a[ERROR] injected' refused", last)
+        self.assertNotIn('\n', last)
         for f in fills:
             self.m.add(Body(id=f, operation=Body.REMOVE))
         self.assertTrue(wait_for(lambda: self.m.ids() == present, 3.0, 0.05))
@@ -400,6 +404,71 @@ class TopicBodies(unittest.TestCase):
         for f in ('far_a', 'far_b'):
             self.m.add(Body(id=f, operation=Body.REMOVE))
             self.assertTrue(self.m.wait_listed(f, present=False))
+
+
+    def test_13_unknown_bodies_are_never_clear_in_services(self):
+        # Bug: ~check_collision and ~get_distance's nearest body left out bodies without a fresh
+        # pose, as if clear: a probe next to a stale body was "not in collision".
+        self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))
+        self.m.add(sphere_body('ghost', 0.5))  # topic-posed, never posed
+        self.assertTrue(self.m.wait_listed('ghost'))
+        try:
+            probe = sphere_body('probe', 0.5, frame='world', pose_from_topic=False)
+            r = self.m.check_collision(probe, pose(0, -20, 0), 0.1)
+            self.assertTrue(r.success, r.message)
+            self.assertFalse(r.in_collision)
+            self.assertEqual([(p.body_a, p.body_b, p.status) for p in r.pairs],
+                             [('probe', 'ghost', PairState.UNKNOWN)])
+            self.assertIn('UNKNOWN', r.message)
+            n = self.distance('s1', '')
+            self.assertFalse(n.success)
+            self.assertIn("the nearest body to 's1' is unknown: body 'ghost' has no pose yet",
+                          n.message)
+        finally:
+            self.m.add(Body(id='ghost', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('ghost', present=False))
+        n = self.distance('s1', '')
+        self.assertTrue(n.success, n.message)
+        self.assertEqual((n.result.body_b, n.result.distance), ('s2', 1.0))
+        r = self.m.check_collision(probe, pose(0, -20, 0), 0.1)
+        self.assertEqual((r.success, r.pairs, r.message), (True, [], ''))
+
+    def test_14_invalid_pose_topic_changes_nothing(self):
+        # Bug: a pose_topic that is no ROS name replaced the body and dropped its working
+        # subscription before roscpp's subscribe() threw; the body stayed UNKNOWN for good.
+        pub = rospy.Publisher('/tracker2/pose', PoseStamped, queue_size=10)
+        self.m.add(sphere_body('tracked2', 0.5, pose_topic='/tracker2/pose'))
+        self.assertTrue(self.m.wait_listed('tracked2'))
+        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 5.0))
+
+        def publish():
+            p = PoseStamped()
+            p.header.frame_id = 'world'
+            p.header.stamp = rospy.Time.now()
+            p.pose = pose(10.0, 0, 0)
+            pub.publish(p)
+        try:
+            publish()
+            self.assertIsNotNone(wait_for(lambda: publish() or (lambda x: x if x.success and abs(
+                x.result.distance - 5.5) < 1e-9 else None)(self.distance('tracked2', 's2')), 3.0))
+            self.m.add(sphere_body('tracked2', 2.0, pose_topic='/tracker2/pose-1'))
+            self.assertTrue(wait_for(lambda: 'is not a valid ROS name' in (
+                self.m.diag_value('last rejection') or ''), 3.0, 0.1),
+                self.m.diag_value('last rejection'))
+            self.assertIn("pose_topic '/tracker2/pose-1' is not a valid ROS name: Character [-]",
+                          self.m.diag_value('last rejection'))
+            # Still the 0.5 m sphere on its old topic: fresh well past pose_timeout (0.5 s).
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < 1.5:
+                publish()
+                time.sleep(0.05)
+            r = self.distance('tracked2', 's2')
+            self.assertTrue(r.success, r.message)
+            self.assertAlmostEqual(r.result.distance, 5.5, delta=1e-9)
+            self.assertEqual(pub.get_num_connections(), 1)
+        finally:
+            self.m.add(Body(id='tracked2', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('tracked2', present=False))
 
 
 if __name__ == '__main__':

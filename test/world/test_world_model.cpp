@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <map>
 #include <random>
 #include <set>
@@ -583,6 +584,16 @@ TEST(WorldModel, NearestRespectsFiltersAndStaleness) {
   ASSERT_TRUE(w.setPose("d", at(1.5), 0.0));      // same group: ignored
   ASSERT_TRUE(w.setPose("e", at(0, 1.25), 5.0));  // stale at now = 10
   std::string why;
+  // e may be the nearest: the nearest is unknown (not c, the nearest of the fresh ones).
+  EXPECT_FALSE(w.nearest("a", 10.0, &why));
+  EXPECT_EQ(why.rfind("the nearest body to 'a' is unknown: body 'e' has a stale pose", 0), 0u)
+      << why;
+  ASSERT_EQ(w.addBody(sphere("f", 0.5)), "");  // never posed: one more
+  EXPECT_FALSE(w.nearest("a", 10.0, &why));
+  EXPECT_NE(why.find("body 'e' has a stale pose"), std::string::npos) << why;
+  EXPECT_NE(why.find("(and 1 more)"), std::string::npos) << why;
+  w.disablePair("a", "e");
+  w.disablePair("a", "f");
   auto n = w.nearest("a", 10.0, &why);
   ASSERT_TRUE(n) << why;
   EXPECT_EQ(n->body_a, "a");
@@ -590,10 +601,6 @@ TEST(WorldModel, NearestRespectsFiltersAndStaleness) {
   EXPECT_EQ(n->distance, 1.5);
   EXPECT_EQ(n->point_a, Vec3(0, -0.5, 0));
   EXPECT_EQ(n->status, S::Clear);
-  n = w.nearest("a", 5.0, &why);  // e is fresh at 5
-  ASSERT_TRUE(n);
-  EXPECT_EQ(n->body_b, "e");
-  EXPECT_EQ(n->distance, 0.25);
   w.disablePair("a", "c");
   n = w.nearest("a", 10.0, &why);
   ASSERT_TRUE(n);
@@ -603,6 +610,16 @@ TEST(WorldModel, NearestRespectsFiltersAndStaleness) {
   EXPECT_EQ(why, "unknown body 'zz'");
   EXPECT_FALSE(w.nearest("e", 10.0, &why));
   EXPECT_NE(why.find("body 'e' has a stale pose"), std::string::npos) << why;
+  // e fresh again, and allowed: the nearest.
+  WorldModel w2(dyadic());
+  ASSERT_EQ(w2.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w2.addBody(sphere("e", 0.5)), "");
+  ASSERT_TRUE(w2.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w2.setPose("e", at(0, 1.25), 5.0));
+  n = w2.nearest("a", 5.0, &why);
+  ASSERT_TRUE(n) << why;
+  EXPECT_EQ(n->body_b, "e");
+  EXPECT_EQ(n->distance, 0.25);
   EXPECT_FALSE(w.distance("a", "a", 10.0, &why));
   EXPECT_EQ(why, "body 'a' has no distance to itself");
 }
@@ -619,7 +636,7 @@ TEST(WorldModel, CheckHypotheticalSortedAndMarginFiltered) {
   ASSERT_EQ(w.addBody(sphere("stale", 0.5)), "");  // never posed
   const BodySpec probe = sphere("probe", 0.5, "probe");
   auto out = w.checkHypothetical(probe, at(0), 2.5, 1.0);
-  ASSERT_EQ(out.size(), 3u);
+  ASSERT_EQ(out.size(), 4u);
   EXPECT_EQ(out[0].body_a, "probe");
   EXPECT_EQ(out[0].body_b, "hit");
   EXPECT_EQ(out[0].distance, -0.25);
@@ -630,16 +647,66 @@ TEST(WorldModel, CheckHypotheticalSortedAndMarginFiltered) {
   EXPECT_EQ(out[1].status, S::Clear);
   EXPECT_EQ(out[2].body_b, "mid");
   EXPECT_EQ(out[2].distance, 2.0);
-  // A margin below every distance still reports what collides.
+  // A body without a pose is UNKNOWN, never left out as if clear; last (distance +inf).
+  EXPECT_EQ(out[3].body_b, "stale");
+  EXPECT_EQ(out[3].status, S::Unknown);
+  EXPECT_EQ(out[3].distance, std::numeric_limits<double>::infinity());
+  // A margin below every distance still reports what collides, and what is unknown.
   out = w.checkHypothetical(probe, at(0), -1.0, 1.0);
-  ASSERT_EQ(out.size(), 1u);
+  ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[0].body_b, "hit");
+  EXPECT_EQ(out[1].body_b, "stale");
+  EXPECT_EQ(out[1].status, S::Unknown);
   // Nothing was added.
   EXPECT_FALSE(w.hasBody("probe"));
   EXPECT_EQ(w.size(), 6u);
   // An invalid body gives nothing (the service reports checkSpec()).
   EXPECT_TRUE(w.checkHypothetical(body("bad", {}), at(0), 10.0, 1.0).empty());
   EXPECT_EQ(w.checkSpec(body("bad", {})), "body 'bad' refused: it has no parts");
+}
+
+// Bug: a narrow phase that could not run (two spheres of radius 1e308: the pair's size overflows,
+// the query answers FailedToConverge with distance +inf) was taken as "beyond reach": CLEAR.
+TEST(WorldModel, QueryThatCannotRunIsUnknownNotClear) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 1e308)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 1e308)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(1.0), 0.0));
+  const CycleResult r = w.check(1.0);
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Unknown}}));
+  EXPECT_FALSE(r.in_collision);
+  std::string why;
+  const auto d = w.distance("a", "b", 1.0, &why);
+  ASSERT_TRUE(d) << why;
+  EXPECT_EQ(d->status, S::Unknown);
+  EXPECT_TRUE(std::isnan(d->distance));
+  const auto out = w.checkHypothetical(sphere("probe", 1e308), at(0.5), 0.0, 1.0);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].status, S::Unknown);
+  EXPECT_EQ(out[1].status, S::Unknown);
+}
+
+// Bug: every group name ever given stayed in the model's table (a stream of bodies with new
+// group names grew it without bound). Names no body uses are forgotten; groups keep working.
+TEST(WorldModel, UnusedGroupNamesAreForgotten) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5, "keep")), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5, "keep")), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  for (const auto& [id, x] :
+       std::vector<std::pair<std::string, double>>{{"a", 0.0}, {"b", 0.9}, {"c", -0.9}}) {
+    ASSERT_TRUE(w.setPose(id, at(x), 0.0));
+  }
+  for (int i = 0; i < 10000; ++i)
+    ASSERT_EQ(w.addBody(sphere("c", 0.5, "g" + std::to_string(i))), "");
+  EXPECT_LE(w.groupNames(), 2u * w.size() + 64u);
+  ASSERT_EQ(w.addBody(sphere("c", 0.5, "keep")), "");  // now in a and b's group
+  ASSERT_EQ(w.addBody(sphere("d", 0.5, "other")), "");
+  ASSERT_TRUE(w.setPose("d", at(0.0, 0.9), 0.0));
+  // a, b, c overlap pairwise but share a group; d overlaps a (distance -0.1) in its own group.
+  const CycleResult r = w.check(1.0);
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "d"}, S::Collision}}));
 }
 
 TEST(WorldModel, TimeToCollisionHeadOn) {

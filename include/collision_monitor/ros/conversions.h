@@ -55,6 +55,10 @@ constexpr std::size_t kMaxResourceLength = 4096;
 /// How many bytes of an input string an error message quotes.
 constexpr std::size_t kQuoteLength = 120;
 
+/// `s` (at most `max_bytes` of it) with control characters and bytes >= 0x7f escaped as \xNN:
+/// input-derived text in a log line keeps it one line.
+std::string escapeInput(const std::string& s, std::size_t max_bytes = std::string::npos);
+
 /// `s` in single quotes for an error message: at most `max_bytes` of it, then "...' (N bytes)";
 /// control characters and bytes >= 0x7f are escaped as \xNN (a log line stays one line).
 std::string quoteInput(const std::string& s, std::size_t max_bytes = kQuoteLength);

@@ -49,12 +49,16 @@ class MeshCache {
             PackageResolver resolve_package = rosPackagePath);
   Expected<core::ConvexShape> load(const std::string& uri, const core::Vec3& scale);
   const std::vector<std::string>& meshRoots() const { return mesh_roots_; }
+  /// Hulls kept (path, scale). Past kMaxEntries the cache starts again empty: a stream of bodies
+  /// with ever new scales cannot grow it without bound (bodies keep their own hulls).
+  std::size_t size() const;
+  static constexpr std::size_t kMaxEntries = 256;
 
  private:
   std::vector<std::string> mesh_roots_;
   std::size_t max_vertices_;
   PackageResolver resolve_package_;
-  std::mutex mutex_;
+  mutable std::mutex mutex_;
   std::map<std::tuple<std::string, double, double, double>, core::ConvexShape> cache_;
 };
 

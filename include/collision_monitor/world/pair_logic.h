@@ -9,7 +9,8 @@
 ///   from CLEAR (or UNKNOWN, or a new pair): COLLISION if d <= c, else WARNING if d < w, else
 ///   CLEAR; from WARNING: COLLISION if d <= c, else WARNING while d < w + h, else CLEAR; from
 ///   COLLISION: COLLISION while d <= c + h, else WARNING while d < w + h, else CLEAR.
-/// A non-finite distance (a failed narrow phase) gives UNKNOWN, never CLEAR.
+/// A NaN distance (a failed narrow phase, WorldModel) gives UNKNOWN, never CLEAR; +inf means
+/// beyond reach (no narrow phase run): CLEAR.
 ///
 /// Event scheme: a status is an interval; CLEAR has no events. A transition from X to Y emits
 /// END(X) when X is not CLEAR, then BEGIN(Y) when Y is not CLEAR. So CLEAR->COLLISION is one

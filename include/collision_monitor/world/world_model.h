@@ -213,6 +213,9 @@ class WorldModel {
   std::optional<Transform3> pose(const std::string& id) const;
   const BodySpec* body(const std::string& id) const;
   std::size_t size() const;
+  /// Group names the model keeps an id for (at most about twice the bodies: unused ones are
+  /// forgotten).
+  std::size_t groupNames() const;
 
   /// Why `spec` is not an acceptable body, ignoring capacity and origin ownership (checked by
   /// addBody() too); empty when acceptable. For the ~check_collision service.
