@@ -388,11 +388,14 @@ TEST(SimplexSolver, RandomSimplicesAreOptimal) {
       cm::Simplex<3> s = simplexOf<3>(pts);
       const cm::Vec3 v = cm::solveSimplex<3>(s, generic);
       double sum = 0.0;
+      cm::Vec3 combo = cm::Vec3::Zero();  // v in the hull: the weights' combination of the kept
       for (int i = 0; i < s.size; ++i) {
         EXPECT_GT(s.bary[i], 0.0);
         sum += s.bary[i];
+        combo += s.bary[i] * s.v[i].w;
       }
       EXPECT_NEAR(sum, 1.0, 1e-12);
+      expectVecNear<3>(v, combo, 1e-12);
       for (const cm::Vec3& w : pts)
         EXPECT_GE(v.dot(w) - v.squaredNorm(), -1e-12);
       if (!generic) {

@@ -248,8 +248,10 @@ TEST(MarkerBuilder, ShapesGivenFarOutAreDrawnWhereTheyAre) {
   EXPECT_EQ(spheres, 1);
   const auto shell = find(out, "padding", Marker::ADD);
   ASSERT_EQ(shell.size(), 2u);
+  int hull_shells = 0;  // the cube's (the padded point's shell is a sphere)
   for (const Marker* m : shell) {
     if (m->type != Marker::TRIANGLE_LIST) continue;
+    ++hull_shells;
     ASSERT_GT(m->points.size(), 30u);
     double max_x = -1e300;
     for (const auto& p : m->points) {
@@ -258,6 +260,7 @@ TEST(MarkerBuilder, ShapesGivenFarOutAreDrawnWhereTheyAre) {
     }
     EXPECT_NEAR(max_x, c.x() + 0.12, 1e-9) << "the shell is the hull inflated by the padding";
   }
+  EXPECT_EQ(hull_shells, 1);
 }
 
 TEST(MarkerBuilder, PrimitivesAndTessellations) {

@@ -164,7 +164,10 @@ class Faults(unittest.TestCase):
                                        persistent=(k % 2 == 0))
             for _ in range(n // threads):
                 try:
-                    proxy('fixed', 'mover', '')
+                    r = proxy('fixed', 'mover', '')
+                    # Every answer the right one (spheres 0.2 and 0.3 with centres 1 m apart).
+                    if not r.success or abs(r.result.distance - 0.5) > 1e-9:
+                        errors.append('answer: %s %r' % (r.success, r.message or r.result))
                 except (rospy.ServiceException, OSError) as e:
                     errors.append(str(e))
         t0 = time.monotonic()
@@ -265,7 +268,7 @@ class Faults(unittest.TestCase):
     def test_6_restart(self):
         pid = node_pid()
         self.assertTrue(alive(pid))
-        d0 = self.distance()
+        self.assertAlmostEqual(self.distance(), 0.5, delta=1e-9)  # spheres 0.2, 0.3, 1 m apart
         os.kill(pid, signal.SIGKILL)
         t0 = time.monotonic()
         new_pid = wait_for(lambda: (lambda p: p if p and p != pid else None)(node_pid()), 30.0, 0.2)
@@ -274,7 +277,7 @@ class Faults(unittest.TestCase):
         figure('restart: SIGKILL -> respawned (pid %s) -> world back (latched ~bodies, TF) in %.2f s'
                % (new_pid, time.monotonic() - t0))
         self.assertTrue(back, 'the world did not come back after the restart')
-        self.assertAlmostEqual(self.distance(), d0, delta=1e-6)
+        self.assertAlmostEqual(self.distance(), 0.5, delta=1e-9)
 
     def _answers(self):
         try:

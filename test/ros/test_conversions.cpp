@@ -465,13 +465,44 @@ TEST_F(MeshUris, RefusesEscapes) {
                "cannot resolve"));
   EXPECT_TRUE(contains(resolveMeshUri("file://" + dir_ + "/root", {dir_}, resolver_).error(),
                        "not a regular file"));
-  // A root that is a prefix of another directory's name does not cover it.
-  EXPECT_FALSE(resolveMeshUri("file://" + dir_ + "/rootless.stl", {dir_ + "/root"}, resolver_));
+  // A root that is a prefix of another directory's name does not cover it (the file exists, so
+  // it is the roots' check that refuses it).
+  std::ofstream(dir_ + "/rootless.stl") << "solid x\nendsolid x\n";
+  EXPECT_TRUE(contains(
+      resolveMeshUri("file://" + dir_ + "/rootless.stl", {dir_ + "/root"}, resolver_).error(),
+      "outside mesh_roots"));
 }
 
 TEST_F(MeshUris, UnreadableMeshIsRefused) {
   std::ofstream(dir_ + "/root/garbage.stl") << "this is not a mesh";
   MeshCache cache(roots_, 1000, resolver_);
   auto r = cache.load("file://" + dir_ + "/root/garbage.stl", core::Vec3(1, 1, 1));
-  EXPECT_FALSE(r);
+  ASSERT_FALSE(r);
+  EXPECT_TRUE(contains(r.error(), "not a readable STL/DAE/OBJ mesh")) << r.error();
+}
+
+// Bug: the cache kept every (mesh, scale) ever loaded: a stream of bodies with ever new scales
+// grew it without bound. It now starts again empty past kMaxEntries; loads stay exact.
+TEST_F(MeshUris, CacheIsBounded) {
+  std::ofstream(dir_ + "/root/tet.stl") << "solid t\n"
+                                           "facet normal 0 0 0\nouter loop\nvertex 0 0 0\n"
+                                           "vertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n"
+                                           "facet normal 0 0 0\nouter loop\nvertex 0 0 0\n"
+                                           "vertex 0 1 0\nvertex 0 0 1\nendloop\nendfacet\n"
+                                           "facet normal 0 0 0\nouter loop\nvertex 0 0 0\n"
+                                           "vertex 0 0 1\nvertex 1 0 0\nendloop\nendfacet\n"
+                                           "facet normal 0 0 0\nouter loop\nvertex 1 0 0\n"
+                                           "vertex 0 0 1\nvertex 0 1 0\nendloop\nendfacet\n"
+                                           "endsolid t\n";
+  MeshCache cache(roots_, 1000, resolver_);
+  const std::string uri = "file://" + dir_ + "/root/tet.stl";
+  for (int i = 0; i < 300; ++i) {
+    const double k = 1.0 + 0.125 * i;  // exact in binary
+    auto r = cache.load(uri, core::Vec3(k, 2.0 * k, 4.0 * k));
+    ASSERT_TRUE(r) << r.error();
+    EXPECT_EQ(r->support(core::Vec3(1, 0.1, 0.1)), core::Vec3(k, 0, 0));
+    EXPECT_EQ(r->support(core::Vec3(0.1, 0.1, 1)), core::Vec3(0, 0, 4.0 * k));
+    ASSERT_LE(cache.size(), MeshCache::kMaxEntries);
+  }
+  EXPECT_EQ(cache.size(), 300 - MeshCache::kMaxEntries);
 }

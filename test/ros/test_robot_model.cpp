@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -87,12 +88,22 @@ TEST(Urdf, PaddingAndOrigins) {
   auto robot = bodiesFromUrdf(xml, 0.1, Limits(), MeshLoader());
   ASSERT_TRUE(robot) << robot.error();
   ASSERT_EQ(robot->bodies.size(), 2u);
-  for (const auto& b : robot->bodies) {
-    if (b.id != "base") continue;
-    ASSERT_EQ(b.parts.size(), 1u);
-    EXPECT_EQ(b.parts[0].pose.t, core::Vec3(1, 0, 0));
-    EXPECT_NEAR(b.parts[0].shape.support(core::Vec3::UnitX()).x(), 0.6, 1e-12);
-  }
+  std::map<std::string, const world::BodySpec*> by_id;
+  for (const auto& b : robot->bodies)
+    by_id[b.id] = &b;
+  ASSERT_EQ(by_id.count("base"), 1u);
+  ASSERT_EQ(by_id.count("arm"), 1u);
+  const world::BodySpec& base = *by_id["base"];
+  ASSERT_EQ(base.parts.size(), 1u);
+  EXPECT_EQ(base.parts[0].pose.t, core::Vec3(1, 0, 0));
+  EXPECT_NEAR(base.parts[0].shape.support(core::Vec3::UnitX()).x(), 0.6, 1e-12);
+  // The padding on the box too: half-extents 0.5, 1, 1.5 plus 0.1 along each axis.
+  const world::BodySpec& arm = *by_id["arm"];
+  ASSERT_EQ(arm.parts.size(), 1u);
+  EXPECT_EQ(arm.parts[0].pose.t, core::Vec3::Zero());
+  EXPECT_NEAR(arm.parts[0].shape.support(core::Vec3::UnitX()).x(), 0.6, 1e-12);
+  EXPECT_NEAR(arm.parts[0].shape.support(core::Vec3::UnitY()).y(), 1.1, 1e-12);
+  EXPECT_NEAR(arm.parts[0].shape.support(-core::Vec3::UnitZ()).z(), -1.6, 1e-12);
   EXPECT_TRUE(hasPair(robot->adjacent, "base", "arm"));
 }
 
