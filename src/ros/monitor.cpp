@@ -422,10 +422,17 @@ std::optional<Transform3> Monitor::toFixed(const std::string& frame_in, const ro
     return toTransform3(
         tf_buffer_->lookupTransform(fixed_frame_, frame, stamp, ros::Duration(0)).transform);
   } catch (const tf2::ExtrapolationException&) {
-    // The pose may have arrived before the matching TF: give TF a moment (bounded).
+    // The pose may have arrived before the matching TF: give TF a moment, 50 ms of wall time.
+    // Not tf2's own timeout: it waits in ROS time, which under a paused /clock never passes, and
+    // held this callback thread (and with two such poses every worker thread, services
+    // included) until the clock ran again.
+    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(0.05);
+    while (!tf_buffer_->canTransform(fixed_frame_, frame, stamp) &&
+           ros::WallTime::now() < deadline && ros::ok()) {
+      ros::WallDuration(0.002).sleep();
+    }
     try {
-      return toTransform3(
-          tf_buffer_->lookupTransform(fixed_frame_, frame, stamp, ros::Duration(0.05)).transform);
+      return toTransform3(tf_buffer_->lookupTransform(fixed_frame_, frame, stamp).transform);
     } catch (const tf2::TransformException& e) {
       *why = e.what();
     }

@@ -255,6 +255,37 @@ class SimTime(unittest.TestCase):
         self.assertLessEqual(stamps[0], t_sim + 1e-6)
         self.assertEqual([s for s in during if s.stale_bodies], [])
         self.assertEqual(events, [])
+        # Bug: a pose stamped after the latest TF of its frame waited for TF "50 ms" of ROS time,
+        # which a paused clock never passes: each such stream held a callback thread of the node
+        # until the clock ran again (measured: refused at the next /clock), and two (~body_poses
+        # and a pose_topic) held both, services included. Such poses ('posed' and 'tracked' where
+        # they are, given in moving_frame), then a service call must answer at once.
+        stamp = rospy.Time.from_sec(t_sim + 0.01)
+        for _ in range(2):
+            m = BodyPoses(ids=['posed'], poses=[pose(x=-1.0, y=1.0)])
+            m.header.stamp = stamp
+            m.header.frame_id = 'moving_frame'
+            self.m.poses_pub.publish(m)
+            p = PoseStamped(pose=pose(x=-1.0, y=-1.0))
+            p.header.stamp = stamp
+            p.header.frame_id = 'moving_frame'
+            self.sim.tracked_pub.publish(p)
+        time.sleep(0.2)
+        answer = []
+        caller = threading.Thread(target=lambda: answer.append(
+            (time.monotonic(), self.distance('fixed', 'posed'))), daemon=True)
+        t_call = time.monotonic()
+        caller.start()
+        caller.join(3.0)
+        blocked = caller.is_alive()
+        if blocked:
+            self.sim.set(running=True)  # let the held threads go before failing
+            caller.join(10.0)
+            self.sim.set(running=False)
+        figure('clock paused, poses waiting for TF: ~get_distance answered in %s'
+               % ('> 3 s (held until the clock ran)' if blocked else
+                  '%.3f s' % (answer[0][0] - t_call)))
+        self.assertFalse(blocked, 'a service call waited for the paused clock')
         for b, d in EXPECTED.items():
             self.assertAlmostEqual(self.distance('fixed', b), d, delta=1e-9)
         # The clock resumes, the data does not: stale after pose_timeout (simulated).
