@@ -2,6 +2,9 @@
 find_package(urdfdom REQUIRED)
 find_package(urdfdom_headers REQUIRED)
 find_package(tinyxml2 REQUIRED)
+# log4cxx, rosconsole's back end: logger_services.cpp asks it for the loggers itself.
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(LOG4CXX REQUIRED IMPORTED_TARGET liblog4cxx)
 
 set(CM_ROS_SOURCES
   src/ros/conversions.cpp
@@ -27,9 +30,18 @@ target_link_libraries(collision_monitor_ros PUBLIC
 target_compile_options(collision_monitor_ros PRIVATE ${CM_WARNING_FLAGS})
 add_dependencies(collision_monitor_ros ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_EXPORTED_TARGETS})
 
+# The node's replacement of roscpp's ~get_loggers (logger_services.h). Static and not in
+# collision_monitor_ros: the node must not link the nodelet library that pluginlib loads.
+add_library(collision_monitor_logger_services STATIC src/ros/logger_services.cpp)
+target_include_directories(collision_monitor_logger_services PUBLIC
+  $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>)
+target_include_directories(collision_monitor_logger_services SYSTEM PUBLIC ${catkin_INCLUDE_DIRS})
+target_link_libraries(collision_monitor_logger_services PUBLIC ${catkin_LIBRARIES} PkgConfig::LOG4CXX)
+target_compile_options(collision_monitor_logger_services PRIVATE ${CM_WARNING_FLAGS})
+
 add_executable(collision_monitor_node src/nodes/collision_monitor_node.cpp)
 target_include_directories(collision_monitor_node SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
-target_link_libraries(collision_monitor_node ${catkin_LIBRARIES})
+target_link_libraries(collision_monitor_node collision_monitor_logger_services ${catkin_LIBRARIES})
 target_compile_options(collision_monitor_node PRIVATE ${CM_WARNING_FLAGS})
 # The node loads the nodelet from libcollision_monitor_ros at run time: build it first.
 add_dependencies(collision_monitor_node collision_monitor_ros)
@@ -58,7 +70,8 @@ if(CATKIN_ENABLE_TESTING)
   # Plain gtests, no master: conversions, validation, URDF/SRDF, parameters, mesh URIs.
   cm_add_gtest(test_ros_conversions
     SOURCES test/ros/test_conversions.cpp test/ros/test_robot_model.cpp
-    LIBS collision_monitor_ros)
+      test/ros/test_logger_services.cpp
+    LIBS collision_monitor_ros collision_monitor_logger_services)
   if(TARGET test_ros_conversions)
     target_include_directories(test_ros_conversions SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
     target_compile_definitions(test_ros_conversions PRIVATE

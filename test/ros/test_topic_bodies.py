@@ -15,9 +15,10 @@ import tf2_ros
 from collision_monitor.msg import Body, BodyPoses, CollisionEvent, PairState, Shape
 from collision_monitor.srv import CheckCollision, CheckCollisionRequest, CheckCollisionResponse
 from geometry_msgs.msg import Point, PoseStamped, TransformStamped
+from roscpp.srv import GetLoggers, SetLoggerLevel
 from visualization_msgs.msg import MarkerArray
 
-from cm_test_util import (Monitor, PoseStreamer, point_close, pose, shape, sphere_body,
+from cm_test_util import (NS, Monitor, PoseStreamer, point_close, pose, shape, sphere_body,
                           wait_for)
 
 E = CollisionEvent
@@ -469,6 +470,26 @@ class TopicBodies(unittest.TestCase):
         finally:
             self.m.add(Body(id='tracked2', operation=Body.REMOVE))
         self.assertTrue(self.m.wait_listed('tracked2', present=False))
+
+
+    def test_15_get_loggers_does_not_crash_the_node(self):
+        # Bug: roscpp's own ~get_loggers (rosconsole on log4cxx 1.0, Debian 12) freed log4cxx's
+        # logger repository: the second call, as rqt_logger_level makes, killed the node (SIGSEGV).
+        get_loggers = rospy.ServiceProxy(NS + 'get_loggers', GetLoggers)
+        set_level = rospy.ServiceProxy(NS + 'set_logger_level', SetLoggerLevel)
+        for _ in range(5):
+            names = {l.name: l.level for l in get_loggers().loggers}
+            self.assertEqual(names.get('ros.collision_monitor'), 'info', names)
+            self.assertEqual(names.get('ros.roscpp'), 'info', names)
+        try:
+            set_level('ros.collision_monitor', 'debug')
+            names = {l.name: l.level for l in get_loggers().loggers}
+            self.assertEqual(names['ros.collision_monitor'], 'debug')
+            self.assertEqual(names['ros.roscpp'], 'info')
+        finally:
+            set_level('ros.collision_monitor', 'info')
+        self.assertEqual(get_loggers().loggers, sorted(get_loggers().loggers, key=lambda l: l.name))
+        self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))  # alive and answering
 
 
 if __name__ == '__main__':
