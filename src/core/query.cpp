@@ -16,7 +16,8 @@
 
 // Polytope pairs run their whole query compiled for AVX2 (runAvx2() below) where the CPU has it.
 // Not in sanitizer builds: with ASan + UBSan, GCC compiled query.cpp for over 16 minutes with it
-// (2 min 52 s without); they run the BasicPolytopePairDifference<false> path instead.
+// (2 min 52 s without, then); they run the BasicPolytopePairDifference<false> path instead, and
+// without forced inlining (CM_ALWAYS_INLINE, math.h).
 #if defined(CM_HAVE_AVX2_SCAN) && !defined(__SANITIZE_ADDRESS__)
 #define CM_AVX2_QUERY 1
 #endif
