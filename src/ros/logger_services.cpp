@@ -39,8 +39,7 @@ bool getLoggers(roscpp::GetLoggers::Request& /*req*/, roscpp::GetLoggers::Respon
 }  // namespace
 
 std::vector<std::pair<std::string, std::string>> loggers() {
-  // LogManager's own repository handle (shared, never freed here), not Logger::
-  // getLoggerRepository()'s raw pointer, which rosconsole wraps in an owning pointer.
+  // Through LogManager, which holds the repository, not through rosconsole (logger_services.h).
   std::vector<std::pair<std::string, std::string>> out;
   for (const log4cxx::LoggerPtr& logger : log4cxx::LogManager::getCurrentLoggers()) {
     std::string name;

@@ -1,8 +1,8 @@
 /// \file
 /// `~get_loggers` served without rosconsole's `get_loggers`. roscpp advertises that service in
 /// every node; on Debian 12 (rosconsole 1.14.3 built against log4cxx 1.0) rosconsole's
-/// implementation leaves log4cxx's logger repository freed: the second `~get_loggers` call (or the
-/// next log line that looks up a logger after the first) crashes the process with SIGSEGV in
+/// implementation leaves log4cxx's logger repository broken: the second `~get_loggers` call (or
+/// the next log line that looks up a logger after the first) crashes the process with SIGSEGV in
 /// log4cxx::LogManager::getLoggerLS. rqt_logger_level and `rosservice call <node>/get_loggers`
 /// make that call; /rosout dies of it too (ros/rosconsole#62 reports the same family of crashes).
 /// The node executable replaces the service with loggers() below, which asks log4cxx itself.
