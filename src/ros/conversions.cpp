@@ -441,20 +441,20 @@ collision_monitor::PairState toMsg(const world::PairResult& pair, const Transfor
 }
 
 collision_monitor::CollisionEvent toMsg(const world::Event& event, const std::string& fixed_frame,
-                                        double now) {
+                                        world::Stamp now) {
   collision_monitor::CollisionEvent m;
   m.header.frame_id = fixed_frame;
-  m.header.stamp.fromSec(event.stamp > 0.0 ? event.stamp : now);
+  m.header.stamp = toRosTime(event.stamp.isStatic() ? now : event.stamp);
   m.type = static_cast<std::uint8_t>(event.type);
   m.pair = toMsg(event.pair);
   return m;
 }
 
 collision_monitor::CollisionState toMsg(const world::CycleResult& cycle,
-                                        const std::string& fixed_frame, double now) {
+                                        const std::string& fixed_frame, world::Stamp now) {
   collision_monitor::CollisionState m;
   m.header.frame_id = fixed_frame;
-  m.header.stamp.fromSec(cycle.stamp > 0.0 ? cycle.stamp : now);
+  m.header.stamp = toRosTime(cycle.stamp.isStatic() ? now : cycle.stamp);
   m.in_collision = cycle.in_collision;
   m.min_distance = cycle.min_distance;
   m.pairs.reserve(cycle.pairs.size());

@@ -12,6 +12,7 @@
 #include <Eigen/Geometry>
 
 #include "collision_monitor/core/convex_hull.h"
+#include "collision_monitor/ros/conversions.h"
 
 namespace collision_monitor {
 namespace ros_layer {
@@ -341,7 +342,7 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
   last_build_ = now;
   std_msgs::Header header;
   header.frame_id = fixed_frame;
-  if (std::isfinite(cycle.stamp) && cycle.stamp > 0.0) header.stamp = ros::Time(cycle.stamp);
+  header.stamp = toRosTime(cycle.stamp);
 
   if (first_) {
     Marker clear_all;

@@ -442,7 +442,7 @@ std::optional<Transform3> Monitor::toFixed(const std::string& frame_in, const ro
   return std::nullopt;
 }
 
-void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, double stamp,
+void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time& stamp,
                          const std::string& source) {
   std::vector<std::string> unknown, attached;
   {
@@ -451,11 +451,12 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, double stamp,
     // data from before a time jump still in flight, ROS time 0 (simulated time before the first
     // /clock), or clocks out of sync. Read under the lock that runCycle clears the poses with.
     const double now = ros::Time::now().toSec();
-    if (stamp > now + kTimeJumpTolerance) {
+    const double t = stamp.toSec();
+    if (t > now + kTimeJumpTolerance) {
       std::ostringstream os;
       os.setf(std::ios::fixed);
       os.precision(3);
-      os << source << " refused: stamped " << stamp << " s, " << stamp - now
+      os << source << " refused: stamped " << t << " s, " << t - now
          << " s after the current ROS time " << now
          << " (data from before a time jump, no /clock yet, or unsynchronised clocks)";
       lock.unlock();
@@ -470,7 +471,7 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, double stamp,
       } else if (it->second.from_tf) {
         attached.push_back(u.id + " (frame " + it->second.frame + ")");
       } else {
-        applied = world_->setPose(u.id, u.pose, stamp, u.twist) || applied;
+        applied = world_->setPose(u.id, u.pose, toStamp(stamp), u.twist) || applied;
       }
     }
     if (applied) {  // statistics: see pose_msgs_applied_
@@ -557,7 +558,7 @@ void Monitor::onBodyPoses(
     }
     for (auto& u : *updates)
       u = transformUpdate(u, *to_fixed);
-    applyPoses(*updates, msg->header.stamp.toSec(), "~body_poses");
+    applyPoses(*updates, msg->header.stamp, "~body_poses");
   } catch (const std::exception& e) {
     reject("~body_poses", std::string("~body_poses: internal error: ") + e.what());
   }
@@ -595,8 +596,7 @@ void Monitor::onPoseStamped(const std::string& id,
                       ": " + capped(why, 512));
       return;
     }
-    applyPoses({PoseUpdate{id, *to_fixed * *pose, std::nullopt}}, msg->header.stamp.toSec(),
-               source);
+    applyPoses({PoseUpdate{id, *to_fixed * *pose, std::nullopt}}, msg->header.stamp, source);
   } catch (const std::exception& e) {
     reject(sourceKey("pose_topic:", id),
            "pose_topic of " + quoteInput(id) + ": internal error: " + e.what());
@@ -624,7 +624,7 @@ bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
                           collision_monitor::GetDistance::Response& res) {
   try {
     res.success = false;
-    const double now = ros::Time::now().toSec();
+    const world::Stamp now = toStamp(ros::Time::now());
     if (req.body_a.empty()) {
       res.message = "body_a is empty";
       return true;
@@ -688,7 +688,7 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
       reject("~check_collision (malformed)", "~check_collision: " + res.message);
       return true;
     }
-    const double now = ros::Time::now().toSec();
+    const world::Stamp now = toStamp(ros::Time::now());
     collision_monitor::Body body = req.body;
     if (body.id.empty()) body.id = "check_collision";
     body.operation = collision_monitor::Body::ADD;
@@ -746,7 +746,7 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
 
 bool Monitor::listBodies(collision_monitor::ListBodies::Request& /*req*/,
                          collision_monitor::ListBodies::Response& res) {
-  const double now = ros::Time::now().toSec();
+  const world::Stamp now = toStamp(ros::Time::now());
   std::vector<world::BodyInfo> infos;
   {
     std::lock_guard<std::mutex> lock(world_mutex_);
@@ -835,12 +835,12 @@ void Monitor::runCycle() {
       if (t.from_tf) attached.emplace_back(id, t.frame);
     }
   }
-  std::map<std::string, std::optional<std::pair<Transform3, double>>> frames;
+  std::map<std::string, std::optional<std::pair<Transform3, world::Stamp>>> frames;
   std::vector<std::string> future_frames;
   for (const auto& [id, frame] : attached) {
     if (frames.count(frame)) continue;
     if (frame == fixed_frame_) {
-      frames[frame] = std::make_pair(Transform3::Identity(), 0.0);  // static
+      frames[frame] = std::make_pair(Transform3::Identity(), world::Stamp());  // static
       continue;
     }
     try {
@@ -854,7 +854,7 @@ void Monitor::runCycle() {
         frames[frame] = std::nullopt;
         future_frames.push_back(frame + " (" + std::to_string(stamp - now) + " s ahead)");
       } else {
-        frames[frame] = std::make_pair(toTransform3(tf.transform), stamp);
+        frames[frame] = std::make_pair(toTransform3(tf.transform), toStamp(tf.header.stamp));
       }
     } catch (const tf2::TransformException&) {
       frames[frame] = std::nullopt;
@@ -885,7 +885,7 @@ void Monitor::runCycle() {
         world_->markUnresolved(id);
       }
     }
-    cycle = world_->check(now);
+    cycle = world_->check(toStamp(stamp_now));
     if (new_poses_) ++checks_with_new_poses_;
     new_poses_ = false;
     pose_msgs_applied = pose_msgs_applied_;
@@ -894,8 +894,8 @@ void Monitor::runCycle() {
   }
 
   for (const auto& e : cycle.events)
-    events_pub_.publish(toMsg(e, fixed_frame_, now));
-  state_pub_.publish(toMsg(cycle, fixed_frame_, now));
+    events_pub_.publish(toMsg(e, fixed_frame_, toStamp(stamp_now)));
+  state_pub_.publish(toMsg(cycle, fixed_frame_, toStamp(stamp_now)));
   if (want_markers && !markers.markers.empty()) markers_pub_.publish(markers);
 
   {

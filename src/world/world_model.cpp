@@ -132,8 +132,8 @@ struct BodyState {
   bool fresh_prev = false;  ///< fresh at the check() before (and existed)
   bool was_active = false;  ///< in the broad phase of the last check()
   bool has_twist = false;
-  int group = 0;       ///< dense id of spec.group, 0 = none
-  double stamp = 0.0;  ///< s; <= 0 static
+  int group = 0;  ///< dense id of spec.group, 0 = none
+  Stamp stamp;    ///< isStatic(): a static pose
   /// Bumped whenever the pose or the geometry changes: a pair result computed at the same
   /// versions of both bodies is still exact.
   std::uint64_t version = 0;
@@ -162,9 +162,9 @@ struct BodyState {
       box.extend(part_boxes[i]);
     }
   }
-  bool isFresh(double now, double timeout) const {
+  bool isFresh(Stamp now, double timeout) const {
     if (!has_pose || unresolved) return false;
-    if (stamp <= 0.0) return true;
+    if (stamp.isStatic()) return true;
     return now - stamp <= timeout;
   }
   const Twist* twistPtr() const { return has_twist ? &twist : nullptr; }
@@ -273,6 +273,11 @@ struct WorldModel::Impl {
 
   std::vector<int> rank;  ///< by slot: position of the id in id order (for sorting outputs)
   bool ranks_dirty = true;
+  /// The smallest distance over every pair that may collide, from the last check() that had to
+  /// search beyond the broad phase (nearestBeyondReach); stale once a body is added, removed or
+  /// moved, a pair disabled, or a body's freshness changes.
+  double min_beyond_reach = kInf;
+  bool min_dirty = true;
 
   // Scratch, reused across cycles.
   std::vector<int> active;
@@ -284,6 +289,7 @@ struct WorldModel::Impl {
   std::vector<std::uint64_t> pair_keys;        ///< rankKey per output pair
   std::vector<std::uint64_t> event_keys;       ///< rankKey per output event
   std::vector<std::pair<std::uint64_t, std::uint32_t>> order;
+  std::vector<std::pair<double, int>> by_x;  ///< nearestBeyondReach: (box min x, slot)
   struct PartPair {
     double lower_bound;
     int i;
@@ -372,13 +378,17 @@ struct WorldModel::Impl {
     const std::size_t na = A.spec.parts.size();
     const std::size_t nb = B.spec.parts.size();
     part_pairs.clear();
+    double skipped = kInf;  // the smallest lower bound of the part pairs left out
     for (std::size_t i = 0; i < na; ++i) {
       for (std::size_t j = 0; j < nb; ++j) {
         const double gap = A.part_boxes[i].distance(B.part_boxes[j]);
         const double sphere =
             (B.part_centres[j] - A.part_centres[i]).norm() - A.part_radii[i] - B.part_radii[j];
         const double lb = gap > 0.0 ? std::max(gap, sphere) : sphere;
-        if (lb > cutoff) continue;
+        if (lb > cutoff) {
+          skipped = std::min(skipped, lb);
+          continue;
+        }
         part_pairs.push_back(PartPair{lb, static_cast<int>(i), static_cast<int>(j)});
       }
     }
@@ -408,8 +418,42 @@ struct WorldModel::Impl {
         out.exact = true;
       }
     }
+    // A part pair left out may be nearer than one computed beyond the cutoff: then the pair is
+    // only known to be beyond it, like one whose part pairs were all left out.
+    if (out.exact && out.distance > skipped) out.exact = false;
     // All part pairs beyond the cutoff: the pair is at least that far apart.
     return out;
+  }
+
+  /// The smallest signed distance over the pairs of fresh bodies that may collide, at most
+  /// `best` (the smallest exact distance of the broad phase's pairs), for min_distance beyond
+  /// the broad phase's reach. Boxes sorted by their low x bound: a body's partners are visited
+  /// in that order until their gap along x reaches the best distance so far, and only pairs
+  /// whose boxes are nearer than it get GJK (with it as the cutoff). The broad phase's exactly
+  /// answered pairs of this cycle are not run again.
+  double nearestBeyondReach(double best, std::uint64_t this_cycle, CycleResult* res) {
+    by_x.clear();
+    for (int slot : active)
+      by_x.emplace_back(boxes[slot].min.x(), slot);
+    std::sort(by_x.begin(), by_x.end());
+    for (std::size_t k = 0; k < by_x.size(); ++k) {
+      const int i = by_x[k].second;
+      const core::Aabb& bi = boxes[i];
+      for (std::size_t l = k + 1; l < by_x.size(); ++l) {
+        if (by_x[l].first - bi.max.x() >= best) break;
+        const int j = by_x[l].second;
+        if (!allowed(i, j) || !(bi.distance(boxes[j]) < best)) continue;
+        const auto it = pairs.find(orderedKey(i, j));
+        if (it != pairs.end() && it->second.last_seen == this_cycle && it->second.result.exact) {
+          continue;  // in `best` already
+        }
+        const Narrow n = narrowPhase(bodies[i], bodies[j], best, nullptr);
+        ++res->num_pairs_checked;
+        res->num_part_checks += static_cast<std::size_t>(n.gjk_runs);
+        if (n.exact && n.distance < best) best = n.distance;
+      }
+    }
+    return best;
   }
 
   PairResult makeResult(int a, int b, PairStatus status, const Narrow& n) const {
@@ -442,14 +486,13 @@ struct WorldModel::Impl {
 
   /// Stamp of the poses a pair's verdict was computed from: the older non-static stamp, else
   /// `now` (static poses hold at any time).
-  double pairStamp(int a, int b, double now) const {
-    double s = kInf;
-    if (bodies[a].stamp > 0.0) s = std::min(s, bodies[a].stamp);
-    if (bodies[b].stamp > 0.0) s = std::min(s, bodies[b].stamp);
-    return std::isfinite(s) ? s : now;
+  Stamp pairStamp(int a, int b, Stamp now) const {
+    const Stamp sa = bodies[a].stamp, sb = bodies[b].stamp;
+    if (sa.isStatic()) return sb.isStatic() ? now : sb;
+    return sb.isStatic() ? sa : std::min(sa, sb);
   }
 
-  static void emit(PairStatus from, PairStatus to, const PairResult& r, double stamp,
+  static void emit(PairStatus from, PairStatus to, const PairResult& r, Stamp stamp,
                    std::vector<Event>* events, std::vector<std::uint64_t>* keys = nullptr,
                    std::uint64_t key = 0) {
     EventType types[2];
@@ -460,7 +503,7 @@ struct WorldModel::Impl {
     }
   }
 
-  std::string whyStale(int slot, double now) const {
+  std::string whyStale(int slot, Stamp now) const {
     const BodyState& b = bodies[slot];
     if (!b.has_pose) return "body '" + b.spec.id + "' has no pose yet";
     if (b.unresolved) return "body '" + b.spec.id + "' has an unresolved pose";
@@ -535,7 +578,7 @@ std::string WorldModel::addBody(BodySpec spec) {
     } else {
       b.has_pose = false;
       b.has_twist = false;
-      b.stamp = 0.0;
+      b.stamp = Stamp();
       b.box = core::Aabb();
     }
     m.boxes[slot] = b.box;
@@ -570,6 +613,7 @@ std::string WorldModel::addBody(BodySpec spec) {
   m.fast_slot_of.insert(b.spec.id, slot);
   ++m.count;
   m.ranks_dirty = true;
+  m.min_dirty = true;
   auto dis = m.disabled.find(b.spec.id);
   if (dis != m.disabled.end()) {
     for (const std::string& other : dis->second) {
@@ -620,6 +664,7 @@ bool WorldModel::removeBody(const std::string& id) {
   m.free_slots.push_back(slot);
   --m.count;
   m.ranks_dirty = true;
+  m.min_dirty = true;
   return true;
 }
 
@@ -627,7 +672,7 @@ bool WorldModel::hasBody(const std::string& id) const {
   return impl_->slot_of.count(id) != 0;
 }
 
-std::vector<BodyInfo> WorldModel::listBodies(double now) const {
+std::vector<BodyInfo> WorldModel::listBodies(Stamp now) const {
   std::vector<BodyInfo> out;
   out.reserve(impl_->count);
   for (const BodyState& b : impl_->bodies) {
@@ -649,6 +694,7 @@ void WorldModel::disablePair(const std::string& a, const std::string& b) {
   auto ib = m.slot_of.find(b);
   if (ia != m.slot_of.end() && ib != m.slot_of.end()) {
     m.disabled_slots.insert(orderedKey(ia->second, ib->second));
+    m.min_dirty = true;
   }
 }
 
@@ -656,18 +702,18 @@ bool WorldModel::isPairDisabled(const std::string& a, const std::string& b) cons
   return impl_->isDisabled(a, b);
 }
 
-bool WorldModel::setPose(const std::string& id, const Transform3& pose, double stamp,
+bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp stamp,
                          const std::optional<Twist>& twist) {
   Impl& m = *impl_;
   const int slot =
       m.fast_slot_of.find(id, [&](int k) -> const std::string& { return m.bodies[k].spec.id; });
   if (slot < 0) return false;
-  if (std::isnan(stamp) || !validTransform(pose)) return false;
+  if (!stamp.valid() || !validTransform(pose)) return false;
   if (twist && !(core::allFinite(twist->linear) && core::allFinite(twist->angular))) return false;
   BodyState& b = m.bodies[slot];
   // Out of order: only between two timed stamps. A static pose (stamp <= 0) always applies,
   // and any timed pose may follow a static one.
-  if (b.has_pose && stamp > 0.0 && b.stamp > 0.0 && stamp < b.stamp) return false;
+  if (b.has_pose && !stamp.isStatic() && !b.stamp.isStatic() && stamp < b.stamp) return false;
   const bool moved = !b.has_pose || !(b.pose.R == pose.R) || !(b.pose.t == pose.t);
   b.has_pose = true;
   b.unresolved = false;
@@ -693,12 +739,12 @@ void WorldModel::clearPoses() {
     if (!b.used) continue;
     b.has_pose = false;
     b.unresolved = false;
-    b.stamp = 0.0;
+    b.stamp = Stamp();
     b.has_twist = false;
   }
 }
 
-CycleResult WorldModel::check(double now) {
+CycleResult WorldModel::check(Stamp now) {
   const auto t0 = std::chrono::steady_clock::now();
   Impl& m = *impl_;
   const Settings& s = settings_;
@@ -714,15 +760,16 @@ CycleResult WorldModel::check(double now) {
   if (m.moved.size() < m.bodies.size()) m.moved.resize(m.bodies.size(), 0);
   const double reach = clearCutoffAny(s);
   m.grid.setMargin(reach);
-  double oldest = kInf;
+  std::optional<Stamp> oldest;  // of the timed poses
   for (int slot = 0; slot < static_cast<int>(m.bodies.size()); ++slot) {
     BodyState& b = m.bodies[slot];
     if (!b.used) continue;
     b.fresh_prev = b.fresh;
     b.fresh = b.isFresh(now, s.pose_timeout);
+    if (b.fresh != b.fresh_prev) m.min_dirty = true;
     if (b.fresh) {
       m.active.push_back(slot);
-      if (b.stamp > 0.0) oldest = std::min(oldest, b.stamp);
+      if (!b.stamp.isStatic()) oldest = oldest ? std::min(*oldest, b.stamp) : b.stamp;
       if (!b.was_active || b.swept_version != b.version) {
         m.moved[slot] = 1;
         m.moved_list.push_back(slot);
@@ -735,7 +782,7 @@ CycleResult WorldModel::check(double now) {
     b.was_active = b.fresh;
     b.swept_version = b.version;
   }
-  res.stamp = std::isfinite(oldest) ? oldest : now;
+  res.stamp = oldest.value_or(now);
 
   m.refreshRanks();
   m.pair_keys.clear();
@@ -757,7 +804,10 @@ CycleResult WorldModel::check(double now) {
     if (!m.allowed(i, j)) continue;
     m.next_candidates.push_back(key);
   }
-  if (!m.moved_list.empty()) m.grid.forEachPairWith(m.moved_list, m.moved, consider);
+  if (!m.moved_list.empty()) {
+    m.grid.forEachPairWith(m.moved_list, m.moved, consider);
+    m.min_dirty = true;
+  }
   for (int slot : m.moved_list)
     m.moved[slot] = 0;
   m.candidates.swap(m.next_candidates);
@@ -803,6 +853,17 @@ CycleResult WorldModel::check(double now) {
       if (next == PairStatus::Collision) res.in_collision = true;
       e.status = next;
     }
+  }
+
+  // 3b. min_distance over every pair that may collide: a pair beyond the clear cutoff of every
+  // status may be nearer than the ones the narrow phase answered exactly, or than none.
+  if (!(res.min_distance <=
+        std::min(clearCutoff(PairStatus::Clear, s), clearCutoff(PairStatus::Warning, s)))) {
+    if (m.min_dirty) {
+      m.min_beyond_reach = m.nearestBeyondReach(res.min_distance, cycle, &res);
+      m.min_dirty = false;
+    }
+    res.min_distance = std::min(res.min_distance, m.min_beyond_reach);
   }
 
   // 4. Pairs with a stale body: UNKNOWN. Events only for pairs known (both bodies fresh) in the
@@ -887,7 +948,7 @@ CycleResult WorldModel::check(double now) {
 }
 
 std::optional<PairResult> WorldModel::distance(const std::string& a, const std::string& b,
-                                               double now, std::string* why) const {
+                                               Stamp now, std::string* why) const {
   const Impl& m = *impl_;
   auto fail = [&](std::string msg) -> std::optional<PairResult> {
     if (why) *why = std::move(msg);
@@ -913,7 +974,7 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
   return r;
 }
 
-std::optional<PairResult> WorldModel::nearest(const std::string& a, double now,
+std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now,
                                               std::string* why) const {
   const Impl& m = *impl_;
   auto fail = [&](std::string msg) -> std::optional<PairResult> {
@@ -969,7 +1030,7 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, double now,
 }
 
 std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, const Transform3& pose,
-                                                      double margin, double now) const {
+                                                      double margin, Stamp now) const {
   const Impl& m = *impl_;
   std::vector<PairResult> out;
   if (!checkSpec(body).empty() || !validTransform(pose)) return out;

@@ -1,4 +1,5 @@
 """Helpers shared by the collision_monitor rostests (python test nodes, /usr/bin/python3)."""
+import collections
 import math
 import threading
 import time
@@ -63,6 +64,7 @@ class Monitor:
         self.lock = threading.Lock()
         self.events = []        # (receive wall time, CollisionEvent)
         self.state = None
+        self.states = collections.deque(maxlen=200)  # the latest ~state messages
         self.diagnostics = None
         rospy.Subscriber(NS + 'events', CollisionEvent, self._on_event, queue_size=1000,
                          tcp_nodelay=True)
@@ -78,6 +80,7 @@ class Monitor:
             self.events.append((time.monotonic(), msg))
 
     def _on_state(self, msg):
+        self.states.append(msg)
         self.state = msg
 
     def _on_diag(self, msg):

@@ -8,6 +8,7 @@ import struct
 import sys
 import time
 import unittest
+from fractions import Fraction
 
 import rospy
 import rostest
@@ -491,6 +492,47 @@ class TopicBodies(unittest.TestCase):
         answer = get_loggers().loggers  # one answer, sorted by name
         self.assertEqual(answer, sorted(answer, key=lambda l: l.name))
         self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))  # alive and answering
+
+    def test_16_exact_stamps_and_min_distance(self):
+        # min_distance is the nearest checked pair's distance, also beyond warning_distance
+        # (it was +inf unless a pair was within 5.5 cm). Oracle: the nearest body of every body
+        # with a fresh pose, from ~get_distance.
+        self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))
+
+        def nearest_overall():
+            ds = [r.result.distance for r in (self.distance(b, '') for b in self.m.ids())
+                  if r.success]
+            return min(ds) if ds else None
+        for x in (3.0, 2.5):
+            self.poses.set('s2', pose(x, 0, 0))
+            self.assertIsNotNone(self.wait_distance('s1', 's2', x - 2.0))
+            expected = nearest_overall()
+            self.assertGreater(expected, 0.1)
+            self.assertTrue(wait_for(lambda: abs(self.m.state.min_distance - expected) < 1e-9,
+                                     3.0), (self.m.state.min_distance, expected))
+
+        # Stamps to the nanosecond: a stamp that seconds in a double do not hold (they are 238 ns
+        # apart at 1.7e9 s) comes back exactly in the WARNING_BEGIN it causes and in ~state.
+        self.poses.paused.update({'s1', 's2'})
+        time.sleep(0.1)  # no streamed pose newer than ours in flight
+        stamp = rospy.Time.now() - rospy.Duration(0, 20000000)
+        while abs(Fraction(stamp.to_sec()) - Fraction(stamp.to_nsec(), 10**9)) <= \
+                Fraction(1, 2 * 10**9):
+            stamp += rospy.Duration(0, 1)
+        msg = BodyPoses()
+        msg.header.frame_id = 'world'
+        msg.header.stamp = stamp
+        msg.ids = ['s1', 's2']
+        msg.poses = [pose(0, 0, 0), pose(2.03, 0, 0)]
+        t0 = time.monotonic()
+        self.m.poses_pub.publish(msg)
+        ev = self.m.wait_event(E.WARNING_BEGIN, 's1', 's2', timeout=3.0, since=t0)
+        self.assertIsNotNone(ev, 'no WARNING_BEGIN')
+        self.assertEqual(ev[1].header.stamp, stamp)
+        self.assertTrue(wait_for(lambda: any(st.header.stamp == stamp
+                                             for st in list(self.m.states)), 3.0),
+                        [st.header.stamp for st in list(self.m.states)[-5:]])
+
 
 
 if __name__ == '__main__':

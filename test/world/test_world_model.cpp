@@ -181,7 +181,6 @@ TEST(WorldModel, HysteresisSequenceGivesExactEvents) {
       {1.0070, S::Collision}, {1.0001, S::Collision}, {1.0080, S::Warning}, {1.03, S::Warning},
       {0.9, S::Collision},    {1.5, S::Clear}};
   std::vector<Ev> all;
-  std::vector<double> stamps;
   double t = 10.0;
   for (const auto& [x, expected] : steps) {
     t += 0.1;
@@ -198,7 +197,6 @@ TEST(WorldModel, HysteresisSequenceGivesExactEvents) {
     EXPECT_EQ(r.stamp, t);  // the only timed pose
     for (const Event& e : r.events) {
       all.push_back({e.type, e.pair.body_a, e.pair.body_b});
-      stamps.push_back(e.stamp);
       EXPECT_EQ(e.stamp, t);
     }
   }
@@ -378,6 +376,116 @@ double bruteDistance(const BodySpec& a, const Transform3& pa, const BodySpec& b,
     }
   }
   return best;
+}
+
+/// The smallest brute-force distance over the pairs of `scene` that may collide.
+double bruteMinimum(const Scene& scene) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < scene.specs.size(); ++i) {
+    for (std::size_t j = i + 1; j < scene.specs.size(); ++j) {
+      if (!scene.specs[i].group.empty() && scene.specs[i].group == scene.specs[j].group) continue;
+      best = std::min(
+          best, bruteDistance(scene.specs[i], scene.poses[i], scene.specs[j], scene.poses[j]));
+    }
+  }
+  return best;
+}
+
+TEST(WorldModel, MinDistanceIsTheNearestPairBeyondTheBroadPhase) {
+  // min_distance is the contract's "over all checked pairs": the nearest pair's distance also
+  // when no pair is within the warning distance (it was +inf then). Sparse random scenes (one
+  // and two-part bodies, a group) against brute force.
+  std::mt19937 g(77);
+  Settings s = dyadic();
+  s.pose_timeout = 100.0;
+  const int n = 40;
+  Scene scene = randomScene(g, n, 12.0);
+  WorldModel w(s);
+  for (int i = 0; i < n; ++i) {
+    ASSERT_EQ(w.addBody(scene.specs[i]), "");
+    ASSERT_TRUE(w.setPose(scene.specs[i].id, scene.poses[i], 1.0));
+  }
+  int beyond = 0;
+  for (int round = 0; round < 12; ++round) {
+    if (round > 0) {
+      for (int i = round % 3; i < n; i += 3) {
+        scene.poses[i].t += Vec3(uniform(g, -0.5, 0.5), uniform(g, -0.5, 0.5), 0.0);
+        ASSERT_TRUE(w.setPose(scene.specs[i].id, scene.poses[i], 1.0 + round));
+      }
+    }
+    const CycleResult r = w.check(1.0 + round);
+    const double expected = bruteMinimum(scene);
+    EXPECT_NEAR(r.min_distance, expected, 1e-12) << "round " << round;
+    if (expected > clearCutoffAny(s)) ++beyond;
+    // Nothing moved: the same answer without any GJK.
+    const CycleResult again = w.check(1.0 + round);
+    EXPECT_EQ(again.min_distance, r.min_distance);
+    EXPECT_EQ(again.num_pairs_checked, 0u);
+  }
+  EXPECT_GE(beyond, 6);  // the sample is meaningful: most rounds' nearest pair is beyond reach
+
+  // Disabled pairs, groups and stale bodies do not count; one body: +inf.
+  WorldModel v(dyadic());
+  ASSERT_EQ(v.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(v.addBody(sphere("b", 0.5)), "");
+  ASSERT_EQ(v.addBody(sphere("c", 0.5)), "");
+  ASSERT_TRUE(v.setPose("a", at(0), 1.0));
+  EXPECT_EQ(v.check(1.0).min_distance, std::numeric_limits<double>::infinity());
+  ASSERT_TRUE(v.setPose("b", at(2.0), 1.0));
+  ASSERT_TRUE(v.setPose("c", at(0, 3.5), 0.0));  // static
+  EXPECT_EQ(v.check(1.0).min_distance, 1.0);     // a-b
+  v.disablePair("a", "b");
+  EXPECT_EQ(v.check(1.0).min_distance, 2.5);  // a-c
+  ASSERT_TRUE(v.setPose("b", at(0, 2.4), 1.4));
+  EXPECT_NEAR(v.check(1.4).min_distance, 0.1, 1e-12);  // b-c
+  ASSERT_TRUE(v.setPose("b", at(10.0), 1.5));
+  // a is stale from 1.5 on: b-c only, not a-c (2.5).
+  EXPECT_NEAR(v.check(1.6).min_distance, std::sqrt(112.25) - 1.0, 1e-12);
+
+  // A two-part body whose near-looking part (a rod on the diagonal: box 0.048 m, bounding
+  // sphere 0.05 m from the ball, within the 0.0625 m cutoff) is 0.149 m away, while the part
+  // left out by its bound (a small ball, 0.1 m) is nearer: the pair is 0.1 m apart.
+  WorldModel u(dyadic());
+  Transform3 rod = at(0.65 / std::sqrt(2.0), 0.65 / std::sqrt(2.0));
+  rod.R = Eigen::AngleAxisd(-M_PI / 4, Vec3::UnitZ()).toRotationMatrix();
+  ASSERT_EQ(u.addBody(body("two", {Part{ConvexShape::box(Vec3(0.2, 0.002, 0.002)), rod},
+                                   Part{ConvexShape::sphere(0.01), at(0, -0.61)}})),
+            "");
+  ASSERT_EQ(u.addBody(sphere("ball", 0.5)), "");
+  ASSERT_TRUE(u.setPose("two", at(0), 0.0));
+  ASSERT_TRUE(u.setPose("ball", at(0), 0.0));
+  EXPECT_NEAR(u.check(1.0).min_distance, 0.1, 1e-12);
+  std::string why;
+  EXPECT_NEAR(u.distance("two", "ball", 1.0, &why)->distance, 0.1, 1e-12);
+}
+
+TEST(WorldModel, StampsComeBackToTheNanosecond) {
+  // A ROS stamp of today (1.76e9 s) that a double of seconds does not hold: 1 ns apart from its
+  // neighbours, while doubles there are 238 ns apart.
+  const Stamp t = Stamp::fromNanoseconds(1764094492123456789);
+  ASSERT_NE(Stamp(t.seconds()), t);
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), t));
+  ASSERT_TRUE(w.setPose("b", at(1.03), t));
+  const Stamp now = Stamp::fromNanoseconds(t.nanoseconds() + 10000000);
+  const CycleResult r = w.check(now);
+  EXPECT_EQ(r.stamp, t);
+  ASSERT_EQ(events(r), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
+  EXPECT_EQ(r.events[0].stamp, t);
+  // One nanosecond older is out of order; the same stamp applies again.
+  EXPECT_FALSE(w.setPose("a", at(0), Stamp::fromNanoseconds(t.nanoseconds() - 1)));
+  EXPECT_TRUE(w.setPose("a", at(0), t));
+  // Seconds that are no time at all are refused (NaN, +-inf), the held pose kept.
+  EXPECT_FALSE(w.setPose("a", at(0.5), std::nan("")));
+  EXPECT_FALSE(w.setPose("a", at(0.5), std::numeric_limits<double>::infinity()));
+  EXPECT_FALSE(w.setPose("a", at(0.5), -std::numeric_limits<double>::infinity()));
+  EXPECT_EQ(w.pose("a")->t, Vec3::Zero());
+  // Stamps in seconds round to the nanosecond; differences are seconds.
+  EXPECT_EQ(Stamp(1.5).nanoseconds(), 1500000000);
+  EXPECT_EQ(Stamp(-2e-9).nanoseconds(), -2);
+  EXPECT_DOUBLE_EQ(now - t, 0.01);
 }
 
 TEST(WorldModel, BroadPhaseMatchesBruteForceOn500Bodies) {

@@ -135,12 +135,23 @@ geometry_msgs::Pose toPoseMsg(const core::Transform3& t);
 collision_monitor::PairState toMsg(const world::PairResult& pair,
                                    const core::Transform3& to_frame = core::Transform3::Identity());
 
+/// ROS time <-> the world model's stamps, both in integer nanoseconds: exact both ways for every
+/// ros::Time (a stamp <= 0 becomes ros::Time(0)).
+inline world::Stamp toStamp(const ros::Time& t) {
+  return world::Stamp::fromNanoseconds(static_cast<std::int64_t>(t.toNSec()));
+}
+inline ros::Time toRosTime(world::Stamp s) {
+  ros::Time t;
+  if (!s.isStatic()) t.fromNSec(static_cast<std::uint64_t>(s.nanoseconds()));
+  return t;
+}
+
 /// Event and state messages in `fixed_frame`. A stamp <= 0 (only static poses were used) is
 /// replaced by `now`.
 collision_monitor::CollisionEvent toMsg(const world::Event& event, const std::string& fixed_frame,
-                                        double now);
+                                        world::Stamp now);
 collision_monitor::CollisionState toMsg(const world::CycleResult& cycle,
-                                        const std::string& fixed_frame, double now);
+                                        const std::string& fixed_frame, world::Stamp now);
 
 }  // namespace ros_layer
 }  // namespace collision_monitor

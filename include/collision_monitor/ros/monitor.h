@@ -85,7 +85,8 @@ class Monitor {
   /// header frame -> fixed frame at `stamp` (latest when zero); nullopt with `why`.
   std::optional<core::Transform3> toFixed(const std::string& frame, const ros::Time& stamp,
                                           std::string* why) const;
-  void applyPoses(const std::vector<PoseUpdate>& updates, double stamp, const std::string& source);
+  void applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time& stamp,
+                  const std::string& source);
 
   // services
   bool getDistance(collision_monitor::GetDistance::Request& req,

@@ -4,8 +4,9 @@
 /// per-pair status with hysteresis and edge-triggered events. The ROS layer only converts
 /// messages into these calls; everything here is unit-tested without a master.
 ///
-/// Times are seconds (double, e.g. ros::Time::toSec()); lengths metres; every pose and point is in
-/// the fixed frame. Not thread-safe: the owner serialises access (the node holds one mutex).
+/// Times are Stamps (stamp.h: integer nanoseconds, from seconds or ros::Time); lengths metres;
+/// every pose and point is in the fixed frame. Not thread-safe: the owner serialises access (the
+/// node holds one mutex).
 #pragma once
 
 #include <cstddef>
@@ -21,6 +22,7 @@
 #include "collision_monitor/core/backend.h"
 #include "collision_monitor/core/convex_shape.h"
 #include "collision_monitor/core/math.h"
+#include "collision_monitor/world/stamp.h"
 
 namespace collision_monitor {
 namespace world {
@@ -91,7 +93,7 @@ enum class EventType : std::uint8_t {
 struct Event {
   EventType type = EventType::UnknownBegin;
   PairResult pair;
-  double stamp = 0.0;  ///< time of the poses the verdict was computed from
+  Stamp stamp;  ///< time of the poses the verdict was computed from
 };
 
 struct Settings {
@@ -112,7 +114,7 @@ struct Settings {
 
 /// Everything one check cycle produced.
 struct CycleResult {
-  double stamp = 0.0;  ///< oldest pose stamp used (the time the verdict holds for)
+  Stamp stamp;  ///< oldest pose stamp used (the time the verdict holds for)
   bool in_collision = false;
   double min_distance = std::numeric_limits<double>::infinity();
   std::vector<PairResult> pairs;  ///< every pair in WARNING, COLLISION or UNKNOWN
@@ -165,7 +167,7 @@ class WorldModel {
   /// check(), so every BEGIN stays matched; pairs never seen in such a status vanish silently.
   bool removeBody(const std::string& id);
   bool hasBody(const std::string& id) const;
-  std::vector<BodyInfo> listBodies(double now) const;
+  std::vector<BodyInfo> listBodies(Stamp now) const;
 
   /// Pairs never checked: adjacent links, SRDF <disable_collisions>, the disabled_pairs param.
   /// Order of a and b does not matter; ids need not exist yet.
@@ -175,7 +177,7 @@ class WorldModel {
   /// Sets a body's pose (body frame -> fixed frame) valid at `stamp` (s). A stamp older than the
   /// one held is ignored (returns false): out-of-order input never replaces newer data.
   /// `stamp` <= 0 means static (never stale).
-  bool setPose(const std::string& id, const Transform3& pose, double stamp,
+  bool setPose(const std::string& id, const Transform3& pose, Stamp stamp,
                const std::optional<Twist>& twist = std::nullopt);
   /// Marks a body's pose as unresolvable now (e.g. TF lookup failed): its pairs turn UNKNOWN.
   void markUnresolved(const std::string& id);
@@ -193,21 +195,21 @@ class WorldModel {
   /// num_pairs_cached, not in num_pairs_checked). Pairs and events are sorted by (body_a,
   /// body_b), with body_a < body_b; a pair's END comes before its BEGIN. Event stamps: the older
   /// timed pose stamp of the pair, or `now` when both are static or for UNKNOWN and removal.
-  CycleResult check(double now);
+  CycleResult check(Stamp now);
 
   /// Signed distance between two bodies at their current poses. nullopt with `why` set when an
   /// id is unknown or a pose is stale/unresolved at `now`.
-  std::optional<PairResult> distance(const std::string& a, const std::string& b, double now,
+  std::optional<PairResult> distance(const std::string& a, const std::string& b, Stamp now,
                                      std::string* why) const;
   /// Nearest body to `a` among those it may collide with (respects groups and disabled pairs).
-  std::optional<PairResult> nearest(const std::string& a, double now, std::string* why) const;
+  std::optional<PairResult> nearest(const std::string& a, Stamp now, std::string* why) const;
   /// A hypothetical body at `pose` (body frame -> fixed frame) against every body with a fresh
   /// pose (respecting its group); returns all within `margin`, sorted by distance.
   /// Also every body in COLLISION whatever the margin; a body with the same id as `body` and the
   /// disabled pairs of that id are skipped. Status from the thresholds without hysteresis.
   /// Empty when checkSpec(body) refuses it or the pose is not rigid.
   std::vector<PairResult> checkHypothetical(const BodySpec& body, const Transform3& pose,
-                                            double margin, double now) const;
+                                            double margin, Stamp now) const;
 
   /// Current pose of a body (fixed frame) if it has one.
   std::optional<Transform3> pose(const std::string& id) const;
