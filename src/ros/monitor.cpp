@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <exception>
 #include <functional>
@@ -165,20 +166,36 @@ void Monitor::readParameters() {
   settings_.warning_distance = number("warning_distance", 0.05, any, "finite");
   settings_.contact_distance = number("contact_distance", 0.0, any, "finite");
   if (settings_.warning_distance < settings_.contact_distance) {
-    param_errors_.push_back("warning_distance < contact_distance; using warning_distance = " +
-                            std::to_string(settings_.contact_distance));
-    settings_.warning_distance = settings_.contact_distance;
+    // The default, unless the contact distance is beyond it.
+    const double w = std::max(defaults.warning_distance, settings_.contact_distance);
+    param_errors_.push_back(
+        "warning_distance = " + std::to_string(settings_.warning_distance) +
+        " (must be >= contact_distance = " + std::to_string(settings_.contact_distance) +
+        "); using " + std::to_string(w));
+    settings_.warning_distance = w;
   }
   settings_.hysteresis = number("hysteresis", 0.005, non_negative, ">= 0");
   settings_.pose_timeout = number("pose_timeout", 0.5, positive, "> 0");
   robot_padding_ = number("robot_padding", 0.0, non_negative, ">= 0");
   min_check_interval_ = number("min_check_interval", 0.002, non_negative, ">= 0");
-  pnh_.param("check_on_pose", check_on_pose_, true);
-  pnh_.param("check_on_tf", check_on_tf_, true);
-  pnh_.param("publish_markers", publish_markers_, true);
-  pnh_.param<std::string>("robot_description_param", robot_description_param_, "robot_description");
+  // A value of another type (publish_markers: "no", backend: 7) is an error, not silence.
+  auto typed = [this](const std::string& key, auto fallback, const char* type) {
+    decltype(fallback) v = fallback;
+    if (!pnh_.getParam(key, v)) {
+      XmlRpc::XmlRpcValue raw;
+      if (pnh_.getParam(key, raw))
+        param_errors_.push_back(key + ": not " + type + "; default used");
+      return fallback;
+    }
+    return v;
+  };
+  check_on_pose_ = typed("check_on_pose", true, "a boolean");
+  check_on_tf_ = typed("check_on_tf", true, "a boolean");
+  publish_markers_ = typed("publish_markers", true, "a boolean");
+  robot_description_param_ =
+      typed("robot_description_param", std::string("robot_description"), "a string");
 
-  pnh_.param<std::string>("backend", backend_name_, "gjk");
+  backend_name_ = typed("backend", std::string("gjk"), "a string");
   if (auto b = core::parseBackend(backend_name_)) {
     settings_.backend = *b;
   } else {
@@ -186,9 +203,9 @@ void Monitor::readParameters() {
     settings_.backend = core::BackendType::Gjk;
   }
 
-  auto count = [this](const std::string& key, std::size_t fallback) -> std::size_t {
-    int v = 0;
-    if (!pnh_.getParam(key, v)) return fallback;
+  auto count = [this, &typed](const std::string& key, std::size_t fallback) -> std::size_t {
+    const int v =
+        typed(key, static_cast<int>(std::min<std::size_t>(fallback, INT_MAX)), "an integer");
     if (v <= 0) {
       param_errors_.push_back(key + " = " + std::to_string(v) + " (must be > 0); using " +
                               std::to_string(fallback));

@@ -65,6 +65,7 @@ class Monitor:
         self.events = []        # (receive wall time, CollisionEvent)
         self.state = None
         self.states = collections.deque(maxlen=200)  # the latest ~state messages
+        self.state_count = 0
         self.diagnostics = None
         rospy.Subscriber(NS + 'events', CollisionEvent, self._on_event, queue_size=1000,
                          tcp_nodelay=True)
@@ -81,6 +82,7 @@ class Monitor:
 
     def _on_state(self, msg):
         self.states.append(msg)
+        self.state_count += 1
         self.state = msg
 
     def _on_diag(self, msg):

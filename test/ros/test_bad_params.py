@@ -1,0 +1,67 @@
+#!/usr/bin/python3
+"""rostest: every invalid parameter is reported by name on /diagnostics (level ERROR) and the
+monitor runs with that parameter's default: warning_distance 0.05, markers published, the gjk
+backend, the 50 Hz heartbeat."""
+import sys
+import time
+import unittest
+
+import rospy
+import rostest
+from collision_monitor.msg import PairState
+from diagnostic_msgs.msg import DiagnosticStatus
+from visualization_msgs.msg import MarkerArray
+
+from cm_test_util import Monitor, PoseStreamer, pose, sphere_body, wait_for, NS
+
+
+class BadParams(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_bad_params')
+        cls.m = Monitor()
+        cls.poses = PoseStreamer(cls.m.poses_pub, 'world', rate=20.0)
+        cls.m.add(sphere_body('a', 0.5))
+        cls.m.add(sphere_body('b', 0.5))
+        assert cls.m.wait_listed('a') and cls.m.wait_listed('b')
+        # 4 cm apart: WARNING with the default warning_distance (0.05), CLEAR with the -0.1 given
+        # (it was 0.0 then: warning_distance was set to contact_distance).
+        cls.poses.set('a', pose(0, 0, 0))
+        cls.poses.set('b', pose(1.04, 0, 0))
+
+    def test_01_each_invalid_parameter_reported(self):
+        self.assertTrue(wait_for(lambda: self.m.diagnostics is not None, 10.0))
+        d = self.m.diagnostics
+        self.assertEqual(d.level, DiagnosticStatus.ERROR, d.message)
+        errors = [kv.value for kv in d.values if kv.key == 'invalid parameter']
+        for key in ('rate', 'warning_distance', 'hysteresis', 'pose_timeout', 'publish_markers',
+                    'check_on_pose', 'backend', 'max_bodies', 'max_vertices_per_part'):
+            self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
+        self.assertIn('publish_markers: not a boolean', ' | '.join(errors))
+        self.assertIn('max_bodies: not an integer', ' | '.join(errors))
+
+    def test_02_defaults_in_effect(self):
+        r = wait_for(lambda: (lambda r: r if r.success else None)(
+            self.m.get_distance('a', 'b', '')), 5.0)
+        self.assertIsNotNone(r)
+        self.assertAlmostEqual(r.result.distance, 0.04, places=9)
+        self.assertEqual(r.result.status, PairState.WARNING)
+        self.assertTrue(wait_for(lambda: any(p.status == PairState.WARNING
+                                             for p in self.m.state.pairs), 3.0))
+        # publish_markers: its default (true) while someone listens.
+        got = []
+        sub = rospy.Subscriber(NS + 'markers', MarkerArray, got.append)
+        try:
+            self.assertTrue(wait_for(lambda: len(got) > 0, 5.0), 'no markers')
+        finally:
+            sub.unregister()
+        # rate: the 50 Hz default (about 50 states a second; -5 would be refused).
+        n0 = self.m.state_count
+        t0 = time.monotonic()
+        time.sleep(1.0)
+        rate = (self.m.state_count - n0) / (time.monotonic() - t0)
+        self.assertGreater(rate, 25.0)
+
+
+if __name__ == '__main__':
+    rostest.rosrun('collision_monitor', 'bad_params', BadParams, sys.argv)
