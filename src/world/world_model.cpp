@@ -273,11 +273,22 @@ struct WorldModel::Impl {
 
   std::vector<int> rank;  ///< by slot: position of the id in id order (for sorting outputs)
   bool ranks_dirty = true;
-  /// The smallest distance over every pair that may collide, from the last check() that had to
-  /// search beyond the broad phase (nearestBeyondReach); stale once a body is added, removed or
-  /// moved, a pair disabled, or a body's freshness changes.
-  double min_beyond_reach = kInf;
-  bool min_dirty = true;
+  /// min_distance beyond the broad phase's reach (farMinimum): a second grid with a wider margin
+  /// and its pairs, each with its exact distance once computed (NaN before; kept while neither
+  /// body moves) and a lower bound. Followed incrementally like the broad phase while cycles need
+  /// it (far_active); rebuilt from the boxes when one does after one that did not, when the
+  /// margin changes or a slot is freed.
+  struct FarPair {
+    std::uint64_t key;
+    double lower;  ///< the distance is at least this: box distance, or a GJK cutoff it exceeded
+    double exact;  ///< NaN while unknown
+  };
+  HashGrid far_grid;
+  double far_margin = 0.0;
+  bool far_active = false;
+  std::vector<FarPair> far_pairs;
+  std::vector<FarPair> far_next;
+  std::vector<int> far_order;
 
   // Scratch, reused across cycles.
   std::vector<int> active;
@@ -289,7 +300,6 @@ struct WorldModel::Impl {
   std::vector<std::uint64_t> pair_keys;        ///< rankKey per output pair
   std::vector<std::uint64_t> event_keys;       ///< rankKey per output event
   std::vector<std::pair<std::uint64_t, std::uint32_t>> order;
-  std::vector<std::pair<double, int>> by_x;  ///< nearestBeyondReach: (box min x, slot)
   struct PartPair {
     double lower_bound;
     int i;
@@ -425,35 +435,98 @@ struct WorldModel::Impl {
     return out;
   }
 
-  /// The smallest signed distance over the pairs of fresh bodies that may collide, at most
-  /// `best` (the smallest exact distance of the broad phase's pairs), for min_distance beyond
-  /// the broad phase's reach. Boxes sorted by their low x bound: a body's partners are visited
-  /// in that order until their gap along x reaches the best distance so far, and only pairs
-  /// whose boxes are nearer than it get GJK (with it as the cutoff). The broad phase's exactly
-  /// answered pairs of this cycle are not run again.
-  double nearestBeyondReach(double best, std::uint64_t this_cycle, CycleResult* res) {
-    by_x.clear();
+  /// Adds pair (i, j) to `out` when it may collide and its boxes are within far_margin.
+  void addFar(int i, int j, std::vector<FarPair>* out) const {
+    if (!allowed(i, j)) return;
+    const double lower = boxes[i].distance(boxes[j]);
+    if (lower > far_margin) return;
+    out->push_back(FarPair{orderedKey(i, j), lower, std::numeric_limits<double>::quiet_NaN()});
+  }
+
+  /// far_pairs of this cycle while far_active: the pairs of two unmoved fresh bodies from the
+  /// last cycle (with their distances), those of the moved ones from the grid (call with the
+  /// `moved` flags of this cycle set).
+  void updateFar() {
+    far_grid.prepare();
+    far_next.clear();
+    for (const FarPair& p : far_pairs) {
+      const int i = keyLo(p.key);
+      const int j = keyHi(p.key);
+      if (!bodies[i].fresh || !bodies[j].fresh || moved[i] || moved[j] || !allowed(i, j)) continue;
+      far_next.push_back(p);
+    }
+    far_grid.forEachPairWith(moved_list, moved, [&](int i, int j) { addFar(i, j, &far_next); });
+    far_pairs.swap(far_next);
+  }
+
+  /// The smallest signed distance over the pairs of fresh bodies that may collide, given `best`
+  /// (the smallest exact distance of the broad phase's pairs, which is beyond the clear cutoff):
+  /// the exact distances held, then GJK (with the best so far as cutoff) on the pairs not yet
+  /// known whose lower bound is below it, nearest first. Pairs outside the far grid are more
+  /// than far_margin apart on some axis: when the best is farther, the margin grows (the grid is
+  /// rebuilt) until it is not, or until it spans every box.
+  double farMinimum(double best, double reach, CycleResult* res) {
+    core::Aabb all;
     for (int slot : active)
-      by_x.emplace_back(boxes[slot].min.x(), slot);
-    std::sort(by_x.begin(), by_x.end());
-    for (std::size_t k = 0; k < by_x.size(); ++k) {
-      const int i = by_x[k].second;
-      const core::Aabb& bi = boxes[i];
-      for (std::size_t l = k + 1; l < by_x.size(); ++l) {
-        if (by_x[l].first - bi.max.x() >= best) break;
-        const int j = by_x[l].second;
-        if (!allowed(i, j) || !(bi.distance(boxes[j]) < best)) continue;
-        const auto it = pairs.find(orderedKey(i, j));
-        if (it != pairs.end() && it->second.last_seen == this_cycle && it->second.result.exact) {
-          continue;  // in `best` already
-        }
-        const Narrow n = narrowPhase(bodies[i], bodies[j], best, nullptr);
+      all.extend(boxes[slot]);
+    const double span = all.empty() ? 0.0 : (all.max - all.min).norm();
+    if (!far_active || far_margin < 2.0 * reach) {
+      far_margin = std::max(far_margin, 2.0 * reach);
+      rebuildFar();
+    }
+    for (;;) {
+      for (const FarPair& p : far_pairs) {
+        if (p.exact < best) best = p.exact;  // NaN: false
+      }
+      far_order.clear();
+      for (int k = 0; k < static_cast<int>(far_pairs.size()); ++k) {
+        if (std::isnan(far_pairs[k].exact) && far_pairs[k].lower < best) far_order.push_back(k);
+      }
+      std::sort(far_order.begin(), far_order.end(),
+                [&](int x, int y) { return far_pairs[x].lower < far_pairs[y].lower; });
+      for (int k : far_order) {
+        FarPair& p = far_pairs[k];
+        if (p.lower >= best) break;
+        const Narrow n = narrowPhase(bodies[keyLo(p.key)], bodies[keyHi(p.key)], best, nullptr);
         ++res->num_pairs_checked;
         res->num_part_checks += static_cast<std::size_t>(n.gjk_runs);
-        if (n.exact && n.distance < best) best = n.distance;
+        if (!n.exact) {
+          p.lower = best;  // beyond it
+        } else if (std::isnan(n.distance)) {
+          p.lower = kInf;  // a failed query: the narrow phase reports the pair UNKNOWN if near
+        } else {
+          p.exact = n.distance;
+          best = std::min(best, n.distance);
+        }
       }
+      if (best <= far_margin || far_margin >= span) break;
+      far_margin = std::max(4.0 * far_margin, std::isfinite(best) ? 2.0 * best : 0.0);
+      rebuildFar();
+    }
+    // A margin far wider than needed costs every cycle: narrow it, keeping the pairs within the
+    // new one with their distances.
+    if (best < far_margin / 8.0) {
+      far_margin = std::max(2.0 * best, 2.0 * reach);
+      far_grid.setMargin(far_margin);  // re-enters the boxes at the next prepare()
+      far_pairs.erase(std::remove_if(far_pairs.begin(), far_pairs.end(),
+                                     [&](const FarPair& p) {
+                                       return boxes[keyLo(p.key)].distance(boxes[keyHi(p.key)]) >
+                                              far_margin;
+                                     }),
+                      far_pairs.end());
     }
     return best;
+  }
+
+  void rebuildFar() {
+    far_grid = HashGrid();
+    far_grid.setMargin(far_margin);
+    for (int slot : active)
+      far_grid.set(slot, boxes[slot]);
+    far_grid.prepare();
+    far_pairs.clear();
+    far_grid.forEachPair([&](int i, int j) { addFar(i, j, &far_pairs); });
+    far_active = true;
   }
 
   PairResult makeResult(int a, int b, PairStatus status, const Narrow& n) const {
@@ -613,7 +686,6 @@ std::string WorldModel::addBody(BodySpec spec) {
   m.fast_slot_of.insert(b.spec.id, slot);
   ++m.count;
   m.ranks_dirty = true;
-  m.min_dirty = true;
   auto dis = m.disabled.find(b.spec.id);
   if (dis != m.disabled.end()) {
     for (const std::string& other : dis->second) {
@@ -664,7 +736,7 @@ bool WorldModel::removeBody(const std::string& id) {
   m.free_slots.push_back(slot);
   --m.count;
   m.ranks_dirty = true;
-  m.min_dirty = true;
+  m.far_active = false;  // the slot may be reused
   return true;
 }
 
@@ -694,7 +766,6 @@ void WorldModel::disablePair(const std::string& a, const std::string& b) {
   auto ib = m.slot_of.find(b);
   if (ia != m.slot_of.end() && ib != m.slot_of.end()) {
     m.disabled_slots.insert(orderedKey(ia->second, ib->second));
-    m.min_dirty = true;
   }
 }
 
@@ -766,7 +837,6 @@ CycleResult WorldModel::check(Stamp now) {
     if (!b.used) continue;
     b.fresh_prev = b.fresh;
     b.fresh = b.isFresh(now, s.pose_timeout);
-    if (b.fresh != b.fresh_prev) m.min_dirty = true;
     if (b.fresh) {
       m.active.push_back(slot);
       if (!b.stamp.isStatic()) oldest = oldest ? std::min(*oldest, b.stamp) : b.stamp;
@@ -774,10 +844,12 @@ CycleResult WorldModel::check(Stamp now) {
         m.moved[slot] = 1;
         m.moved_list.push_back(slot);
         m.grid.set(slot, m.boxes[slot]);
+        if (m.far_active) m.far_grid.set(slot, m.boxes[slot]);
       }
     } else {
       m.stale.push_back(slot);
       if (b.was_active) m.grid.remove(slot);
+      if (m.far_active) m.far_grid.remove(slot);
     }
     b.was_active = b.fresh;
     b.swept_version = b.version;
@@ -804,10 +876,8 @@ CycleResult WorldModel::check(Stamp now) {
     if (!m.allowed(i, j)) continue;
     m.next_candidates.push_back(key);
   }
-  if (!m.moved_list.empty()) {
-    m.grid.forEachPairWith(m.moved_list, m.moved, consider);
-    m.min_dirty = true;
-  }
+  if (!m.moved_list.empty()) m.grid.forEachPairWith(m.moved_list, m.moved, consider);
+  if (m.far_active) m.updateFar();
   for (int slot : m.moved_list)
     m.moved[slot] = 0;
   m.candidates.swap(m.next_candidates);
@@ -859,11 +929,9 @@ CycleResult WorldModel::check(Stamp now) {
   // status may be nearer than the ones the narrow phase answered exactly, or than none.
   if (!(res.min_distance <=
         std::min(clearCutoff(PairStatus::Clear, s), clearCutoff(PairStatus::Warning, s)))) {
-    if (m.min_dirty) {
-      m.min_beyond_reach = m.nearestBeyondReach(res.min_distance, cycle, &res);
-      m.min_dirty = false;
-    }
-    res.min_distance = std::min(res.min_distance, m.min_beyond_reach);
+    res.min_distance = m.farMinimum(res.min_distance, reach, &res);
+  } else {
+    m.far_active = false;  // not needed: not followed either, until a cycle needs it again
   }
 
   // 4. Pairs with a stale body: UNKNOWN. Events only for pairs known (both bodies fresh) in the

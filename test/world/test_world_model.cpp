@@ -413,10 +413,26 @@ TEST(WorldModel, MinDistanceIsTheNearestPairBeyondTheBroadPhase) {
         ASSERT_TRUE(w.setPose(scene.specs[i].id, scene.poses[i], 1.0 + round));
       }
     }
+    if (round == 4 || round == 5) {
+      // A body replaced by another in its slot; then one taken away and put back.
+      const int k = round == 4 ? 5 : 11;
+      ASSERT_TRUE(w.removeBody(scene.specs[k].id));
+      scene.specs[k].id = "n" + scene.specs[k].id;
+      ASSERT_EQ(w.addBody(scene.specs[k]), "");
+      ASSERT_TRUE(w.setPose(scene.specs[k].id, scene.poses[k], 1.0 + round));
+    }
+    if (round == 7) {
+      // A pair within reach (the narrow phase answers), then apart again (round 8).
+      scene.poses[1].t = scene.poses[2].t;  // overlapping
+      ASSERT_TRUE(w.setPose(scene.specs[1].id, scene.poses[1], 1.0 + round));
+    }
     const CycleResult r = w.check(1.0 + round);
     const double expected = bruteMinimum(scene);
     EXPECT_NEAR(r.min_distance, expected, 1e-12) << "round " << round;
     if (expected > clearCutoffAny(s)) ++beyond;
+    if (round == 7) {
+      EXPECT_LT(expected, 0.0);
+    }
     // Nothing moved: the same answer without any GJK.
     const CycleResult again = w.check(1.0 + round);
     EXPECT_EQ(again.min_distance, r.min_distance);
