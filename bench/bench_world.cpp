@@ -378,6 +378,9 @@ class Ours {
   static world::Settings settings() {
     world::Settings s;  // warning 0.05, contact 0, hysteresis 0.005, GJK
     s.max_bodies = 100000;
+    // The FCL pipeline answers the pairs within reach only: the same work (min_distance beyond
+    // reach costs 2.4 us per cycle at n = 10, docs/benchmarks.md, thirteenth session).
+    s.exact_min_distance = false;
     return s;
   }
 

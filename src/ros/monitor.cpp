@@ -192,6 +192,7 @@ void Monitor::readParameters() {
   check_on_pose_ = typed("check_on_pose", true, "a boolean");
   check_on_tf_ = typed("check_on_tf", true, "a boolean");
   publish_markers_ = typed("publish_markers", true, "a boolean");
+  settings_.exact_min_distance = typed("exact_min_distance", true, "a boolean");
   robot_description_param_ =
       typed("robot_description_param", std::string("robot_description"), "a string");
 

@@ -927,7 +927,8 @@ CycleResult WorldModel::check(Stamp now) {
 
   // 3b. min_distance over every pair that may collide: a pair beyond the clear cutoff of every
   // status may be nearer than the ones the narrow phase answered exactly, or than none.
-  if (!(res.min_distance <=
+  if (s.exact_min_distance &&
+      !(res.min_distance <=
         std::min(clearCutoff(PairStatus::Clear, s), clearCutoff(PairStatus::Warning, s)))) {
     res.min_distance = m.farMinimum(res.min_distance, reach, &res);
   } else {

@@ -35,7 +35,8 @@ class BadParams(unittest.TestCase):
         self.assertEqual(d.level, DiagnosticStatus.ERROR, d.message)
         errors = [kv.value for kv in d.values if kv.key == 'invalid parameter']
         for key in ('rate', 'warning_distance', 'hysteresis', 'pose_timeout', 'publish_markers',
-                    'check_on_pose', 'backend', 'max_bodies', 'max_vertices_per_part'):
+                    'check_on_pose', 'exact_min_distance', 'backend', 'max_bodies',
+                    'max_vertices_per_part'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
         self.assertIn('publish_markers: not a boolean', ' | '.join(errors))
         self.assertIn('max_bodies: not an integer', ' | '.join(errors))
@@ -55,6 +56,10 @@ class BadParams(unittest.TestCase):
             self.assertTrue(wait_for(lambda: len(got) > 0, 5.0), 'no markers')
         finally:
             sub.unregister()
+        # exact_min_distance: its default (true): min_distance 0.5 m, far beyond reach.
+        self.poses.set('b', pose(1.5, 0, 0))
+        self.assertTrue(wait_for(lambda: abs(self.m.state.min_distance - 0.5) < 1e-9, 3.0),
+                        self.m.state.min_distance)
         # rate: the 50 Hz default (about 50 states a second; -5 would be refused).
         n0 = self.m.state_count
         t0 = time.monotonic()

@@ -439,6 +439,21 @@ TEST(WorldModel, MinDistanceIsTheNearestPairBeyondTheBroadPhase) {
     EXPECT_EQ(again.num_pairs_checked, 0u);
   }
   EXPECT_GE(beyond, 6);  // the sample is meaningful: most rounds' nearest pair is beyond reach
+  {
+    // exact_min_distance off: the pairs within reach only (+inf here), no GJK beyond them.
+    Settings near_only = s;
+    near_only.exact_min_distance = false;
+    WorldModel wn(near_only);
+    ASSERT_EQ(wn.addBody(sphere("a", 0.5)), "");
+    ASSERT_EQ(wn.addBody(sphere("b", 0.5)), "");
+    ASSERT_TRUE(wn.setPose("a", at(0), 0.0));
+    ASSERT_TRUE(wn.setPose("b", at(1.25), 0.0));
+    const CycleResult r = wn.check(1.0);
+    EXPECT_EQ(r.min_distance, std::numeric_limits<double>::infinity());
+    EXPECT_EQ(r.num_pairs_checked, 0u);
+    ASSERT_TRUE(wn.setPose("b", at(1.0625), 0.0));
+    EXPECT_EQ(wn.check(1.0).min_distance, 0.0625);
+  }
 
   // Disabled pairs, groups and stale bodies do not count; one body: +inf.
   WorldModel v(dyadic());

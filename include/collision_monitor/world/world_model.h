@@ -110,6 +110,9 @@ struct Settings {
   /// stale_bodies. Unlimited by default, as the contract asks; 1,000 bodies without poses are
   /// ~500k pairs (~0.8 s and ~100 MB per cycle), so a node may want to set a cap.
   std::size_t max_unknown_pairs = std::numeric_limits<std::size_t>::max();
+  /// CycleResult::min_distance over every pair however far (true), or only over the pairs within
+  /// max(warning, contact) + hysteresis, +inf beyond (false: no search past the broad phase).
+  bool exact_min_distance = true;
 };
 
 /// Everything one check cycle produced.
