@@ -365,6 +365,14 @@ Scene randomScene(std::mt19937& g, int n, double extent) {
   return s;
 }
 
+/// Adds every body of `scene` to `w`, posed at `stamp`.
+void addScene(WorldModel& w, const Scene& scene, Stamp stamp) {
+  for (std::size_t i = 0; i < scene.specs.size(); ++i) {
+    ASSERT_EQ(w.addBody(scene.specs[i]), "");
+    ASSERT_TRUE(w.setPose(scene.specs[i].id, scene.poses[i], stamp));
+  }
+}
+
 /// Brute force: every allowed pair, every part pair, through core::signedDistance directly.
 double bruteDistance(const BodySpec& a, const Transform3& pa, const BodySpec& b,
                      const Transform3& pb) {
@@ -401,10 +409,7 @@ TEST(WorldModel, MinDistanceIsTheNearestPairBeyondTheBroadPhase) {
   const int n = 40;
   Scene scene = randomScene(g, n, 12.0);
   WorldModel w(s);
-  for (int i = 0; i < n; ++i) {
-    ASSERT_EQ(w.addBody(scene.specs[i]), "");
-    ASSERT_TRUE(w.setPose(scene.specs[i].id, scene.poses[i], 1.0));
-  }
+  ASSERT_NO_FATAL_FAILURE(addScene(w, scene, 1.0));
   int beyond = 0;
   for (int round = 0; round < 12; ++round) {
     if (round > 0) {
@@ -526,10 +531,7 @@ TEST(WorldModel, BroadPhaseMatchesBruteForceOn500Bodies) {
   const int n = 500;
   Scene scene = randomScene(g, n, 6.0);
   WorldModel w(s);
-  for (int i = 0; i < n; ++i) {
-    ASSERT_EQ(w.addBody(scene.specs[i]), "");
-    ASSERT_TRUE(w.setPose(scene.specs[i].id, scene.poses[i], 1.0));
-  }
+  ASSERT_NO_FATAL_FAILURE(addScene(w, scene, 1.0));
   std::map<Key, S> prev;
   for (int round = 0; round < 6; ++round) {
     if (round > 0) {
