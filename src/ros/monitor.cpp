@@ -140,6 +140,15 @@ Monitor::~Monitor() {
 // ---------------------------------------------------------------------------------------------
 // start-up
 
+template <class T>
+T Monitor::typedParam(const std::string& key, T fallback, const char* type) {
+  T v = fallback;
+  if (pnh_.getParam(key, v)) return v;
+  XmlRpc::XmlRpcValue raw;
+  if (pnh_.getParam(key, raw)) param_errors_.push_back(key + ": not " + type + "; default used");
+  return fallback;
+}
+
 void Monitor::readParameters() {
   const world::Settings defaults;
   auto number = [this](const std::string& key, double fallback, auto valid, const char* rule) {
@@ -179,24 +188,14 @@ void Monitor::readParameters() {
   robot_padding_ = number("robot_padding", 0.0, non_negative, ">= 0");
   min_check_interval_ = number("min_check_interval", 0.002, non_negative, ">= 0");
   // A value of another type (publish_markers: "no", backend: 7) is an error, not silence.
-  auto typed = [this](const std::string& key, auto fallback, const char* type) {
-    decltype(fallback) v = fallback;
-    if (!pnh_.getParam(key, v)) {
-      XmlRpc::XmlRpcValue raw;
-      if (pnh_.getParam(key, raw))
-        param_errors_.push_back(key + ": not " + type + "; default used");
-      return fallback;
-    }
-    return v;
-  };
-  check_on_pose_ = typed("check_on_pose", true, "a boolean");
-  check_on_tf_ = typed("check_on_tf", true, "a boolean");
-  publish_markers_ = typed("publish_markers", true, "a boolean");
-  settings_.exact_min_distance = typed("exact_min_distance", true, "a boolean");
+  check_on_pose_ = typedParam("check_on_pose", true, "a boolean");
+  check_on_tf_ = typedParam("check_on_tf", true, "a boolean");
+  publish_markers_ = typedParam("publish_markers", true, "a boolean");
+  settings_.exact_min_distance = typedParam("exact_min_distance", true, "a boolean");
   robot_description_param_ =
-      typed("robot_description_param", std::string("robot_description"), "a string");
+      typedParam<std::string>("robot_description_param", "robot_description", "a string");
 
-  backend_name_ = typed("backend", std::string("gjk"), "a string");
+  backend_name_ = typedParam<std::string>("backend", "gjk", "a string");
   if (auto b = core::parseBackend(backend_name_)) {
     settings_.backend = *b;
   } else {
@@ -204,9 +203,9 @@ void Monitor::readParameters() {
     settings_.backend = core::BackendType::Gjk;
   }
 
-  auto count = [this, &typed](const std::string& key, std::size_t fallback) -> std::size_t {
+  auto count = [this](const std::string& key, std::size_t fallback) -> std::size_t {
     const int v =
-        typed(key, static_cast<int>(std::min<std::size_t>(fallback, INT_MAX)), "an integer");
+        typedParam(key, static_cast<int>(std::min<std::size_t>(fallback, INT_MAX)), "an integer");
     if (v <= 0) {
       param_errors_.push_back(key + " = " + std::to_string(v) + " (must be > 0); using " +
                               std::to_string(fallback));
@@ -271,7 +270,8 @@ void Monitor::loadRobot() {
       }
     }
   }
-  pnh_.param<std::string>("fixed_frame", fixed_frame_, root_link.empty() ? "world" : root_link);
+  fixed_frame_ =
+      typedParam<std::string>("fixed_frame", root_link.empty() ? "world" : root_link, "a string");
   if (fixed_frame_.empty()) {
     param_errors_.push_back("fixed_frame is empty; using world");
     fixed_frame_ = "world";

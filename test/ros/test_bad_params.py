@@ -34,12 +34,13 @@ class BadParams(unittest.TestCase):
         d = self.m.diagnostics
         self.assertEqual(d.level, DiagnosticStatus.ERROR, d.message)
         errors = [kv.value for kv in d.values if kv.key == 'invalid parameter']
-        for key in ('rate', 'warning_distance', 'hysteresis', 'pose_timeout', 'publish_markers',
+        for key in ('rate', 'fixed_frame', 'warning_distance', 'hysteresis', 'pose_timeout', 'publish_markers',
                     'check_on_pose', 'exact_min_distance', 'backend', 'max_bodies',
                     'max_vertices_per_part'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
         self.assertIn('publish_markers: not a boolean', ' | '.join(errors))
         self.assertIn('max_bodies: not an integer', ' | '.join(errors))
+        self.assertEqual(self.m.state.header.frame_id, 'world')  # fixed_frame's default
 
     def test_02_defaults_in_effect(self):
         r = wait_for(lambda: (lambda r: r if r.success else None)(

@@ -68,6 +68,10 @@ class Monitor {
 
   // start-up
   void readParameters();
+  /// Private parameter `key` as a T, else `fallback`; a value of another type is recorded in
+  /// param_errors_ ("not <type>; default used"), not ignored.
+  template <class T>
+  T typedParam(const std::string& key, T fallback, const char* type);
   void loadRobot();
   void loadParameterBodies();
   void setupDiagnostics();
