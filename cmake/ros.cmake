@@ -46,15 +46,19 @@ target_compile_options(collision_monitor_node PRIVATE ${CM_WARNING_FLAGS})
 # The node loads the nodelet from libcollision_monitor_ros at run time: build it first.
 add_dependencies(collision_monitor_node collision_monitor_ros)
 
-install(TARGETS collision_monitor_ros
+# The install space runs on its own (scripts/check_install.sh, CI): the three libraries the node
+# and nodelet load, every header the ROS layer's headers include, the demo's files and scripts.
+install(TARGETS collision_monitor_core collision_monitor_world collision_monitor_ros
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   RUNTIME DESTINATION ${CATKIN_GLOBAL_BIN_DESTINATION})
 install(TARGETS collision_monitor_node RUNTIME DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
-install(DIRECTORY include/collision_monitor/ros
-  DESTINATION ${CATKIN_GLOBAL_INCLUDE_DESTINATION}/collision_monitor)
+install(DIRECTORY include/collision_monitor/ DESTINATION ${CATKIN_PACKAGE_INCLUDE_DESTINATION})
 install(FILES nodelet_plugins.xml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
-install(DIRECTORY launch config DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
+install(DIRECTORY launch config urdf meshes rviz DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
+catkin_install_python(PROGRAMS scripts/demo_joint_motion.py scripts/demo_obstacles.py
+  scripts/demo_summary.py DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+install(FILES scripts/demo_scene.py DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 if(CATKIN_ENABLE_TESTING)
   find_package(rostest REQUIRED)

@@ -58,14 +58,15 @@ else
   FAILED=$((FAILED + 1))
 fi
 
-echo "=== 4/4 build inside a catkin workspace (catkin_make)"
+echo "=== 4/4 build and install inside a catkin workspace (catkin_make install), the demo from the install space"
 WS="$CM_BUILD-ws"
 mkdir -p "$WS/src"
 ln -sfn "$CM_ROOT" "$WS/src/collision_monitor"
-(cd "$WS" && catkin_make -DPYTHON_EXECUTABLE="$CM_PYTHON" -DCOLLISION_MONITOR_BENCHMARKS=OFF \
+(cd "$WS" && catkin_make install -DPYTHON_EXECUTABLE="$CM_PYTHON" -DCOLLISION_MONITOR_BENCHMARKS=OFF \
   -DCATKIN_ENABLE_TESTING=OFF -DCOLLISION_MONITOR_WERROR=ON -j"$JOBS" >"$WS.log" 2>&1) \
   || { tail -50 "$WS.log"; exit 1; }
-echo "catkin workspace build: ok"
+echo "catkin workspace build and install: ok"
+bash "$CM_ROOT/scripts/check_install.sh" "$WS/install"
 
 # One closing line for CI: every CTest test of both builds.
 echo "all: $PASSED passed, $FAILED failed"
