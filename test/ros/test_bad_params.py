@@ -1,7 +1,7 @@
 #!/usr/bin/python3
-"""rostest: every invalid parameter is reported by name on /diagnostics (level ERROR) and the
-monitor runs with that parameter's default: warning_distance 0.05, markers published, the gjk
-backend, the 50 Hz heartbeat."""
+"""rostest: every invalid or wrongly typed parameter is reported once by name on /diagnostics
+(level ERROR) and the monitor runs with that parameter's default: warning_distance 0.05, the
+fixed frame world, markers published, min_distance beyond reach, the 50 Hz heartbeat."""
 import sys
 import time
 import unittest
@@ -34,9 +34,9 @@ class BadParams(unittest.TestCase):
         d = self.m.diagnostics
         self.assertEqual(d.level, DiagnosticStatus.ERROR, d.message)
         errors = [kv.value for kv in d.values if kv.key == 'invalid parameter']
-        for key in ('rate', 'fixed_frame', 'warning_distance', 'hysteresis', 'pose_timeout', 'publish_markers',
-                    'check_on_pose', 'exact_min_distance', 'backend', 'max_bodies',
-                    'max_vertices_per_part'):
+        for key in ('rate', 'fixed_frame', 'warning_distance', 'hysteresis', 'pose_timeout',
+                    'publish_markers', 'check_on_pose', 'exact_min_distance', 'backend',
+                    'max_bodies', 'max_vertices_per_part'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
         self.assertIn('publish_markers: not a boolean', ' | '.join(errors))
         self.assertIn('max_bodies: not an integer', ' | '.join(errors))
