@@ -152,14 +152,7 @@ T Monitor::typedParam(const std::string& key, T fallback, const char* type) {
 void Monitor::readParameters() {
   const world::Settings defaults;
   auto number = [this](const std::string& key, double fallback, auto valid, const char* rule) {
-    double v = fallback;
-    if (!pnh_.getParam(key, v)) {
-      XmlRpc::XmlRpcValue raw;
-      if (pnh_.getParam(key, raw)) {
-        param_errors_.push_back(key + ": not a number; using " + std::to_string(fallback));
-      }
-      return fallback;
-    }
+    const double v = typedParam(key, fallback, "a number");
     if (!std::isfinite(v) || !valid(v)) {
       param_errors_.push_back(key + " = " + std::to_string(v) + " (must be " + rule + "); using " +
                               std::to_string(fallback));

@@ -466,10 +466,7 @@ struct WorldModel::Impl {
   /// than far_margin apart on some axis: when the best is farther, the margin grows (the grid is
   /// rebuilt) until it is not, or until it spans every box.
   double farMinimum(double best, double reach, CycleResult* res) {
-    core::Aabb all;
-    for (int slot : active)
-      all.extend(boxes[slot]);
-    const double span = all.empty() ? 0.0 : (all.max - all.min).norm();
+    double span = -1.0;  // of every box; computed only when the margin has to grow
     if (!far_active || far_margin < 2.0 * reach) {
       far_margin = std::max(far_margin, 2.0 * reach);
       rebuildFar();
@@ -499,7 +496,14 @@ struct WorldModel::Impl {
           best = std::min(best, n.distance);
         }
       }
-      if (best <= far_margin || far_margin >= span) break;
+      if (best <= far_margin) break;
+      if (span < 0.0) {
+        core::Aabb all;
+        for (int slot : active)
+          all.extend(boxes[slot]);
+        span = all.empty() ? 0.0 : (all.max - all.min).norm();
+      }
+      if (far_margin >= span) break;
       far_margin = std::max(4.0 * far_margin, std::isfinite(best) ? 2.0 * best : 0.0);
       rebuildFar();
     }
