@@ -6,8 +6,10 @@
      cycle (and not before pose_timeout less one publishing period); resumes -> UNKNOWN_END.
   5. The same for a ~body_poses publisher of two bodies.
   2. A burst of 1,000 ~get_distance calls (8 threads) plus a slow client holding a connection:
-     the periodic check must not stall beyond one cycle; the largest gap between consecutive
-     ~state messages during the burst is measured.
+     every answer exact, the periodic check must not stall beyond one cycle; the largest gap
+     between consecutive ~state messages during the burst is measured. roscpp 1.15 itself drops
+     a fresh connection now and then under such churn (ROSCPP_DROP below): such a call is
+     counted, retried once, and must be rare.
   6. Node restart (SIGKILL, respawned by roslaunch) while publishers keep running: the latched
      ~bodies and the TF stream bring the world back (same ids, same distance).
 Figures go to stdout and to $CM_ARTIFACTS/faults.txt when set."""
@@ -32,6 +34,11 @@ from cm_test_util import Monitor, PoseStreamer, pose, shape, wait_for
 
 E = CollisionEvent
 FIGURES = []
+# What rospy reports when roscpp closes a service connection before answering. Debian's roscpp
+# 1.15.15 does so when a stale EPOLLRDHUP of a just-closed connection reaches the next connection
+# accepted on the same file descriptor (docs/reliability.md, "roscpp drops a fresh service
+# connection"); a plain roscpp server without any of our code shows it at the same rate.
+ROSCPP_DROP = 'unable to receive data from sender'
 
 
 def figure(line):
@@ -157,19 +164,34 @@ class Faults(unittest.TestCase):
         slow.sendall(b'\x10\x00')  # 2 bytes of a 4-byte header length, then silence
         n, threads = 1000, 8
         del self.state_times[:]
-        errors = []
+        errors, drops = [], []
+
+        def connect(k):
+            return rospy.ServiceProxy('/collision_monitor/get_distance', GetDistance,
+                                      persistent=(k % 2 == 0))
 
         def worker(k):
-            proxy = rospy.ServiceProxy('/collision_monitor/get_distance', GetDistance,
-                                       persistent=(k % 2 == 0))
+            proxy = connect(k)
             for _ in range(n // threads):
-                try:
-                    r = proxy('fixed', 'mover', '')
-                    # Every answer the right one (spheres 0.2 and 0.3 with centres 1 m apart).
-                    if not r.success or abs(r.result.distance - 0.5) > 1e-9:
-                        errors.append('answer: %s %r' % (r.success, r.message or r.result))
-                except (rospy.ServiceException, OSError) as e:
-                    errors.append(str(e))
+                for attempt in (1, 2):
+                    try:
+                        r = proxy('fixed', 'mover', '')
+                    except rospy.ServiceException as e:
+                        if attempt == 1 and ROSCPP_DROP in str(e):
+                            drops.append(str(e))  # the retry must then succeed
+                            proxy.close()
+                            proxy = connect(k)
+                            continue
+                        errors.append(str(e))
+                    except OSError as e:
+                        errors.append(str(e))
+                    else:
+                        # Every answer the right one (spheres 0.2 and 0.3 with centres 1 m apart).
+                        if not r.success or abs(r.result.distance - 0.5) > 1e-9:
+                            errors.append('answer: %s %r' % (r.success, r.message or r.result))
+                    break
+            proxy.close()
+
         t0 = time.monotonic()
         ws = [threading.Thread(target=worker, args=(k,)) for k in range(threads)]
         for w in ws:
@@ -183,10 +205,13 @@ class Faults(unittest.TestCase):
         gaps = [b - a for a, b in zip(times, times[1:])]
         max_gap = max(gaps) if gaps else float('inf')
         figure('burst: %d ~get_distance calls from %d threads + 1 stalled client in %.2f s '
-               '(%.0f calls/s), %d errors; ~state during it: %d messages, max gap %.1f ms '
-               '(cycle %.1f ms)' % (n, threads, dt, n / dt, len(errors), len(times),
-                                   1e3 * max_gap, 1e3 / self.rate))
+               '(%.0f calls/s), %d errors, %d connections dropped by roscpp and retried; '
+               '~state during it: %d messages, max gap %.1f ms (cycle %.1f ms)'
+               % (n, threads, dt, n / dt, len(errors), len(drops), len(times), 1e3 * max_gap,
+                  1e3 / self.rate))
         self.assertEqual(errors, [])
+        # Measured: 1 drop in 3,000 to 75,000 calls (ours), 1 in 6,000 (a plain roscpp server).
+        self.assertLessEqual(len(drops), n // 200, drops)
         self.assertGreater(len(times), 2)
         self.assertLessEqual(max_gap, 2.0 / self.rate + 0.02,
                              'the periodic check stalled beyond one cycle during the burst')
