@@ -196,12 +196,24 @@ void Monitor::readParameters() {
     settings_.backend = core::BackendType::Gjk;
   }
 
+  // A whole number: an int, or a double without a fraction (YAML's 1e4). roscpp's getParam(int)
+  // would round 2.5 to 3 without a word.
   auto count = [this](const std::string& key, std::size_t fallback) -> std::size_t {
-    const int v =
-        typedParam(key, static_cast<int>(std::min<std::size_t>(fallback, INT_MAX)), "an integer");
-    if (v <= 0) {
-      param_errors_.push_back(key + " = " + std::to_string(v) + " (must be > 0); using " +
-                              std::to_string(fallback));
+    XmlRpc::XmlRpcValue raw;
+    if (!pnh_.getParam(key, raw)) return fallback;
+    double v = 0.0;
+    if (raw.getType() == XmlRpc::XmlRpcValue::TypeInt) {
+      v = static_cast<int>(raw);
+    } else if (raw.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
+      v = static_cast<double>(raw);
+    } else {
+      param_errors_.push_back(key + ": not an integer; default used");
+      return fallback;
+    }
+    if (!(v > 0.0 && v <= INT_MAX && v == std::floor(v))) {
+      std::ostringstream out;
+      out << key << " = " << v << " (must be a whole number > 0); using " << fallback;
+      param_errors_.push_back(out.str());
       return fallback;
     }
     return static_cast<std::size_t>(v);

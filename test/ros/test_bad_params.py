@@ -36,10 +36,13 @@ class BadParams(unittest.TestCase):
         errors = [kv.value for kv in d.values if kv.key == 'invalid parameter']
         for key in ('rate', 'fixed_frame', 'warning_distance', 'hysteresis', 'pose_timeout',
                     'publish_markers', 'check_on_pose', 'exact_min_distance', 'backend',
-                    'max_bodies', 'max_vertices_per_part'):
+                    'max_bodies', 'max_vertices_per_part', 'max_parts_per_body'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
+        self.assertEqual(len(errors), 12, errors)  # max_unknown_pairs = 1.0 is valid
         self.assertIn('publish_markers: not a boolean', ' | '.join(errors))
         self.assertIn('max_bodies: not an integer', ' | '.join(errors))
+        # Not rounded to 3 (roscpp's getParam(int) would): refused, the default (1000) used.
+        self.assertIn('max_parts_per_body = 2.5 (must be a whole number > 0); using 1000', errors)
         self.assertEqual(self.m.state.header.frame_id, 'world')  # fixed_frame's default
 
     def test_02_defaults_in_effect(self):
@@ -67,6 +70,19 @@ class BadParams(unittest.TestCase):
         time.sleep(1.0)
         rate = (self.m.state_count - n0) / (time.monotonic() - t0)
         self.assertGreater(rate, 25.0)
+
+    def test_03_whole_number_given_as_double(self):
+        # max_unknown_pairs = 1.0: one UNKNOWN pair listed although 'c' (no pose) makes two.
+        self.m.add(sphere_body('c', 0.1))
+        self.assertTrue(self.m.wait_listed('c'))
+        self.assertTrue(wait_for(lambda: 'c' in self.m.state.stale_bodies, 3.0))
+        n0 = self.m.state_count
+        self.assertTrue(wait_for(lambda: self.m.state_count >= n0 + 5, 3.0))
+        state = self.m.state
+        self.assertIn('c', state.stale_bodies)
+        unknown = [(p.body_a, p.body_b) for p in state.pairs if p.status == PairState.UNKNOWN]
+        self.assertEqual(len(unknown), 1, unknown)
+        self.assertIn('c', unknown[0])
 
 
 if __name__ == '__main__':
