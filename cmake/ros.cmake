@@ -15,6 +15,7 @@ set(CM_ROS_SOURCES
   src/ros/monitor.cpp
   src/ros/nodelet.cpp
   src/ros/markers.cpp
+  src/ros/logger_services.cpp
 )
 
 add_library(collision_monitor_ros ${CM_ROS_SOURCES})
@@ -26,22 +27,13 @@ target_include_directories(collision_monitor_ros SYSTEM PUBLIC
   ${urdfdom_headers_INCLUDE_DIRS})
 target_link_libraries(collision_monitor_ros PUBLIC
   collision_monitor_world collision_monitor_core ${catkin_LIBRARIES}
-  ${urdfdom_LIBRARIES} tinyxml2::tinyxml2)
+  ${urdfdom_LIBRARIES} tinyxml2::tinyxml2 PkgConfig::LOG4CXX)
 target_compile_options(collision_monitor_ros PRIVATE ${CM_WARNING_FLAGS})
 add_dependencies(collision_monitor_ros ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_EXPORTED_TARGETS})
 
-# The node's replacement of roscpp's ~get_loggers (logger_services.h). Static and not in
-# collision_monitor_ros: the node must not link the nodelet library that pluginlib loads.
-add_library(collision_monitor_logger_services STATIC src/ros/logger_services.cpp)
-target_include_directories(collision_monitor_logger_services PUBLIC
-  $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>)
-target_include_directories(collision_monitor_logger_services SYSTEM PUBLIC ${catkin_INCLUDE_DIRS})
-target_link_libraries(collision_monitor_logger_services PUBLIC ${catkin_LIBRARIES} PkgConfig::LOG4CXX)
-target_compile_options(collision_monitor_logger_services PRIVATE ${CM_WARNING_FLAGS})
-
 add_executable(collision_monitor_node src/nodes/collision_monitor_node.cpp)
 target_include_directories(collision_monitor_node SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
-target_link_libraries(collision_monitor_node collision_monitor_logger_services ${catkin_LIBRARIES})
+target_link_libraries(collision_monitor_node ${catkin_LIBRARIES})
 target_compile_options(collision_monitor_node PRIVATE ${CM_WARNING_FLAGS})
 # The node loads the nodelet from libcollision_monitor_ros at run time: build it first.
 add_dependencies(collision_monitor_node collision_monitor_ros)
@@ -75,7 +67,7 @@ if(CATKIN_ENABLE_TESTING)
   cm_add_gtest(test_ros_conversions
     SOURCES test/ros/test_conversions.cpp test/ros/test_robot_model.cpp
       test/ros/test_logger_services.cpp
-    LIBS collision_monitor_ros collision_monitor_logger_services)
+    LIBS collision_monitor_ros)
   if(TARGET test_ros_conversions)
     target_include_directories(test_ros_conversions SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
     target_compile_definitions(test_ros_conversions PRIVATE

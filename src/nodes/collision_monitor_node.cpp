@@ -6,8 +6,6 @@
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 
-#include "collision_monitor/ros/logger_services.h"
-
 namespace {
 
 /// ros::spin() without its busy wait during shutdown. ros::shutdown() (run by roscpp's poll
@@ -33,10 +31,7 @@ void spinUntilShutdown() {
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "collision_monitor");
-  ros::NodeHandle nh;  // starts roscpp, which advertises ~get_loggers
-  // roscpp's ~get_loggers crashes the process on Debian 12 (logger_services.h): replaced before
-  // the nodelet starts its work.
-  const ros::ServiceServer get_loggers = collision_monitor::ros_layer::replaceGetLoggers();
+  ros::NodeHandle nh;             // starts roscpp
   nodelet::Loader loader(false);  // no manager services: this process hosts one nodelet
   const nodelet::M_string remappings(ros::names::getRemappings());
   const nodelet::V_string my_argv(argv + 1, argv + argc);

@@ -3,12 +3,14 @@
 #include "collision_monitor/ros/logger_services.h"
 
 #include <algorithm>
+#include <mutex>
 
 #include <log4cxx/level.h>
 #include <log4cxx/logger.h>
 #include <log4cxx/logmanager.h>
 #include <ros/node_handle.h>
 #include <ros/service_manager.h>
+#include <ros/service_server.h>
 #include <ros/this_node.h>
 #include <roscpp/GetLoggers.h>
 
@@ -50,11 +52,18 @@ std::vector<std::pair<std::string, std::string>> loggers() {
   return out;
 }
 
-::ros::ServiceServer replaceGetLoggers() {
-  ::ros::ServiceManager::instance()->unadvertiseService(::ros::this_node::getName() +
-                                                        "/get_loggers");
-  ::ros::NodeHandle pnh("~");
-  return pnh.advertiseService("get_loggers", &getLoggers);
+bool replaceGetLoggers() {
+  static std::once_flag once;
+  bool done = false;
+  std::call_once(once, [&done] {
+    ::ros::ServiceManager::instance()->unadvertiseService(::ros::this_node::getName() +
+                                                          "/get_loggers");
+    ::ros::NodeHandle pnh("~");
+    // Deliberately never destroyed: the process's service until roscpp shuts down.
+    new ::ros::ServiceServer(pnh.advertiseService("get_loggers", &getLoggers));
+    done = true;
+  });
+  return done;
 }
 
 }  // namespace ros_layer

@@ -7,6 +7,7 @@
 #include <nodelet/nodelet.h>
 #include <pluginlib/class_list_macros.hpp>
 
+#include "collision_monitor/ros/logger_services.h"
 #include "collision_monitor/ros/monitor.h"
 
 namespace collision_monitor {
@@ -15,6 +16,11 @@ namespace ros_layer {
 class CollisionMonitorNodelet : public nodelet::Nodelet {
  private:
   void onInit() override {
+    // roscpp's ~get_loggers crashes the process on Debian 12 (logger_services.h): replaced in
+    // this process (the node executable's, or a manager's) before the monitor starts its work.
+    if (replaceGetLoggers())
+      NODELET_INFO("%s/get_loggers served from log4cxx (roscpp's crashes on Debian 12)",
+                   ::ros::this_node::getName().c_str());
     monitor_ = std::make_unique<Monitor>(getMTNodeHandle(), getMTPrivateNodeHandle(), getName());
   }
   std::unique_ptr<Monitor> monitor_;

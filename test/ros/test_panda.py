@@ -1,17 +1,22 @@
 #!/usr/bin/python3
 """rostest: Franka Panda from the URDF (one body per link with collision geometry, attached to
 the link frames published by robot_state_publisher), adjacent-link and SRDF exclusion, a
-topic-posed obstacle against the hand, and robot links going stale when joint states stop."""
+topic-posed obstacle against the hand, robot links going stale when joint states stop, and the
+manager's ~get_loggers (replaced by the nodelet: roscpp's crashes the process on Debian 12)."""
 import sys
 import threading
 import time
 import unittest
 import xml.etree.ElementTree as ET
+import xmlrpc.client
 
+import rosgraph
+import rosnode
 import rospy
 import rostest
 import tf2_ros
 from collision_monitor.msg import CollisionEvent
+from roscpp.srv import GetLoggers
 from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import JointState
 
@@ -203,6 +208,20 @@ class Panda(unittest.TestCase):
             self.assertLess(latencies[1], 0.1)
         finally:
             stop.set()
+
+    def test_08_manager_get_loggers_does_not_crash_it(self):
+        # roscpp's own ~get_loggers (rosconsole on log4cxx 1.0, Debian 12) killed the process at
+        # the second call; here the process is a stock nodelet manager, and the monitor in it
+        # died with it. The nodelet replaces the manager's service once per process.
+        uri = rosnode.get_api_uri(rosgraph.Master('/test_panda'), '/manager', skip_cache=True)
+        pid = xmlrpc.client.ServerProxy(uri).getPid('/test_panda')[2]
+        get_loggers = rospy.ServiceProxy('/manager/get_loggers', GetLoggers)
+        for _ in range(5):
+            names = {l.name: l.level for l in get_loggers().loggers}
+            self.assertEqual(names.get('ros.roscpp'), 'info', names)
+            self.assertIn('ros.collision_monitor', names)
+        self.assertEqual(xmlrpc.client.ServerProxy(uri).getPid('/test_panda')[2], pid)
+        self.assertIsNotNone(self.wait_fresh('panda_link0', 'panda_hand'))
 
 
 if __name__ == '__main__':

@@ -5,15 +5,15 @@
 /// the next log line that looks up a logger after the first) crashes the process with SIGSEGV in
 /// log4cxx::LogManager::getLoggerLS. rqt_logger_level and `rosservice call <node>/get_loggers`
 /// make that call; /rosout dies of it too (ros/rosconsole#62 reports the same family of crashes).
-/// The node executable replaces the service with loggers() below, which asks log4cxx itself.
-/// `~set_logger_level` is roscpp's own (it does not touch the repository).
+/// The nodelet replaces its process's service with loggers() below, which asks log4cxx itself:
+/// the node executable's, and a nodelet manager's that hosts it (a crash there would take the
+/// monitor down with the manager). `~set_logger_level` is roscpp's own (it does not touch the
+/// repository).
 #pragma once
 
 #include <string>
 #include <utility>
 #include <vector>
-
-#include <ros/service_server.h>
 
 namespace collision_monitor {
 namespace ros_layer {
@@ -23,10 +23,13 @@ namespace ros_layer {
 /// Needs no master.
 std::vector<std::pair<std::string, std::string>> loggers();
 
-/// Unadvertises roscpp's `~get_loggers` of this process and advertises one served by loggers().
-/// Call once after ros::start() (any NodeHandle) from the process's main: the services belong to
-/// the process (a nodelet manager's are its own). Keep the returned server for the node's life.
-::ros::ServiceServer replaceGetLoggers();
+/// Unadvertises roscpp's `~get_loggers` of this process and advertises one served by loggers(),
+/// once per process (later calls do nothing); returns true on the call that did it. Needs
+/// ros::start() (any NodeHandle). The services belong to the process (in a nodelet manager, the
+/// manager's), so the server lives as long as the process: it is never shut down, and nodelet
+/// managers keep plugin libraries loaded until they exit (pluginlib loads without on-demand
+/// unloading), so its callback stays valid.
+bool replaceGetLoggers();
 
 }  // namespace ros_layer
 }  // namespace collision_monitor
