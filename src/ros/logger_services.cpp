@@ -3,7 +3,6 @@
 #include "collision_monitor/ros/logger_services.h"
 
 #include <algorithm>
-#include <mutex>
 
 #include <log4cxx/level.h>
 #include <log4cxx/logger.h>
@@ -53,16 +52,19 @@ std::vector<std::pair<std::string, std::string>> loggers() {
 }
 
 bool replaceGetLoggers() {
-  static std::once_flag once;
   bool done = false;
-  std::call_once(once, [&done] {
+  // Once per process (a thread-safe static initialisation). Destroyed when the library is
+  // unloaded or at exit: after ros::shutdown() (a nodelet loader unloads its plugins as the
+  // process ends), before roscpp's own singletons, made earlier; the unadvertise it then makes
+  // is a no-op of the shut-down ServiceManager.
+  static const ::ros::ServiceServer server = [&done] {
     ::ros::ServiceManager::instance()->unadvertiseService(::ros::this_node::getName() +
                                                           "/get_loggers");
     ::ros::NodeHandle pnh("~");
-    // Deliberately never destroyed: the process's service until roscpp shuts down.
-    new ::ros::ServiceServer(pnh.advertiseService("get_loggers", &getLoggers));
     done = true;
-  });
+    return pnh.advertiseService("get_loggers", &getLoggers);
+  }();
+  (void)server;
   return done;
 }
 

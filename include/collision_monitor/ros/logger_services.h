@@ -26,9 +26,8 @@ std::vector<std::pair<std::string, std::string>> loggers();
 /// Unadvertises roscpp's `~get_loggers` of this process and advertises one served by loggers(),
 /// once per process (later calls do nothing); returns true on the call that did it. Needs
 /// ros::start() (any NodeHandle). The services belong to the process (in a nodelet manager, the
-/// manager's), so the server lives as long as the process: it is never shut down, and nodelet
-/// managers keep plugin libraries loaded until they exit (pluginlib loads without on-demand
-/// unloading), so its callback stays valid.
+/// manager's), so the server lives as long as the process, not as the caller: nodelet loaders
+/// keep plugin libraries loaded until the process ends (pluginlib without on-demand unloading).
 bool replaceGetLoggers();
 
 }  // namespace ros_layer
