@@ -196,8 +196,8 @@ void Monitor::readParameters() {
     settings_.backend = core::BackendType::Gjk;
   }
 
-  // A whole number: an int, or a double without a fraction (YAML's 1e4). roscpp's getParam(int)
-  // would round 2.5 to 3 without a word.
+  // A whole number: an int, or a double without a fraction (10000.0; `<param value="1e4"/>`).
+  // roscpp's getParam(int) would round 2.5 to 3 without a word.
   auto count = [this](const std::string& key, std::size_t fallback) -> std::size_t {
     XmlRpc::XmlRpcValue raw;
     if (!pnh_.getParam(key, raw)) return fallback;

@@ -37,7 +37,7 @@ FIGURES = []
 # What rospy reports when roscpp closes a service connection before answering. Debian's roscpp
 # 1.15.15 does so when a stale EPOLLRDHUP of a just-closed connection reaches the next connection
 # accepted on the same file descriptor (docs/reliability.md, "roscpp drops a fresh service
-# connection"); a plain roscpp server without any of our code shows it at the same rate.
+# connection"); a plain roscpp server without any of our code shows it too.
 ROSCPP_DROP = 'unable to receive data from sender'
 
 
