@@ -196,20 +196,11 @@ void Monitor::readParameters() {
     settings_.backend = core::BackendType::Gjk;
   }
 
-  // A whole number: an int, or a double without a fraction (10000.0; `<param value="1e4"/>`).
-  // roscpp's getParam(int) would round 2.5 to 3 without a word.
+  // A whole number: an int, or a double without a fraction (10000.0; `<param value="1e4"/>`),
+  // read as a double (roscpp's getParam(double) takes both). roscpp's getParam(int) would round
+  // 2.5 to 3 without a word.
   auto count = [this](const std::string& key, std::size_t fallback) -> std::size_t {
-    XmlRpc::XmlRpcValue raw;
-    if (!pnh_.getParam(key, raw)) return fallback;
-    double v = 0.0;
-    if (raw.getType() == XmlRpc::XmlRpcValue::TypeInt) {
-      v = static_cast<int>(raw);
-    } else if (raw.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
-      v = static_cast<double>(raw);
-    } else {
-      param_errors_.push_back(key + ": not an integer; default used");
-      return fallback;
-    }
+    const double v = typedParam(key, static_cast<double>(fallback), "an integer");
     if (!(v > 0.0 && v <= INT_MAX && v == std::floor(v))) {
       std::ostringstream out;
       out << key << " = " << v << " (must be a whole number > 0); using " << fallback;
