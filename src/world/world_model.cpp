@@ -552,6 +552,30 @@ struct WorldModel::Impl {
     return r;
   }
 
+  /// The exact result of pair (a, b), however far, computed unless the entry holds it for the
+  /// bodies' current poses; nullptr when the query fails (the entry is left as it was). For the
+  /// END event of a pair turning CLEAR, so that it says where the pair is: the narrow phase stops
+  /// at the clear cutoff, and the broad phase does not run it on pairs beyond reach.
+  const Narrow* exactResult(int a, int b, PairEntry* e, std::size_t* part_checks) const {
+    const BodyState& A = bodies[a];
+    const BodyState& B = bodies[b];
+    if (e->has_result && e->result.exact && e->version_a == A.version &&
+        e->version_b == B.version) {
+      return &e->result;
+    }
+    const std::size_t nparts = A.spec.parts.size() * B.spec.parts.size();
+    if (e->caches.size() != nparts) e->caches.assign(nparts, core::PairCache());
+    const Narrow n = narrowPhase(A, B, kInf, e->caches.data());
+    *part_checks += static_cast<std::size_t>(n.gjk_runs);
+    if (!std::isfinite(n.distance)) return nullptr;
+    e->result = n;
+    e->version_a = A.version;
+    e->version_b = B.version;
+    e->cutoff_used = kInf;
+    e->has_result = true;
+    return &e->result;
+  }
+
   PairResult unknownResult(int a, int b) const {
     PairResult r;
     r.body_a = bodies[a].spec.id;
@@ -915,6 +939,9 @@ CycleResult WorldModel::check(Stamp now) {
     const PairStatus next = nextStatus(e.status, d, s);
     if (e.result.exact && d < res.min_distance) res.min_distance = d;
     if (next != e.status || next != PairStatus::Clear) {
+      if (next == PairStatus::Clear && !e.result.exact) {
+        m.exactResult(a, b, &e, &res.num_part_checks);  // the END event says where the pair is
+      }
       const PairResult r = m.makeResult(a, b, next, e.result);
       const std::uint64_t rk = m.rankKey(a, b);
       if (next != e.status) {
@@ -939,8 +966,10 @@ CycleResult WorldModel::check(Stamp now) {
     m.far_active = false;  // not needed: not followed either, until a cycle needs it again
   }
 
-  // 4. Pairs with a stale body: UNKNOWN. Events only for pairs known (both bodies fresh) in the
-  // previous cycle or already tracked; a pair never known starts UNKNOWN silently.
+  // 4. Pairs with a stale body: UNKNOWN. A pair that becomes UNKNOWN gets UNKNOWN_BEGIN, also
+  // one never known (a body without a pose yet), so that a consumer of the events never takes it
+  // for clear. Pairs never known are tracked only while listed (max_unknown_pairs): that bounds
+  // the cost of many bodies without poses, and the rest are implied by stale_bodies.
   for (int sl : m.stale) {
     for (int o = 0; o < static_cast<int>(m.bodies.size()); ++o) {
       const BodyState& O = m.bodies[o];
@@ -960,7 +989,7 @@ CycleResult WorldModel::check(Stamp now) {
           Impl::emit(e.status, PairStatus::Unknown, r, now, &res.events, &m.event_keys, rk);
           e.status = PairStatus::Unknown;
         }
-      } else if (known_before) {
+      } else {
         Impl::emit(PairStatus::Clear, PairStatus::Unknown, r, now, &res.events, &m.event_keys, rk);
         PairEntry& e = m.pairs[key];
         e.status = PairStatus::Unknown;
@@ -980,10 +1009,11 @@ CycleResult WorldModel::check(Stamp now) {
       const int a = keyLo(it->first);
       const int b = keyHi(it->first);
       if (e.status != PairStatus::Clear) {
-        PairResult r;
-        r.body_a = m.bodies[a].spec.id;
-        r.body_b = m.bodies[b].spec.id;
-        if (r.body_b < r.body_a) std::swap(r.body_a, r.body_b);
+        // The END event says where the pair is when both poses are fresh (+inf otherwise).
+        const Narrow* x = m.bodies[a].fresh && m.bodies[b].fresh
+                              ? m.exactResult(a, b, &e, &res.num_part_checks)
+                              : nullptr;
+        PairResult r = x ? m.makeResult(a, b, PairStatus::Clear, *x) : m.unknownResult(a, b);
         r.status = PairStatus::Clear;
         Impl::emit(e.status, PairStatus::Clear, r, m.pairStamp(a, b, now), &res.events,
                    &m.event_keys, m.rankKey(a, b));

@@ -198,6 +198,9 @@ TEST(WorldModel, HysteresisSequenceGivesExactEvents) {
     for (const Event& e : r.events) {
       all.push_back({e.type, e.pair.body_a, e.pair.body_b});
       EXPECT_EQ(e.stamp, t);
+      // Every event says where the pair is, an END to CLEAR too (the pair beyond reach).
+      EXPECT_NEAR(e.pair.distance, x - 1.0, 1e-12) << x;
+      EXPECT_NEAR((e.pair.normal - Vec3::UnitX()).norm(), 0.0, 1e-12) << x;
     }
   }
   const std::vector<Ev> expected = {{E::WarningBegin, "a", "b"},   {E::WarningEnd, "a", "b"},
@@ -205,6 +208,31 @@ TEST(WorldModel, HysteresisSequenceGivesExactEvents) {
                                     {E::WarningBegin, "a", "b"},   {E::WarningEnd, "a", "b"},
                                     {E::CollisionBegin, "a", "b"}, {E::CollisionEnd, "a", "b"}};
   EXPECT_EQ(all, expected);
+}
+
+TEST(WorldModel, EndEventsToClearCarryTheExactDistance) {
+  // b leaves WARNING along the diagonal: the boxes still overlap (within the broad phase's reach),
+  // the narrow phase stops at the clear cutoff (its bound 0.08 > 0.0703), and the END event gets
+  // the exact distance, witness points and normal all the same.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  const Vec3 diag = Vec3(1, 1, 0).normalized();
+  ASSERT_TRUE(w.setPose("b", at(1.03 * diag.x(), 1.03 * diag.y()), 1.0));
+  EXPECT_EQ(events(w.check(1.0)), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
+  ASSERT_TRUE(w.setPose("b", at(1.08 * diag.x(), 1.08 * diag.y()), 1.1));
+  const CycleResult r = w.check(1.1);
+  ASSERT_EQ(events(r), (std::vector<Ev>{{E::WarningEnd, "a", "b"}}));
+  const PairResult& p = r.events[0].pair;
+  EXPECT_EQ(p.status, S::Clear);
+  EXPECT_NEAR(p.distance, 0.08, 1e-12);
+  EXPECT_NEAR((p.point_a - 0.5 * diag).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((p.point_b - 0.58 * diag).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((p.normal - diag).norm(), 0.0, 1e-12);
+  EXPECT_TRUE(std::isinf(p.time_to_collision));
+  EXPECT_TRUE(r.pairs.empty());
+  EXPECT_NEAR(r.min_distance, 0.08, 1e-12);
 }
 
 TEST(WorldModel, StalenessUnknownAndRecovery) {
@@ -269,16 +297,55 @@ TEST(WorldModel, StalenessUnknownAndRecovery) {
   EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownEnd, "a", "b"}}));
   EXPECT_EQ(r.stamp, 0.4);
 
-  // A body that never had a pose: its pairs are UNKNOWN (listed) but were never known, so no
-  // events; the first pose brings it in silently when CLEAR.
+  // A body that never had a pose: its pairs are UNKNOWN, with UNKNOWN_BEGIN although they were
+  // never known (an events consumer must not take them for clear); the first pose ends them.
   ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
   r = w.check(0.6);
-  EXPECT_TRUE(r.events.empty());
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownBegin, "a", "c"}, {E::UnknownBegin, "b", "c"}}));
   EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "c"}, S::Unknown}, {{"b", "c"}, S::Unknown}}));
   EXPECT_EQ(r.stale_bodies, std::vector<std::string>{"c"});
+  r = w.check(0.6);
+  EXPECT_TRUE(r.events.empty());  // still UNKNOWN: no new transition
   EXPECT_TRUE(w.setPose("c", at(0, 10), 0.6));
   r = w.check(0.6);
-  EXPECT_TRUE(r.events.empty());
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownEnd, "a", "c"}, {E::UnknownEnd, "b", "c"}}));
+  EXPECT_TRUE(r.pairs.empty());
+
+  // Never posed and removed: the open UNKNOWN intervals end with the body.
+  ASSERT_EQ(w.addBody(sphere("d", 0.5)), "");
+  r = w.check(0.7);
+  EXPECT_EQ(r.events.size(), 3u);
+  ASSERT_TRUE(w.removeBody("d"));
+  r = w.check(0.7);
+  EXPECT_EQ(events(r),
+            (std::vector<Ev>{
+                {E::UnknownEnd, "a", "d"}, {E::UnknownEnd, "b", "d"}, {E::UnknownEnd, "c", "d"}}));
+}
+
+TEST(WorldModel, NeverPosedPairsHaveEventsWhileListed) {
+  // Pairs never known are tracked (and get events) only while listed: with a cap of 2, the third
+  // UNKNOWN pair is counted and implied by stale_bodies, without an event.
+  Settings s = dyadic();
+  s.max_unknown_pairs = 2;
+  WorldModel w(s);
+  for (const char* id : {"a", "b", "c"})
+    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
+  CycleResult r = w.check(0.0);
+  EXPECT_EQ(r.num_unknown_pairs, 3u);
+  EXPECT_EQ(r.pairs.size(), 2u);
+  ASSERT_EQ(r.events.size(), 2u);
+  for (std::size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(r.events[i].type, E::UnknownBegin);
+    EXPECT_EQ(std::tie(r.events[i].pair.body_a, r.events[i].pair.body_b),
+              std::tie(r.pairs[i].body_a, r.pairs[i].body_b));
+  }
+  // Every BEGIN is matched by one END once the poses come (far apart: CLEAR).
+  for (int i = 0; i < 3; ++i)
+    ASSERT_TRUE(w.setPose(std::string(1, static_cast<char>('a' + i)), at(10.0 * i), 0.0));
+  r = w.check(0.0);
+  ASSERT_EQ(r.events.size(), 2u);
+  EXPECT_EQ(r.events[0].type, E::UnknownEnd);
+  EXPECT_EQ(r.events[1].type, E::UnknownEnd);
   EXPECT_TRUE(r.pairs.empty());
 }
 
@@ -630,11 +697,12 @@ TEST(WorldModel, ReplaceKeepsStatusAndPoseRemoveEndsEvents) {
   EXPECT_EQ(r.events[0].stamp, 1.4);
   EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Unknown}}));
 
-  // The slot is reused by a new body: no leftovers from c.
+  // The slot is reused by a new body: no leftovers from c. Its pair with the stale b begins
+  // UNKNOWN.
   ASSERT_EQ(w.addBody(sphere("d", 0.5)), "");
   ASSERT_TRUE(w.setPose("d", at(-1.03), 0.0));
   r = w.check(1.5);
-  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningBegin, "a", "d"}}));
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningBegin, "a", "d"}, {E::UnknownBegin, "b", "d"}}));
   EXPECT_EQ(statuses(r),
             (std::map<Key, S>{
                 {{"a", "b"}, S::Unknown}, {{"a", "d"}, S::Warning}, {{"b", "d"}, S::Unknown}}));
@@ -1012,7 +1080,7 @@ TEST(WorldModel, ArmAmongAThousandObstaclesIsFast) {
 }
 
 TEST(WorldModel, ThousandBodiesWithoutPosesStayAffordable) {
-  // At start-up nothing has a pose yet: ~500k pairs are UNKNOWN (listed, no events).
+  // At start-up nothing has a pose yet: ~500k pairs are UNKNOWN (listed, one UNKNOWN_BEGIN each).
   std::mt19937 g(5);
   WorldModel w;
   Scene scene = randomScene(g, 1000, 10.0);
@@ -1022,7 +1090,7 @@ TEST(WorldModel, ThousandBodiesWithoutPosesStayAffordable) {
   }
   const CycleResult r = w.check(1.0);
   EXPECT_EQ(r.pairs.size(), 1000u * 999u / 2u);
-  EXPECT_TRUE(r.events.empty());
+  EXPECT_EQ(r.events.size(), r.pairs.size());
   EXPECT_EQ(r.stale_bodies.size(), 1000u);
   EXPECT_EQ(r.pairs.front().body_a, "o000");
   EXPECT_EQ(r.pairs.front().body_b, "o001");
@@ -1038,6 +1106,7 @@ TEST(WorldModel, ThousandBodiesWithoutPosesStayAffordable) {
     ASSERT_EQ(wc.addBody(b), "");
   const CycleResult rc = wc.check(1.0);
   EXPECT_EQ(rc.pairs.size(), 100u);
+  EXPECT_EQ(rc.events.size(), 100u);
   EXPECT_EQ(rc.num_unknown_pairs, 1000u * 999u / 2u);
   EXPECT_EQ(rc.stale_bodies.size(), 1000u);
   std::printf("... capped at 100 listed: %.1f ms\n", 1e3 * rc.compute_time);

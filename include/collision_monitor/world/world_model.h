@@ -107,8 +107,10 @@ struct Settings {
   std::size_t max_parts_per_body = 1000;
   /// At most this many UNKNOWN pairs are listed in CycleResult::pairs (those of the stale bodies
   /// added first); the rest are counted in CycleResult::num_unknown_pairs and implied by
-  /// stale_bodies. Unlimited by default, as the contract asks; 1,000 bodies without poses are
-  /// ~500k pairs (~0.8 s and ~100 MB per cycle), so a node may want to set a cap.
+  /// stale_bodies. Pairs whose bodies never had a pose get events and are tracked only while
+  /// listed. Unlimited by default, as the contract asks; 1,000 bodies without poses are ~500k
+  /// pairs (first cycle ~0.6 s and ~370 MB with their UNKNOWN_BEGIN events), so a node may want
+  /// to set a cap.
   std::size_t max_unknown_pairs = std::numeric_limits<std::size_t>::max();
   /// CycleResult::min_distance over every pair however far (true), or only over the pairs within
   /// max(warning, contact) + hysteresis, +inf beyond (false: no search past the broad phase).
