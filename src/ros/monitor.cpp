@@ -370,9 +370,23 @@ void Monitor::reject(const std::string& key, const std::string& what) {
   }
 }
 
+std::string Monitor::resolvePoseTopic(const std::string& topic) const {
+  if (topic.empty()) return topic;
+  // roscpp's NodeHandle methods refuse `~name`: it is the private namespace's `name`.
+  if (topic[0] == '~')
+    return pnh_.resolveName(topic.substr(topic.size() > 1 && topic[1] == '/' ? 2 : 1));
+  return nh_.resolveName(topic);
+}
+
 std::string Monitor::addBody(world::BodySpec spec) {
   const std::string id = spec.id;
-  const std::string topic = spec.pose_topic;
+  std::string topic;
+  try {
+    // Resolved before anything changes: a name roscpp would refuse leaves the old body as it was.
+    topic = resolvePoseTopic(spec.pose_topic);
+  } catch (const ros::Exception& e) {
+    return "pose_topic " + quoteInput(spec.pose_topic) + " cannot be resolved: " + e.what();
+  }
   Tracked t;
   t.from_tf = spec.pose_source == world::PoseSource::Tf;
   t.frame = spec.frame;

@@ -412,8 +412,15 @@ class TopicBodies(unittest.TestCase):
         # Bug: ~check_collision and ~get_distance's nearest body left out bodies without a fresh
         # pose, as if clear: a probe next to a stale body was "not in collision".
         self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))
+        t_add = time.monotonic()
         self.m.add(sphere_body('ghost', 0.5))  # topic-posed, never posed
         self.assertTrue(self.m.wait_listed('ghost'))
+        # Never posed, yet UNKNOWN on ~events too (it was silent: an events consumer took it for
+        # clear), with the pair as in ~state: distance +inf.
+        ev = self.m.wait_event(CollisionEvent.UNKNOWN_BEGIN, 'ghost', 's1', since=t_add)
+        self.assertIsNotNone(ev)
+        self.assertEqual(ev[1].pair.status, PairState.UNKNOWN)
+        self.assertEqual(ev[1].pair.distance, float('inf'))
         try:
             probe = sphere_body('probe', 0.5, frame='world', pose_from_topic=False)
             r = self.m.check_collision(probe, pose(0, -20, 0), 0.1)
@@ -427,8 +434,11 @@ class TopicBodies(unittest.TestCase):
             self.assertIn("the nearest body to 's1' is unknown: body 'ghost' has no pose yet",
                           n.message)
         finally:
+            t_remove = time.monotonic()
             self.m.add(Body(id='ghost', operation=Body.REMOVE))
         self.assertTrue(self.m.wait_listed('ghost', present=False))
+        self.assertIsNotNone(self.m.wait_event(CollisionEvent.UNKNOWN_END, 'ghost', 's1',
+                                               since=t_remove))
         n = self.distance('s1', '')
         self.assertTrue(n.success, n.message)
         self.assertEqual((n.result.body_b, n.result.distance), ('s2', 1.0))
@@ -468,6 +478,23 @@ class TopicBodies(unittest.TestCase):
             self.assertTrue(r.success, r.message)
             self.assertAlmostEqual(r.result.distance, 5.5, delta=1e-9)
             self.assertEqual(pub.get_num_connections(), 1)
+
+            # Bug: `~name` (valid, node.md) passed validation, then roscpp's subscribe() threw
+            # after the body was replaced: stale for good. It is the private namespace's name.
+            private = rospy.Publisher(NS + 'tracker2_pose', PoseStamped, queue_size=10)
+            self.m.add(sphere_body('tracked2', 1.0, pose_topic='~tracker2_pose'))
+            self.assertTrue(wait_for(lambda: private.get_num_connections() > 0, 5.0))
+            self.assertTrue(wait_for(lambda: pub.get_num_connections() == 0, 5.0))
+            p = PoseStamped()
+            p.header.frame_id = 'world'
+            p.pose = pose(20.0, 0, 0)
+
+            def publish_private():
+                p.header.stamp = rospy.Time.now()
+                private.publish(p)
+            self.assertIsNotNone(wait_for(lambda: publish_private() or (
+                lambda x: x if x.success and abs(x.result.distance - 15.0) < 1e-9 else None)(
+                    self.distance('tracked2', 's2')), 3.0))
         finally:
             self.m.add(Body(id='tracked2', operation=Body.REMOVE))
         self.assertTrue(self.m.wait_listed('tracked2', present=False))

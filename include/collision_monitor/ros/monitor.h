@@ -85,6 +85,10 @@ class Monitor {
   /// Adds (or replaces) a validated body and (re)subscribes its pose topic. Empty on success.
   std::string addBody(world::BodySpec spec);
   bool removeBody(const std::string& id, std::string* why);
+  /// The absolute name of a body's pose_topic: a relative name in the node's namespace, `~name`
+  /// in its private namespace (as roscpp resolves `~` elsewhere), remappings applied. Throws
+  /// ros::Exception on a name roscpp refuses.
+  std::string resolvePoseTopic(const std::string& topic) const;
   void updatePoseSubscription(const std::string& id, const std::string& topic);
   /// header frame -> fixed frame at `stamp` (latest when zero); nullopt with `why`.
   std::optional<core::Transform3> toFixed(const std::string& frame, const ros::Time& stamp,
