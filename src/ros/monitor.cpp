@@ -718,7 +718,9 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
     }
     const world::Stamp now = toStamp(ros::Time::now());
     collision_monitor::Body body = req.body;
-    if (body.id.empty()) body.id = "check_collision";
+    // An empty id is a label only ("check_collision" in the answer), never a tracked body's id.
+    const bool anonymous = body.id.empty();
+    if (anonymous) body.id = "check_collision";
     body.operation = collision_monitor::Body::ADD;
     body.pose_from_topic = false;
     body.pose_topic.clear();
@@ -747,7 +749,7 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
     std::vector<world::PairResult> pairs;
     {
       std::lock_guard<std::mutex> lock(world_mutex_);
-      pairs = world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now);
+      pairs = world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now, anonymous);
     }
     std::stable_sort(pairs.begin(), pairs.end(),
                      [](const auto& x, const auto& y) { return x.distance < y.distance; });

@@ -1133,7 +1133,8 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now,
 }
 
 std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, const Transform3& pose,
-                                                      double margin, Stamp now) const {
+                                                      double margin, Stamp now,
+                                                      bool anonymous) const {
   const Impl& m = *impl_;
   std::vector<PairResult> out;
   if (!checkSpec(body).empty() || !validTransform(pose)) return out;
@@ -1157,9 +1158,9 @@ std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, cons
   };
   for (int o = 0; o < static_cast<int>(m.bodies.size()); ++o) {
     const BodyState& O = m.bodies[o];
-    if (!O.used || O.spec.id == body.id) continue;
+    if (!O.used || (!anonymous && O.spec.id == body.id)) continue;
     if (!body.group.empty() && body.group == O.spec.group) continue;
-    if (m.isDisabled(body.id, O.spec.id)) continue;
+    if (!anonymous && m.isDisabled(body.id, O.spec.id)) continue;
     if (!O.isFresh(now, settings_.pose_timeout)) {
       addUnknown(O);
       continue;

@@ -330,6 +330,29 @@ class TopicBodies(unittest.TestCase):
         r = self.m.check_collision(probe, pose(0, -20, 0), 0.1)
         self.assertTrue(r.success, r.message)
 
+        # Bug: an empty id became 'check_collision', and a tracked body of that id was left out as
+        # "itself": a probe overlapping it by 0.6 m was not in collision. Empty is only a label.
+        self.m.add(sphere_body('check_collision', 0.5))
+        self.poses.set('check_collision', pose(0, -20, 0))
+        try:
+            self.assertIsNotNone(self.wait_distance('check_collision', 's1', 20.0 - 1.5))
+            anon = sphere_body('', 0.1, frame='world', pose_from_topic=False)
+            r = self.m.check_collision(anon, pose(0, -20, 0), 0.1)
+            self.assertTrue(r.success, r.message)
+            self.assertTrue(r.in_collision)
+            self.assertEqual([(p.body_a, p.body_b) for p in r.pairs],
+                             [('check_collision', 'check_collision')])
+            self.assertAlmostEqual(r.pairs[0].distance, -0.6, delta=self.depth_tol)
+            # The tracked body's own id: that body moved there, not checked against itself.
+            own = sphere_body('check_collision', 0.1, frame='world', pose_from_topic=False)
+            r = self.m.check_collision(own, pose(0, -20, 0), 0.1)
+            self.assertEqual((r.success, r.in_collision, r.pairs), (True, False, []))
+        finally:
+            with self.poses.lock:
+                self.poses.poses.pop('check_collision')
+            self.m.add(Body(id='check_collision', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('check_collision', present=False))
+
     def test_09_markers_while_subscribed(self):
         arrays = []
         sub = rospy.Subscriber('/collision_monitor/markers', MarkerArray, arrays.append)

@@ -869,6 +869,25 @@ TEST(WorldModel, CheckHypotheticalSortedAndMarginFiltered) {
   // Nothing was added.
   EXPECT_FALSE(w.hasBody("probe"));
   EXPECT_EQ(w.size(), 6u);
+  // A tracked body's id: that body moved to the pose, so not checked against itself, and its
+  // disabled pairs apply. Anonymous (the service's empty id), the same id is only a label.
+  w.disablePair("hit", "near");
+  const BodySpec moved = sphere("hit", 0.5);
+  out = w.checkHypothetical(moved, at(2.5), 0.25, 1.0);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].body_b, "mid");
+  EXPECT_EQ(out[0].distance, -0.5);
+  EXPECT_EQ(out[1].body_b, "stale");
+  out = w.checkHypothetical(moved, at(2.5), 0.25, 1.0, true);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(out[0].body_b, "mid");
+  EXPECT_EQ(out[1].body_b, "near");
+  EXPECT_EQ(out[1].distance, -0.5);
+  EXPECT_EQ(out[2].body_b, "stale");
+  out = w.checkHypothetical(moved, at(-0.75), 0.25, 1.0, true);
+  ASSERT_EQ(out.size(), 3u);
+  EXPECT_EQ(out[0].body_b, "hit");  // itself, as a label only: in collision with "hit"
+  EXPECT_EQ(out[0].distance, -1.0);
   // An invalid body gives nothing (the service reports checkSpec()).
   EXPECT_TRUE(w.checkHypothetical(body("bad", {}), at(0), 10.0, 1.0).empty());
   EXPECT_EQ(w.checkSpec(body("bad", {})), "body 'bad' refused: it has no parts");

@@ -211,10 +211,11 @@ class WorldModel {
   /// A hypothetical body at `pose` (body frame -> fixed frame) against every body with a fresh
   /// pose (respecting its group); returns all within `margin`, sorted by distance.
   /// Also every body in COLLISION whatever the margin; a body with the same id as `body` and the
-  /// disabled pairs of that id are skipped. Status from the thresholds without hysteresis.
-  /// Empty when checkSpec(body) refuses it or the pose is not rigid.
+  /// disabled pairs of that id are skipped ("that body, moved to `pose`"), unless `anonymous`
+  /// (the id is only a label: nothing is skipped by it). Status from the thresholds without
+  /// hysteresis. Empty when checkSpec(body) refuses it or the pose is not rigid.
   std::vector<PairResult> checkHypothetical(const BodySpec& body, const Transform3& pose,
-                                            double margin, Stamp now) const;
+                                            double margin, Stamp now, bool anonymous = false) const;
 
   /// Current pose of a body (fixed frame) if it has one.
   std::optional<Transform3> pose(const std::string& id) const;
