@@ -836,6 +836,7 @@ void WorldModel::markUnresolved(const std::string& id) {
 void WorldModel::clearPoses() {
   for (BodyState& b : impl_->bodies) {
     if (!b.used) continue;
+    if (b.has_pose && !b.unresolved && b.stamp.isStatic()) continue;  // holds at any time
     b.has_pose = false;
     b.unresolved = false;
     b.stamp = Stamp();

@@ -285,11 +285,17 @@ TEST(WorldModel, StalenessUnknownAndRecovery) {
   EXPECT_TRUE(r.events.empty());
   EXPECT_TRUE(r.stale_bodies.empty());
 
-  // clearPoses (time jumped back): everything UNKNOWN; older stamps are accepted again.
+  // clearPoses (time jumped back): every timed pose is forgotten, a's static one (stamp 0) kept:
+  // it holds at any time, and a publisher of static poses sends them once. Older stamps are
+  // accepted again.
+  EXPECT_TRUE(w.setPose("b", at(3.0), 1e6));  // timed
+  EXPECT_TRUE(w.check(1e6).events.empty());
   w.clearPoses();
   r = w.check(0.5);
   EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownBegin, "a", "b"}}));
-  EXPECT_EQ(r.stale_bodies, (std::vector<std::string>{"a", "b"}));
+  EXPECT_EQ(r.stale_bodies, (std::vector<std::string>{"b"}));
+  EXPECT_TRUE(w.pose("a"));
+  EXPECT_FALSE(w.pose("b"));
   EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Unknown}}));
   EXPECT_TRUE(w.setPose("a", at(0), 0.4));
   EXPECT_TRUE(w.setPose("b", at(3), 0.4));

@@ -186,7 +186,8 @@ class WorldModel {
                const std::optional<Twist>& twist = std::nullopt);
   /// Marks a body's pose as unresolvable now (e.g. TF lookup failed): its pairs turn UNKNOWN.
   void markUnresolved(const std::string& id);
-  /// Forgets every held pose (e.g. time jumped backwards): all pairs UNKNOWN until new poses.
+  /// Forgets every held pose (e.g. time jumped backwards) except static ones (stamp 0, which
+  /// hold at any time and are not sent again): their pairs UNKNOWN until new poses.
   void clearPoses();
 
   /// One cycle at time `now` (s): staleness, broad phase, narrow phase, hysteresis, events.
