@@ -307,6 +307,30 @@ struct WorldModel::Impl {
   };
   mutable std::vector<PartPair> part_pairs;
 
+  /// The pairs that may collide (allowed()) with at least one stale body, counted without
+  /// visiting them: every pair with a stale body, less those sharing a group, less the disabled
+  /// ones. O(bodies + disabled pairs), where visiting them is O(stale x bodies).
+  std::size_t countUnknownPairs() const {
+    const std::size_t ns = stale.size();
+    if (ns == 0) return 0;
+    const std::size_t nf = active.size();
+    std::size_t n = ns * nf + ns * (ns - 1) / 2;
+    std::vector<std::size_t> gs(group_ids.size() + 1, 0), gf(group_ids.size() + 1, 0);
+    for (const BodyState& b : bodies) {
+      if (b.used && b.group != 0) ++(b.fresh ? gf : gs)[b.group];
+    }
+    for (std::size_t g = 1; g < gs.size(); ++g)
+      n -= gs[g] * gf[g] + gs[g] * (gs[g] - (gs[g] > 0 ? 1 : 0)) / 2;
+    for (std::uint64_t key : disabled_slots) {
+      const BodyState& a = bodies[keyLo(key)];
+      const BodyState& b = bodies[keyHi(key)];
+      if (!a.used || !b.used || (a.fresh && b.fresh)) continue;
+      if (a.group != 0 && a.group == b.group) continue;  // left out above already
+      --n;
+    }
+    return n;
+  }
+
   bool allowed(int i, int j) const {
     if (i == j) return false;
     const int gi = bodies[i].group;
@@ -970,15 +994,24 @@ CycleResult WorldModel::check(Stamp now) {
   // 4. Pairs with a stale body: UNKNOWN. A pair that becomes UNKNOWN gets UNKNOWN_BEGIN, also
   // one never known (a body without a pose yet), so that a consumer of the events never takes it
   // for clear. Pairs never known are tracked only while listed (max_unknown_pairs): that bounds
-  // the cost of many bodies without poses, and the rest are implied by stale_bodies.
+  // the cost of many bodies without poses, and the rest are implied by stale_bodies. Once the
+  // list is full, a body that was stale before has nothing more to list or announce: its pairs
+  // are counted (countUnknownPairs) and its tracked ones kept UNKNOWN below, not visited.
+  res.num_unknown_pairs = m.countUnknownPairs();
+  std::size_t visited = 0;  // pairs visited, in the listing's order
+  bool skipped = false;
   for (int sl : m.stale) {
+    if (visited >= s.max_unknown_pairs && !m.bodies[sl].fresh_prev) {
+      skipped = true;
+      continue;
+    }
     for (int o = 0; o < static_cast<int>(m.bodies.size()); ++o) {
       const BodyState& O = m.bodies[o];
       if (!O.used || !m.allowed(sl, o)) continue;
       if (!O.fresh && o < sl) continue;  // both stale: visited from o
       const std::uint64_t key = orderedKey(sl, o);
       const std::uint64_t rk = m.rankKey(sl, o);
-      const bool listed = res.num_unknown_pairs++ < s.max_unknown_pairs;
+      const bool listed = visited++ < s.max_unknown_pairs;
       auto it = m.pairs.empty() ? m.pairs.end() : m.pairs.find(key);
       const bool known_before = m.bodies[sl].fresh_prev && O.fresh_prev;
       if (it == m.pairs.end() && !known_before && !listed) continue;  // nothing to say
@@ -999,6 +1032,21 @@ CycleResult WorldModel::check(Stamp now) {
       if (listed) {
         res.pairs.push_back(std::move(r));
         m.pair_keys.push_back(rk);
+      }
+    }
+  }
+  if (skipped) {  // the tracked pairs of the bodies not visited stay UNKNOWN
+    for (auto& [key, e] : m.pairs) {
+      const int a = keyLo(key);
+      const int b = keyHi(key);
+      if (e.last_seen == cycle || (m.bodies[a].fresh && m.bodies[b].fresh) || !m.allowed(a, b)) {
+        continue;
+      }
+      e.last_seen = cycle;
+      if (e.status != PairStatus::Unknown) {
+        Impl::emit(e.status, PairStatus::Unknown, m.unknownResult(a, b), now, &res.events,
+                   &m.event_keys, m.rankKey(a, b));
+        e.status = PairStatus::Unknown;
       }
     }
   }

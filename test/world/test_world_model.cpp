@@ -355,6 +355,69 @@ TEST(WorldModel, NeverPosedPairsHaveEventsWhileListed) {
   EXPECT_TRUE(r.pairs.empty());
 }
 
+TEST(WorldModel, UnknownPairsCountedWithoutVisitingMatchTheListing) {
+  // num_unknown_pairs is counted arithmetically (groups, disabled pairs); the uncapped listing,
+  // which visits every pair, is the oracle. A capped world counts the same.
+  std::mt19937 g(11);
+  Settings capped = dyadic();
+  capped.max_unknown_pairs = 5;
+  WorldModel full(dyadic()), cut(capped);
+  const char* groups[] = {"", "", "g1", "g2", "g3"};
+  std::vector<std::string> ids;
+  for (int i = 0; i < 60; ++i) {
+    ids.push_back("b" + std::to_string(i));
+    const BodySpec b = sphere(ids.back(), 0.1, groups[g() % 5]);
+    ASSERT_EQ(full.addBody(b), "");
+    ASSERT_EQ(cut.addBody(b), "");
+  }
+  for (int k = 0; k < 80; ++k) {
+    const std::string& a = ids[g() % 60];
+    const std::string& b = ids[g() % 60];
+    if (a == b) continue;
+    full.disablePair(a, b);
+    cut.disablePair(a, b);
+  }
+  for (int i = 0; i < 60; i += 2) {  // half posed, far apart
+    ASSERT_TRUE(full.setPose(ids[i], at(i), 0.0));
+    ASSERT_TRUE(cut.setPose(ids[i], at(i), 0.0));
+  }
+  const CycleResult rf = full.check(1.0);
+  const CycleResult rc = cut.check(1.0);
+  std::size_t listed = 0;
+  for (const PairResult& p : rf.pairs)
+    listed += p.status == S::Unknown ? 1 : 0;
+  EXPECT_GT(listed, 500u);
+  EXPECT_EQ(rf.num_unknown_pairs, listed);
+  EXPECT_EQ(rc.num_unknown_pairs, listed);
+  EXPECT_EQ(rc.pairs.size(), 5u);
+  EXPECT_EQ(cut.check(1.0).num_unknown_pairs, listed);  // the cycle that skips visits
+}
+
+TEST(WorldModel, TrackedPairsOfBodiesNotVisitedStayUnknown) {
+  // With the list full, a body stale since before is not visited; its tracked pairs must stay
+  // UNKNOWN (not be ended as if CLEAR).
+  Settings s = dyadic();
+  s.max_unknown_pairs = 1;
+  WorldModel w(s);
+  for (const char* id : {"a", "b", "c"})
+    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
+  ASSERT_TRUE(w.setPose("b", at(0), 1.0));
+  ASSERT_TRUE(w.setPose("c", at(1.03), 1.0));
+  EXPECT_EQ(events(w.check(1.0)),
+            (std::vector<Ev>{{E::UnknownBegin, "a", "b"}, {E::WarningBegin, "b", "c"}}));
+  CycleResult r = w.check(1.6);  // b and c time out
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningEnd, "b", "c"}, {E::UnknownBegin, "b", "c"}}));
+  EXPECT_EQ(r.num_unknown_pairs, 3u);
+  r = w.check(1.7);  // a fills the list; b and c are not visited
+  EXPECT_TRUE(r.events.empty());
+  EXPECT_EQ(r.num_unknown_pairs, 3u);
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Unknown}}));
+  ASSERT_TRUE(w.setPose("b", at(0), 1.7));
+  ASSERT_TRUE(w.setPose("c", at(1.03), 1.7));
+  r = w.check(1.7);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownEnd, "b", "c"}, {E::WarningBegin, "b", "c"}}));
+}
+
 TEST(WorldModel, CompoundBodiesTakeTheMinimumOverParts) {
   WorldModel w(dyadic());
   Transform3 up = at(0, 0, 2);
