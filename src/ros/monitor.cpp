@@ -453,11 +453,35 @@ std::optional<Transform3> Monitor::toFixed(const std::string& frame_in, const ro
     // The pose may have arrived before the matching TF: give TF a moment, 50 ms of wall time.
     // Not tf2's own timeout: it waits in ROS time, which under a paused /clock never passes, and
     // held this callback thread (and with two such poses every worker thread, services
-    // included) until the clock ran again.
-    const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(0.05);
-    while (!tf_buffer_->canTransform(fixed_frame_, frame, stamp) &&
-           ros::WallTime::now() < deadline && ros::ok()) {
-      ros::WallDuration(0.002).sleep();
+    // included) until the clock ran again. Only while TF is behind the stamp and has moved since
+    // the last wait for this frame that failed: a frame whose TF has stopped would otherwise
+    // hold a worker thread 50 ms per message (a stream of them stalled services for seconds).
+    ros::Time latest;  // of the chain; zero when there is none
+    try {
+      latest = tf_buffer_->lookupTransform(fixed_frame_, frame, ros::Time(0)).header.stamp;
+    } catch (const tf2::TransformException&) {
+    }
+    bool wait = latest.isZero() || latest < stamp;
+    if (wait) {
+      std::lock_guard<std::mutex> lock(tf_wait_mutex_);
+      auto it = failed_waits_.find(frame);
+      wait = it == failed_waits_.end() || it->second != latest;
+    }
+    bool caught_up = false;
+    if (wait) {
+      ++tf_waits_;
+      const ros::WallTime deadline = ros::WallTime::now() + ros::WallDuration(0.05);
+      while (!(caught_up = tf_buffer_->canTransform(fixed_frame_, frame, stamp)) &&
+             ros::WallTime::now() < deadline && ros::ok()) {
+        ros::WallDuration(0.002).sleep();
+      }
+      std::lock_guard<std::mutex> lock(tf_wait_mutex_);
+      if (caught_up) {
+        failed_waits_.erase(frame);
+      } else {
+        if (failed_waits_.size() >= 1000) failed_waits_.clear();  // frames are few; bound it
+        failed_waits_[frame] = latest;
+      }
     }
     try {
       return toTransform3(tf_buffer_->lookupTransform(fixed_frame_, frame, stamp).transform);
@@ -999,6 +1023,7 @@ void Monitor::setupDiagnostics() {
     s.add("pose_topic messages (total)", now.pose_topic_msgs);
     s.add("pose messages applied (total)", now.pose_msgs_applied);
     s.add("checks with new poses (total)", now.checks_with_new_poses);
+    s.add("waits for TF (total)", tf_waits_.load());
     s.add("pose messages coalesced (total)",
           now.pose_msgs_applied - std::min(now.pose_msgs_applied, now.checks_with_new_poses));
     for (const auto& e : param_errors_)

@@ -583,6 +583,55 @@ class TopicBodies(unittest.TestCase):
                                              for st in list(self.m.states)), 3.0),
                         [st.header.stamp for st in list(self.m.states)[-5:]])
 
+    def test_17_poses_in_a_frame_whose_tf_stopped(self):
+        # Bug: every pose message in a frame whose TF had stopped waited 50 ms for TF on a worker
+        # thread: 10 pose topics at 50 Hz delayed services by 4 s. One wait per frame now, until
+        # its TF moves again (the count is on /diagnostics, 'waits for TF (total)').
+        br = tf2_ros.TransformBroadcaster()
+
+        def send_tf():
+            t = TransformStamped()
+            t.header.stamp = rospy.Time.now()
+            t.header.frame_id = 'world'
+            t.child_frame_id = 'stopped_frame'
+            t.transform.translation.x = 10.0
+            t.transform.rotation.w = 1.0
+            br.sendTransform(t)
+        self.m.add(sphere_body('in_stopped', 0.5))
+        self.assertTrue(self.m.wait_listed('in_stopped'))
+        msg = BodyPoses(ids=['in_stopped'], poses=[pose(0, 0, 0)])
+        msg.header.frame_id = 'stopped_frame'
+
+        def publish_pose():
+            msg.header.stamp = rospy.Time.now()
+            self.m.poses_pub.publish(msg)
+        try:
+            # While TF runs: posed in stopped_frame, 10 m from the origin.
+            self.assertIsNotNone(wait_for(lambda: send_tf() or publish_pose() or (
+                lambda r: r if r.success and abs(r.result.distance - 8.5) < 1e-9 else None)(
+                    self.distance('s1', 'in_stopped')), 5.0))
+            time.sleep(0.2)  # TF stops; poses stamped after its last transform go on
+            n0 = int(self.m.diag_value('~body_poses messages (total)'))
+            w0 = int(self.m.diag_value('waits for TF (total)'))
+            for _ in range(60):
+                publish_pose()
+                time.sleep(0.01)
+            self.assertTrue(wait_for(lambda: int(self.m.diag_value(
+                '~body_poses messages (total)')) >= n0 + 60, 5.0, 0.1))
+            waits = int(self.m.diag_value('waits for TF (total)')) - w0
+            self.assertIn("cannot resolve frame 'stopped_frame'",
+                          self.m.diag_value('last rejection'))
+            # The first message, and those that began waiting before its wait failed (one per
+            # 10 ms over its 50 ms, on as many worker threads); it was one per message (60).
+            self.assertLessEqual(waits, 6)
+            self.assertGreaterEqual(waits, 1)
+            # TF moves again: waits resume, the body is posed again.
+            self.assertIsNotNone(wait_for(lambda: send_tf() or publish_pose() or (
+                lambda r: r if r.success and abs(r.result.distance - 8.5) < 1e-9 else None)(
+                    self.distance('s1', 'in_stopped')), 5.0))
+        finally:
+            self.m.add(Body(id='in_stopped', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('in_stopped', present=False))
 
 
 if __name__ == '__main__':

@@ -161,6 +161,11 @@ class Monitor {
   bool new_poses_ = false;
 
   std::mutex subs_mutex_;
+  /// toFixed(): per frame, the latest TF time when a wait for it last failed (no new wait
+  /// until its TF moves).
+  mutable std::mutex tf_wait_mutex_;
+  mutable std::map<std::string, ros::Time> failed_waits_;
+  mutable std::atomic<std::size_t> tf_waits_{0};  ///< waits made (diagnostics)
   std::map<std::string, std::pair<std::string, ros::Subscriber>> pose_subs_;  // id -> topic, sub
 
   ros::Publisher events_pub_, state_pub_, markers_pub_;
