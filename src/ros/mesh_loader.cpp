@@ -43,7 +43,8 @@ constexpr std::size_t kPathQuote = 512;
 bool inside(const std::string& path, const std::string& dir) {
   if (dir.empty()) return false;
   if (dir == "/") return true;
-  return path.size() > dir.size() && startsWith(path, dir) && path[dir.size()] == '/';
+  // The directory itself counts as inside: it is then refused as "not a regular file".
+  return startsWith(path, dir) && (path.size() == dir.size() || path[dir.size()] == '/');
 }
 
 }  // namespace
@@ -123,6 +124,10 @@ Expected<core::ConvexShape> loadMeshHull(const std::string& path, const core::Ve
       if (!p.allFinite()) return Error{path + ": vertex " + std::to_string(i) + " is not finite"};
       points.push_back(p);
     }
+    double spread = 0.0;  // as for CONVEX parts: a point is no mesh
+    for (const core::Vec3& p : points)
+      spread = std::max(spread, (p - points.front()).norm());
+    if (!(spread > 0.0)) return Error{"degenerate mesh " + path + ": every vertex coincides"};
     core::ConvexShape hull = core::ConvexShape::convexHull(points);
     if (const auto* poly = std::get_if<std::shared_ptr<const core::Polytope<3>>>(&hull.core())) {
       if (*poly && static_cast<std::size_t>((*poly)->size()) > max_vertices) {

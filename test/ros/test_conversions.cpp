@@ -465,6 +465,9 @@ TEST_F(MeshUris, RefusesEscapes) {
                "cannot resolve"));
   EXPECT_TRUE(contains(resolveMeshUri("file://" + dir_ + "/root", {dir_}, resolver_).error(),
                        "not a regular file"));
+  // The root itself: not a file (it was "outside mesh_roots").
+  EXPECT_TRUE(contains(resolveMeshUri("file://" + dir_ + "/root", roots_, resolver_).error(),
+                       "not a regular file"));
   // A root that is a prefix of another directory's name does not cover it (the file exists, so
   // it is the roots' check that refuses it).
   std::ofstream(dir_ + "/rootless.stl") << "solid x\nendsolid x\n";
@@ -479,6 +482,19 @@ TEST_F(MeshUris, UnreadableMeshIsRefused) {
   auto r = cache.load("file://" + dir_ + "/root/garbage.stl", core::Vec3(1, 1, 1));
   ASSERT_FALSE(r);
   EXPECT_TRUE(contains(r.error(), "not a readable STL/DAE/OBJ mesh")) << r.error();
+}
+
+// Bug: a mesh whose vertices all coincide was accepted as a point, where a CONVEX part like it
+// is refused.
+TEST_F(MeshUris, MeshOfOnePointIsRefused) {
+  std::ofstream(dir_ + "/root/point.stl") << "solid p\n"
+                                             "facet normal 0 0 0\nouter loop\nvertex 1 2 3\n"
+                                             "vertex 1 2 3\nvertex 1 2 3\nendloop\nendfacet\n"
+                                             "endsolid p\n";
+  MeshCache cache(roots_, 1000, resolver_);
+  auto r = cache.load("file://" + dir_ + "/root/point.stl", core::Vec3(1, 1, 1));
+  ASSERT_FALSE(r);
+  EXPECT_TRUE(contains(r.error(), "every vertex coincides")) << r.error();
 }
 
 // Bug: the cache kept every (mesh, scale) ever loaded: a stream of bodies with ever new scales
