@@ -236,12 +236,16 @@ Expected<ConvexShape> shapeFromMsg(const collision_monitor::Shape& msg, const Li
         return Error{shapeTypeName(type) + " takes no dimensions, got " +
                      std::to_string(msg.dimensions.size())};
       }
+      if (type == collision_monitor::Shape::CONVEX && !msg.resource.empty()) {
+        return Error{"convex part takes no resource (use a MESH part)"};
+      }
     } else {
       if (*scale != Vec3(1.0, 1.0, 1.0)) {
         return Error{"scale applies to mesh and convex parts only; a " + shapeTypeName(type) +
                      " takes its size from dimensions"};
       }
       if (!msg.vertices.empty()) return Error{shapeTypeName(type) + " takes no vertices"};
+      if (!msg.resource.empty()) return Error{shapeTypeName(type) + " takes no resource"};
       return primitive(msg);
     }
 

@@ -651,6 +651,9 @@ std::string WorldModel::checkSpec(const BodySpec& spec) const {
   const std::string name =
       spec.id.empty() ? std::string("body with an empty id") : "body '" + spec.id + "'";
   if (spec.id.empty()) return name + " refused: the id must not be empty";
+  if (spec.id.find_first_not_of(" \t\n\v\f\r") == std::string::npos) {
+    return name + " refused: the id is only white space";
+  }
   if (spec.parts.empty()) return name + " refused: it has no parts";
   if (spec.parts.size() > settings_.max_parts_per_body) {
     return name + " refused: " + std::to_string(spec.parts.size()) +

@@ -135,6 +135,15 @@ TEST(Shape, RefusesBadDimensions) {
   auto scaled = shape(S::SPHERE, {1});
   scaled.scale.x = scaled.scale.y = scaled.scale.z = 2.0;
   EXPECT_TRUE(contains(shapeFromMsg(scaled, limits, kNoMeshes).error(), "scale applies"));
+  // A resource where none belongs was ignored without a word.
+  auto with_resource = shape(S::SPHERE, {1});
+  with_resource.resource = "package://collision_monitor/meshes/x.stl";
+  EXPECT_EQ(shapeFromMsg(with_resource, limits, kNoMeshes).error(), "sphere takes no resource");
+  with_resource.type = S::CONVEX;
+  with_resource.dimensions.clear();
+  with_resource.vertices.resize(4);
+  EXPECT_EQ(shapeFromMsg(with_resource, limits, kNoMeshes).error(),
+            "convex part takes no resource (use a MESH part)");
 }
 
 TEST(Shape, Convex) {

@@ -808,6 +808,7 @@ TEST(WorldModel, RefusalsNameTheBodyAndReasonAndChangeNothing) {
   EXPECT_EQ(events(w.check(1.0)), (std::vector<Ev>{{E::CollisionBegin, "link", "x"}}));
 
   EXPECT_EQ(w.addBody(sphere("", 0.5)), "body with an empty id refused: the id must not be empty");
+  EXPECT_EQ(w.addBody(sphere(" \t", 0.5)), "body ' \t' refused: the id is only white space");
   EXPECT_EQ(w.addBody(body("p", {})), "body 'p' refused: it has no parts");
   BodySpec pad = sphere("p", 0.5);
   pad.padding = -0.1;
