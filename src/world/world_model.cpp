@@ -557,6 +557,39 @@ struct WorldModel::Impl {
     far_active = true;
   }
 
+  /// PairResult::time_to_collision of A and B (r: their result, normal from A to B): the time
+  /// until the distance reaches contact_distance under the bodies' twists. When neither rotates,
+  /// exact: conservative advancement of B by the relative velocity w. The distance is convex in
+  /// time under a translation, so a step along its tangent (rate w . normal) never passes the
+  /// contact, and once the rate is >= 0 the distance never decreases again (+inf: bodies that
+  /// pass each other). With a rotation: the first-order estimate of timeToCollision().
+  double timeToCollisionOf(const BodyState& A, const BodyState& B, const PairResult& r) const {
+    const double c = settings.contact_distance;
+    const double first = timeToCollision(r, A.twistPtr(), A.pose.t, B.twistPtr(), B.pose.t, c);
+    if (!(first > 0.0) || !(first < kInf)) return first;  // touching, apart for good, unknown
+    const bool rotating =
+        (A.has_twist && !A.twist.angular.isZero()) || (B.has_twist && !B.twist.angular.isZero());
+    if (rotating) return first;
+    const Vec3 w = (B.has_twist ? B.twist.linear : Vec3::Zero()) -
+                   (A.has_twist ? A.twist.linear : Vec3::Zero());
+    constexpr int kMaxSteps = 64;
+    constexpr double kTolerance = 1e-9;  // m
+    BodyState ahead = B;                 // B at time t relative to A
+    double t = first;
+    for (int k = 0; k < kMaxSteps; ++k) {
+      ahead.pose.t = B.pose.t + t * w;
+      ahead.place();
+      const Narrow x = narrowPhase(A, ahead, kInf, nullptr);
+      if (!x.exact || !std::isfinite(x.distance)) return t;  // the bound so far
+      if (x.distance - c <= kTolerance) return t;
+      const double rate = w.dot(x.normal);
+      if (!(rate < 0.0)) return kInf;
+      t += (x.distance - c) / -rate;
+      if (!(t < kInf)) return kInf;
+    }
+    return t;  // a lower bound: the contact is no earlier
+  }
+
   PairResult makeResult(int a, int b, PairStatus status, const Narrow& n) const {
     PairResult r;
     r.body_a = bodies[a].spec.id;
@@ -566,11 +599,7 @@ struct WorldModel::Impl {
     r.point_a = n.point_a;
     r.point_b = n.point_b;
     r.normal = n.normal;
-    if (n.exact) {
-      r.time_to_collision =
-          timeToCollision(r, bodies[a].twistPtr(), bodies[a].pose.t, bodies[b].twistPtr(),
-                          bodies[b].pose.t, settings.contact_distance);
-    }
+    if (n.exact) r.time_to_collision = timeToCollisionOf(bodies[a], bodies[b], r);
     // Report in id order so that a pair always reads the same way.
     if (r.body_b < r.body_a) flipPair(&r);
     return r;
@@ -1232,8 +1261,7 @@ std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, cons
     r.point_a = n.point_a;
     r.point_b = n.point_b;
     r.normal = n.normal;
-    r.time_to_collision =
-        timeToCollision(r, nullptr, H.pose.t, O.twistPtr(), O.pose.t, settings_.contact_distance);
+    r.time_to_collision = m.timeToCollisionOf(H, O, r);
     out.push_back(std::move(r));
   }
   std::sort(out.begin(), out.end(), [](const PairResult& x, const PairResult& y) {

@@ -1036,6 +1036,55 @@ TEST(WorldModel, TimeToCollisionHeadOn) {
             std::numeric_limits<double>::infinity());
 }
 
+TEST(WorldModel, TimeToCollisionOfTranslatingBodiesIsExact) {
+  // Unit-radius spheres; the first-order estimate (distance / closing speed at the witness
+  // points) said 1 s for a pass that never touches. Oracle: |c_b(t) - c_a| = 2 in closed form.
+  Settings s = dyadic();
+  s.warning_distance = 5.0;
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(sphere("a", 1.0)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 1.0)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 1.0));
+  const auto ttc = [&](const Vec3& p, const Vec3& v, double t) {
+    Twist tw;
+    tw.linear = v;
+    EXPECT_TRUE(w.setPose("b", at(p.x(), p.y(), p.z()), t, tw));
+    const CycleResult r = w.check(t);
+    EXPECT_EQ(r.pairs.size(), 1u);
+    return r.pairs.empty() ? -1.0 : r.pairs[0].time_to_collision;
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  // Passing sideways: closest centre distance 3 / sqrt(2) > 2.
+  EXPECT_EQ(ttc(Vec3(3, 0, 0), Vec3(-1, 1, 0), 1.0), inf);
+  // Off-centre approach: (3 - t)^2 + 0.25 = 4.
+  EXPECT_NEAR(ttc(Vec3(3, 0.5, 0), Vec3(-1, 0, 0), 1.1), 3.0 - std::sqrt(3.75), 1e-9);
+  // The same, a moving too: only the relative velocity counts.
+  {
+    Twist ta;
+    ta.linear = Vec3(0.25, 0, 0);
+    ASSERT_TRUE(w.setPose("a", at(0), 1.2, ta));
+    EXPECT_NEAR(ttc(Vec3(3, 0.5, 0), Vec3(-0.75, 0, 0), 1.2), 3.0 - std::sqrt(3.75), 1e-9);
+    ASSERT_TRUE(w.setPose("a", at(0), 1.3));
+  }
+  // Grazing: the closest centre distance 2 + 1e-6 misses; 2 - 1e-6 touches.
+  EXPECT_EQ(ttc(Vec3(3, 2 + 1e-6, 0), Vec3(-1, 0, 0), 1.3), inf);
+  EXPECT_NEAR(ttc(Vec3(3, 2 - 1e-6, 0), Vec3(-1, 0, 0), 1.4),
+              3.0 - std::sqrt(4.0 - (2 - 1e-6) * (2 - 1e-6)), 1e-6);
+  // Moving away, and at rest: +inf.
+  EXPECT_EQ(ttc(Vec3(3, 0.5, 0), Vec3(1, 0, 0), 1.5), inf);
+  EXPECT_EQ(ttc(Vec3(3, 0.5, 0), Vec3(0, 0, 0), 1.6), inf);
+  // A box face to face: exact in one step (3 - 1 - 0.5 = 1.5 m at 0.5 m/s).
+  ASSERT_EQ(w.addBody(body("box", {Part{ConvexShape::box(Vec3(1, 1, 1)), Transform3::Identity()}})),
+            "");
+  ASSERT_TRUE(w.removeBody("b"));
+  Twist tb;
+  tb.linear = Vec3(-0.5, 0, 0);
+  ASSERT_TRUE(w.setPose("box", at(3, 0.25, 0), 1.7, tb));
+  const CycleResult r = w.check(1.7);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_NEAR(r.pairs[0].time_to_collision, 3.0, 1e-12);
+}
+
 TEST(WorldModel, ShapeAabbEqualsTheSupportBox) {
   // The closed-form part boxes equal ConvexShape::aabb() (6 support queries) for every core.
   std::mt19937 g(11);
