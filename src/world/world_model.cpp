@@ -319,8 +319,10 @@ struct WorldModel::Impl {
     for (const BodyState& b : bodies) {
       if (b.used && b.group != 0) ++(b.fresh ? gf : gs)[b.group];
     }
-    for (std::size_t g = 1; g < gs.size(); ++g)
-      n -= gs[g] * gf[g] + gs[g] * (gs[g] - (gs[g] > 0 ? 1 : 0)) / 2;
+    for (std::size_t g = 1; g < gs.size(); ++g) {
+      n -= gs[g] * gf[g];
+      if (gs[g] > 1) n -= gs[g] * (gs[g] - 1) / 2;
+    }
     for (std::uint64_t key : disabled_slots) {
       const BodyState& a = bodies[keyLo(key)];
       const BodyState& b = bodies[keyHi(key)];
