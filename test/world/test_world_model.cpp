@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <limits>
 #include <map>
+#include <memory>
 #include <random>
 #include <set>
 #include <string>
@@ -328,15 +329,22 @@ TEST(WorldModel, StalenessUnknownAndRecovery) {
                 {E::UnknownEnd, "a", "d"}, {E::UnknownEnd, "b", "d"}, {E::UnknownEnd, "c", "d"}}));
 }
 
+/// Spheres a, b, c of radius 0.5, without poses, in a world that lists at most `cap` UNKNOWN
+/// pairs.
+std::unique_ptr<WorldModel> threeSpheres(std::size_t cap) {
+  Settings s = dyadic();
+  s.max_unknown_pairs = cap;
+  auto w = std::make_unique<WorldModel>(s);
+  for (const char* id : {"a", "b", "c"})
+    EXPECT_EQ(w->addBody(sphere(id, 0.5)), "");
+  return w;
+}
+
 TEST(WorldModel, NeverPosedPairsHaveEventsWhileListed) {
   // Pairs never known are tracked (and get events) only while listed: with a cap of 2, the third
   // UNKNOWN pair is counted and implied by stale_bodies, without an event.
-  Settings s = dyadic();
-  s.max_unknown_pairs = 2;
-  WorldModel w(s);
-  for (const char* id : {"a", "b", "c"})
-    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
-  CycleResult r = w.check(0.0);
+  const auto w = threeSpheres(2);
+  CycleResult r = w->check(0.0);
   EXPECT_EQ(r.num_unknown_pairs, 3u);
   EXPECT_EQ(r.pairs.size(), 2u);
   ASSERT_EQ(r.events.size(), 2u);
@@ -347,8 +355,8 @@ TEST(WorldModel, NeverPosedPairsHaveEventsWhileListed) {
   }
   // Every BEGIN is matched by one END once the poses come (far apart: CLEAR).
   for (int i = 0; i < 3; ++i)
-    ASSERT_TRUE(w.setPose(std::string(1, static_cast<char>('a' + i)), at(10.0 * i), 0.0));
-  r = w.check(0.0);
+    ASSERT_TRUE(w->setPose(std::string(1, static_cast<char>('a' + i)), at(10.0 * i), 0.0));
+  r = w->check(0.0);
   ASSERT_EQ(r.events.size(), 2u);
   EXPECT_EQ(r.events[0].type, E::UnknownEnd);
   EXPECT_EQ(r.events[1].type, E::UnknownEnd);
@@ -396,25 +404,21 @@ TEST(WorldModel, UnknownPairsCountedWithoutVisitingMatchTheListing) {
 TEST(WorldModel, TrackedPairsOfBodiesNotVisitedStayUnknown) {
   // With the list full, a body stale since before is not visited; its tracked pairs must stay
   // UNKNOWN (not be ended as if CLEAR).
-  Settings s = dyadic();
-  s.max_unknown_pairs = 1;
-  WorldModel w(s);
-  for (const char* id : {"a", "b", "c"})
-    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
-  ASSERT_TRUE(w.setPose("b", at(0), 1.0));
-  ASSERT_TRUE(w.setPose("c", at(1.03), 1.0));
-  EXPECT_EQ(events(w.check(1.0)),
+  const auto w = threeSpheres(1);
+  ASSERT_TRUE(w->setPose("b", at(0), 1.0));
+  ASSERT_TRUE(w->setPose("c", at(1.03), 1.0));
+  EXPECT_EQ(events(w->check(1.0)),
             (std::vector<Ev>{{E::UnknownBegin, "a", "b"}, {E::WarningBegin, "b", "c"}}));
-  CycleResult r = w.check(1.6);  // b and c time out
+  CycleResult r = w->check(1.6);  // b and c time out
   EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningEnd, "b", "c"}, {E::UnknownBegin, "b", "c"}}));
   EXPECT_EQ(r.num_unknown_pairs, 3u);
-  r = w.check(1.7);  // a fills the list; b and c are not visited
+  r = w->check(1.7);  // a fills the list; b and c are not visited
   EXPECT_TRUE(r.events.empty());
   EXPECT_EQ(r.num_unknown_pairs, 3u);
   EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Unknown}}));
-  ASSERT_TRUE(w.setPose("b", at(0), 1.7));
-  ASSERT_TRUE(w.setPose("c", at(1.03), 1.7));
-  r = w.check(1.7);
+  ASSERT_TRUE(w->setPose("b", at(0), 1.7));
+  ASSERT_TRUE(w->setPose("c", at(1.03), 1.7));
+  r = w->check(1.7);
   EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownEnd, "b", "c"}, {E::WarningBegin, "b", "c"}}));
 }
 
@@ -1007,49 +1011,51 @@ TEST(WorldModel, UnusedGroupNamesAreForgotten) {
   EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "d"}, S::Collision}}));
 }
 
-TEST(WorldModel, TimeToCollisionHeadOn) {
+/// Spheres a and b of that radius, without poses, in a world that warns up to 5 m.
+std::unique_ptr<WorldModel> twoSpheresInWarningReach(double radius) {
   Settings s = dyadic();
   s.warning_distance = 5.0;
-  WorldModel w(s);
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  auto w = std::make_unique<WorldModel>(s);
+  EXPECT_EQ(w->addBody(sphere("a", radius)), "");
+  EXPECT_EQ(w->addBody(sphere("b", radius)), "");
+  return w;
+}
+
+TEST(WorldModel, TimeToCollisionHeadOn) {
+  const auto w = twoSpheresInWarningReach(0.5);
   Twist ta;
   ta.linear = Vec3(1, 0, 0);
   Twist tb;
   tb.linear = Vec3(-0.5, 0, 0);
-  ASSERT_TRUE(w.setPose("a", at(0), 1.0, ta));
-  ASSERT_TRUE(w.setPose("b", at(4), 1.0, tb));
-  CycleResult r = w.check(1.0);
+  ASSERT_TRUE(w->setPose("a", at(0), 1.0, ta));
+  ASSERT_TRUE(w->setPose("b", at(4), 1.0, tb));
+  CycleResult r = w->check(1.0);
   ASSERT_EQ(r.pairs.size(), 1u);
   EXPECT_EQ(r.pairs[0].distance, 3.0);
   EXPECT_EQ(r.pairs[0].time_to_collision, 2.0);
   // Twists change, poses do not: the cached result gets the new time to collision.
-  ASSERT_TRUE(w.setPose("b", at(4), 1.1));  // b at rest (no twist)
-  r = w.check(1.1);
+  ASSERT_TRUE(w->setPose("b", at(4), 1.1));  // b at rest (no twist)
+  r = w->check(1.1);
   EXPECT_EQ(r.num_pairs_cached, 1u);
   EXPECT_EQ(r.pairs[0].time_to_collision, 3.0);
-  ASSERT_TRUE(w.setPose("a", at(0), 1.2));  // nobody moves
-  r = w.check(1.2);
+  ASSERT_TRUE(w->setPose("a", at(0), 1.2));  // nobody moves
+  r = w->check(1.2);
   EXPECT_EQ(r.pairs[0].time_to_collision, std::numeric_limits<double>::infinity());
   std::string why;
-  EXPECT_EQ(w.distance("a", "b", 1.2, &why)->time_to_collision,
+  EXPECT_EQ(w->distance("a", "b", 1.2, &why)->time_to_collision,
             std::numeric_limits<double>::infinity());
 }
 
 TEST(WorldModel, TimeToCollisionOfTranslatingBodiesIsExact) {
   // Unit-radius spheres; the first-order estimate (distance / closing speed at the witness
   // points) said 1 s for a pass that never touches. Oracle: |c_b(t) - c_a| = 2 in closed form.
-  Settings s = dyadic();
-  s.warning_distance = 5.0;
-  WorldModel w(s);
-  ASSERT_EQ(w.addBody(sphere("a", 1.0)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 1.0)), "");
-  ASSERT_TRUE(w.setPose("a", at(0), 1.0));
+  const auto w = twoSpheresInWarningReach(1.0);
+  ASSERT_TRUE(w->setPose("a", at(0), 1.0));
   const auto ttc = [&](const Vec3& p, const Vec3& v, double t) {
     Twist tw;
     tw.linear = v;
-    EXPECT_TRUE(w.setPose("b", at(p.x(), p.y(), p.z()), t, tw));
-    const CycleResult r = w.check(t);
+    EXPECT_TRUE(w->setPose("b", at(p.x(), p.y(), p.z()), t, tw));
+    const CycleResult r = w->check(t);
     EXPECT_EQ(r.pairs.size(), 1u);
     return r.pairs.empty() ? -1.0 : r.pairs[0].time_to_collision;
   };
@@ -1062,9 +1068,9 @@ TEST(WorldModel, TimeToCollisionOfTranslatingBodiesIsExact) {
   {
     Twist ta;
     ta.linear = Vec3(0.25, 0, 0);
-    ASSERT_TRUE(w.setPose("a", at(0), 1.2, ta));
+    ASSERT_TRUE(w->setPose("a", at(0), 1.2, ta));
     EXPECT_NEAR(ttc(Vec3(3, 0.5, 0), Vec3(-0.75, 0, 0), 1.2), 3.0 - std::sqrt(3.75), 1e-9);
-    ASSERT_TRUE(w.setPose("a", at(0), 1.3));
+    ASSERT_TRUE(w->setPose("a", at(0), 1.3));
   }
   // Grazing: the closest centre distance 2 + 1e-6 misses; 2 - 1e-6 touches.
   EXPECT_EQ(ttc(Vec3(3, 2 + 1e-6, 0), Vec3(-1, 0, 0), 1.3), inf);
@@ -1074,13 +1080,13 @@ TEST(WorldModel, TimeToCollisionOfTranslatingBodiesIsExact) {
   EXPECT_EQ(ttc(Vec3(3, 0.5, 0), Vec3(1, 0, 0), 1.5), inf);
   EXPECT_EQ(ttc(Vec3(3, 0.5, 0), Vec3(0, 0, 0), 1.6), inf);
   // A box face to face: exact in one step (3 - 1 - 0.5 = 1.5 m at 0.5 m/s).
-  ASSERT_EQ(w.addBody(body("box", {Part{ConvexShape::box(Vec3(1, 1, 1)), Transform3::Identity()}})),
-            "");
-  ASSERT_TRUE(w.removeBody("b"));
+  ASSERT_EQ(
+      w->addBody(body("box", {Part{ConvexShape::box(Vec3(1, 1, 1)), Transform3::Identity()}})), "");
+  ASSERT_TRUE(w->removeBody("b"));
   Twist tb;
   tb.linear = Vec3(-0.5, 0, 0);
-  ASSERT_TRUE(w.setPose("box", at(3, 0.25, 0), 1.7, tb));
-  const CycleResult r = w.check(1.7);
+  ASSERT_TRUE(w->setPose("box", at(3, 0.25, 0), 1.7, tb));
+  const CycleResult r = w->check(1.7);
   ASSERT_EQ(r.pairs.size(), 1u);
   EXPECT_NEAR(r.pairs[0].time_to_collision, 3.0, 1e-12);
 }
