@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Geometry-core fuzzing with libFuzzer (clang, ASan + UBSan), in its own build folder.
-#   bash scripts/fuzz.sh [seconds]      # default 60 (the CI run); longer by hand, e.g. 3600
+#   bash scripts/fuzz.sh [seconds]      # default 60; longer by hand, e.g. 3600 (scripts/test.sh,
+#                                       # the CI run: 1200 inputs, seed 1, at most 120 s)
 # CM_FUZZ_SEED: libFuzzer's -seed (default 0: a new random seed each run). CI (scripts/test.sh)
 # fixes it, so that a CI failure is one a later run reproduces rather than a new random finding;
 # exploration is the job of the longer runs by hand.

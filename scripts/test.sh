@@ -48,7 +48,7 @@ cmake --build "$SAN_BUILD" -j"$JOBS"
 run_ctest "$SAN_BUILD" ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   CM_SWEEP_SCALE="${CM_SWEEP_SCALE_SANITIZER:-0.1}"
 
-echo "=== 3/4 libFuzzer on the geometry core (clang, ASan + UBSan): replay the corpus, fuzz ${CM_FUZZ_SECONDS:-60} s"
+echo "=== 3/4 libFuzzer on the geometry core (clang, ASan + UBSan): replay the corpus, fuzz ${CM_FUZZ_RUNS:-1200} inputs (seed ${CM_FUZZ_SEED:-1}, at most ${CM_FUZZ_SECONDS:-120} s)"
 # Fixed seed and input count: the same inputs on every machine (open findings of longer runs are
 # in fuzz/open/core, docs/reliability.md).
 if CM_FUZZ_SEED="${CM_FUZZ_SEED:-1}" CM_FUZZ_RUNS="${CM_FUZZ_RUNS:-1200}" \

@@ -266,11 +266,11 @@ void Monitor::loadRobot() {
       }
     }
   }
-  fixed_frame_ =
-      typedParam<std::string>("fixed_frame", root_link.empty() ? "world" : root_link, "a string");
+  const std::string default_frame = root_link.empty() ? "world" : root_link;
+  fixed_frame_ = typedParam<std::string>("fixed_frame", default_frame, "a string");
   if (fixed_frame_.empty()) {
-    param_errors_.push_back("fixed_frame is empty; using world");
-    fixed_frame_ = "world";
+    param_errors_.push_back("fixed_frame is empty; using " + default_frame);
+    fixed_frame_ = default_frame;
   }
   if (!fixed_frame_.empty() && fixed_frame_[0] == '/') fixed_frame_.erase(0, 1);
 

@@ -76,6 +76,10 @@ class Panda(unittest.TestCase):
         self.assertEqual(list(r.frames), list(r.ids))
         self.assertEqual(set(r.groups), {''})
         self.assertEqual(self.m.state.header.frame_id, 'panda_link0')  # root link of the URDF
+        # fixed_frame is set empty (panda.test): reported, the default used.
+        self.assertTrue(wait_for(lambda: self.m.diag_value('invalid parameter') is not None, 5.0))
+        self.assertEqual(self.m.diag_value('invalid parameter'),
+                         'fixed_frame is empty; using panda_link0')
 
     def test_02_disabled_pairs_are_refused_with_the_reason(self):
         r = self.m.get_distance('panda_link0', 'panda_link1', '')
