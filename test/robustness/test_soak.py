@@ -189,9 +189,11 @@ class Soak(unittest.TestCase):
                                                          f['toggles_missed'],
                                                          f['toggles_missed_while_unknown'])),
             ('events wrong / duplicate / WARNING / UNKNOWN / other pairs',
-             '%d / %d / %d / %d / %d (%d events in all)'
+             '%d / %d / %d / %d / %d (%d events in all, %d of them in the set-up: UNKNOWN '
+             'intervals of bodies before their first pose)'
              % (f['events_wrong'], f['events_duplicate'], f['events_warning'],
-                f['events_unknown'], f['events_other_pairs'], f['events_total'])),
+                f['events_unknown'], f['events_other_pairs'], f['events_total'],
+                f['events_setup'])),
             ('~state pair checks overlapping / apart; violations',
              '%d / %d; %d not COLLISION while overlapping, %d COLLISION while apart'
              % (f['pair_checks_overlapping'], f['pair_checks_apart'],
