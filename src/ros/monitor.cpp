@@ -187,6 +187,13 @@ void Monitor::readParameters() {
   settings_.exact_min_distance = typedParam("exact_min_distance", true, "a boolean");
   robot_description_param_ =
       typedParam<std::string>("robot_description_param", "robot_description", "a string");
+  if (std::string why; !ros::names::validate(robot_description_param_, why) ||
+                       robot_description_param_.empty() || robot_description_param_[0] == '~') {
+    // roscpp would throw on it (the nodelet failed to load without a word).
+    param_errors_.push_back("robot_description_param = '" + robot_description_param_ +
+                            "' (must be a ROS name, not private); using robot_description");
+    robot_description_param_ = "robot_description";
+  }
 
   backend_name_ = typedParam<std::string>("backend", "gjk", "a string");
   if (auto b = core::parseBackend(backend_name_)) {
@@ -219,10 +226,21 @@ void Monitor::readParameters() {
   limits_.max_parts_per_body = settings_.max_parts_per_body;
 }
 
+std::string Monitor::robotParamKey(const std::string& name, const std::string& fallback) const {
+  // A remapped name as remapped: roscpp's searchParam honours only the command line's remappings,
+  // not a nodelet's (which come resolved), so a nodelet would search past the remap.
+  const std::string remapped = nh_.resolveName(name, true);
+  if (remapped != nh_.resolveName(name, false)) return remapped;
+  if (!fallback.empty()) return fallback;
+  std::string key;
+  return nh_.searchParam(name, key) ? key : remapped;
+}
+
 void Monitor::loadRobot() {
   std::string root_link;
-  std::string key;
-  if (!nh_.searchParam(robot_description_param_, key)) key = robot_description_param_;
+  // The URDF's parameter, searched upward from the node's namespace; the SRDF next to it (its
+  // own upward search would take another robot's SRDF where this one has none).
+  const std::string key = robotParamKey(robot_description_param_, "");
   std::string urdf;
   if (!nh_.getParam(key, urdf) || urdf.empty()) {
     ROS_INFO_STREAM(name_ << ": no URDF on parameter '" << robot_description_param_
@@ -251,9 +269,8 @@ void Monitor::loadRobot() {
                             << " links with collision geometry, " << robot->adjacent.size()
                             << " adjacent pairs disabled");
     }
-    std::string skey;
-    const std::string semantic = robot_description_param_ + "_semantic";
-    if (!nh_.searchParam(semantic, skey)) skey = semantic;
+    const std::string skey =
+        robotParamKey(robot_description_param_ + "_semantic", key + "_semantic");
     std::string srdf;
     if (nh_.getParam(skey, srdf) && !srdf.empty()) {
       auto pairs = disabledPairsFromSrdf(srdf);
@@ -972,7 +989,7 @@ void Monitor::runCycle() {
 
 void Monitor::setupDiagnostics() {
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);
-  diagnostics_->setHardwareID("none");
+  diagnostics_->setHardwareID(name_);  // two monitors (or nodelets) tell apart by it, too
   window_start_ = ros::WallTime::now();
   diagnostics_->add("inputs", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
     Stats now, before;

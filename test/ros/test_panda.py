@@ -16,6 +16,7 @@ import rospy
 import rostest
 import tf2_ros
 from collision_monitor.msg import CollisionEvent
+from collision_monitor.srv import GetDistance, ListBodies
 from roscpp.srv import GetLoggers
 from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import JointState
@@ -226,6 +227,30 @@ class Panda(unittest.TestCase):
             self.assertIn('ros.collision_monitor', names)
         self.assertEqual(xmlrpc.client.ServerProxy(uri).getPid('/test_panda')[2], pid)
         self.assertIsNotNone(self.wait_fresh('panda_link0', 'panda_hand'))
+
+
+    def test_09_second_monitor_remapped_urdf_and_no_foreign_srdf(self):
+        # Bugs: (1) the nodelet searched for robot_description past its remap and loaded the
+        # demo arm of /robot2/robot_description; (2) the SRDF was searched on its own and the
+        # global Panda SRDF disabled pairs of a robot that has none.
+        ns = '/robot2/arm/arm_monitor/'
+        for s in ('list_bodies', 'get_distance'):
+            rospy.wait_for_service(ns + s, timeout=20.0)
+        ids = sorted(rospy.ServiceProxy(ns + 'list_bodies', ListBodies)().ids)
+        self.assertEqual(ids, LINKS)
+        other = rospy.ServiceProxy(ns + 'get_distance', GetDistance)
+        pair = ('panda_hand', 'panda_link3')  # SRDF "Never", not adjacent
+        self.assertIn(frozenset(pair), self.disabled)
+        main = self.m.get_distance(*pair, '')
+        self.assertFalse(main.success)
+        self.assertIn('SRDF', main.message)
+        r = wait_for(lambda: (lambda r: r if r.success else None)(other(*pair, '')), 5.0, 0.05)
+        self.assertIsNotNone(r, other(*pair, '').message)
+        self.assertGreater(r.result.distance, 0.0)
+        # Adjacent links stay excluded (from the URDF itself).
+        adj = other('panda_link3', 'panda_link4', '')
+        self.assertFalse(adj.success)
+        self.assertIn('adjacent links', adj.message)
 
 
 if __name__ == '__main__':

@@ -368,6 +368,8 @@ class TopicBodies(unittest.TestCase):
     def test_10_diagnostics(self):
         self.assertTrue(wait_for(lambda: self.m.diag_value('backend'), 5.0, 0.1))
         self.assertEqual(self.m.diag_value('backend'), self.backend)
+        self.assertEqual(self.m.diagnostics.name, 'collision_monitor: inputs')
+        self.assertEqual(self.m.diagnostics.hardware_id, '/collision_monitor')  # was "none"
 
     def test_11_max_bodies(self):
         present = self.m.ids()

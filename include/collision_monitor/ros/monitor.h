@@ -89,6 +89,9 @@ class Monitor {
   /// in its private namespace (as roscpp resolves `~` elsewhere), remappings applied. Throws
   /// ros::Exception on a name roscpp refuses.
   std::string resolvePoseTopic(const std::string& topic) const;
+  /// The parameter key of robot parameter `name`: its remapped name when remapped, else
+  /// `fallback`, else the key found searching upward from the node's namespace.
+  std::string robotParamKey(const std::string& name, const std::string& fallback) const;
   void updatePoseSubscription(const std::string& id, const std::string& topic);
   /// header frame -> fixed frame at `stamp` (latest when zero); nullopt with `why`.
   std::optional<core::Transform3> toFixed(const std::string& frame, const ros::Time& stamp,
