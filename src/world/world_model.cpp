@@ -618,17 +618,30 @@ struct WorldModel::Impl {
         e->version_b == B.version) {
       return &e->result;
     }
-    const std::size_t nparts = A.spec.parts.size() * B.spec.parts.size();
-    if (e->caches.size() != nparts) e->caches.assign(nparts, core::PairCache());
-    const Narrow n = narrowPhase(A, B, kInf, e->caches.data());
+    const Narrow n = narrowWithCaches(A, B, e, kInf);
     *part_checks += static_cast<std::size_t>(n.gjk_runs);
     if (!std::isfinite(n.distance)) return nullptr;
+    store(e, n, A, B, kInf);
+    return &e->result;
+  }
+
+  /// The pair's narrow phase up to `cutoff`, warm-started from the entry's caches (one per part
+  /// pair, reset when the part counts change).
+  Narrow narrowWithCaches(const BodyState& A, const BodyState& B, PairEntry* e,
+                          double cutoff) const {
+    const std::size_t nparts = A.spec.parts.size() * B.spec.parts.size();
+    if (e->caches.size() != nparts) e->caches.assign(nparts, core::PairCache());
+    return narrowPhase(A, B, cutoff, e->caches.data());
+  }
+
+  /// Keeps `n` as the entry's result for the bodies' current versions.
+  static void store(PairEntry* e, const Narrow& n, const BodyState& A, const BodyState& B,
+                    double cutoff) {
     e->result = n;
     e->version_a = A.version;
     e->version_b = B.version;
-    e->cutoff_used = kInf;
+    e->cutoff_used = cutoff;
     e->has_result = true;
-    return &e->result;
   }
 
   PairResult unknownResult(int a, int b) const {
@@ -984,13 +997,7 @@ CycleResult WorldModel::check(Stamp now) {
     if (reusable) {
       ++res.num_pairs_cached;
     } else {
-      const std::size_t nparts = A.spec.parts.size() * B.spec.parts.size();
-      if (e.caches.size() != nparts) e.caches.assign(nparts, core::PairCache());
-      e.result = m.narrowPhase(A, B, cutoff, e.caches.data());
-      e.version_a = A.version;
-      e.version_b = B.version;
-      e.cutoff_used = cutoff;
-      e.has_result = true;
+      Impl::store(&e, m.narrowWithCaches(A, B, &e, cutoff), A, B, cutoff);
       ++res.num_pairs_checked;
       res.num_part_checks += static_cast<std::size_t>(e.result.gjk_runs);
     }
