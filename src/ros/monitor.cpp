@@ -178,6 +178,7 @@ void Monitor::readParameters() {
   }
   settings_.hysteresis = number("hysteresis", 0.005, non_negative, ">= 0");
   settings_.pose_timeout = number("pose_timeout", 0.5, positive, "> 0");
+  settings_.ttc_horizon = number("ttc_horizon", defaults.ttc_horizon, positive, "> 0");
   robot_padding_ = number("robot_padding", 0.0, non_negative, ">= 0");
   min_check_interval_ = number("min_check_interval", 0.002, non_negative, ">= 0");
   // A value of another type (publish_markers: "no", backend: 7) is an error, not silence.

@@ -15,7 +15,7 @@ import rostest
 import tf2_ros
 from collision_monitor.msg import Body, BodyPoses, CollisionEvent, PairState, Shape
 from collision_monitor.srv import CheckCollision, CheckCollisionRequest, CheckCollisionResponse
-from geometry_msgs.msg import Point, PoseStamped, TransformStamped
+from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist
 from roscpp.srv import GetLoggers, SetLoggerLevel
 from visualization_msgs.msg import MarkerArray
 
@@ -57,7 +57,12 @@ class TopicBodies(unittest.TestCase):
         t.child_frame_id = 'shelf_frame'
         t.transform.translation.y = 5.0
         t.transform.rotation.w = 1.0
-        cls.static_tf.sendTransform(t)
+        # turned_frame: world turned +90 degrees about x (its y is world z, its z is world -y).
+        turned = TransformStamped()
+        turned.header.frame_id = 'world'
+        turned.child_frame_id = 'turned_frame'
+        turned.transform.rotation.x = turned.transform.rotation.w = math.sqrt(0.5)
+        cls.static_tf.sendTransform([t, turned])
         cls.m = Monitor()
         cls.poses = PoseStreamer(cls.m.poses_pub, 'world', rate=20.0)
         # Two unit spheres 3 m apart.
@@ -634,6 +639,43 @@ class TopicBodies(unittest.TestCase):
         finally:
             self.m.add(Body(id='in_stopped', operation=Body.REMOVE))
         self.assertTrue(self.m.wait_listed('in_stopped', present=False))
+
+    def test_18_time_to_collision_from_twists_in_another_frame(self):
+        # An arm: a 0.5 m sphere on a 2 m lever, its body spinning about world z at 1 rad/s, the
+        # twist given in turned_frame (where world z is y); a 0.5 m sphere b at world (0, 2, 10),
+        # the arm's origin at world (0, 0, 10). Oracle: the sphere centres are 1 m apart when
+        # |(2 cos t, 2 sin t) - (0, 2)| = 1, sin t = 7/8; spinning the other way, sin(-t) = 7/8.
+        arm = Body(id='arm', operation=Body.ADD, pose_from_topic=True)
+        arm.parts = [shape(Shape.SPHERE, [0.5], pose=pose(2, 0, 0))]
+        self.m.add(arm)
+        self.m.add(sphere_body('b', 0.5))
+        self.assertTrue(self.m.wait_listed('arm') and self.m.wait_listed('b'))
+
+        def spin(rate):
+            msg = BodyPoses(ids=['arm', 'b'], poses=[pose(0, 10, 0), pose(0, 10, -2)])
+            msg.header.frame_id = 'turned_frame'
+            msg.header.stamp = rospy.Time(0)  # static poses: never stale
+            msg.twists = [Twist(), Twist()]
+            msg.twists[0].angular.y = rate
+            self.m.poses_pub.publish(msg)
+        try:
+            for rate, expected in ((1.0, math.asin(0.875)), (-1.0, math.pi + math.asin(0.875))):
+                spin(rate)
+                r = wait_for(lambda: (lambda r: r if r.success and abs(
+                    r.result.time_to_collision - expected) < 1e-6 else None)(
+                        self.distance('arm', 'b')), 5.0)
+                self.assertIsNotNone(r, (rate, self.distance('arm', 'b')))
+                self.assertAlmostEqual(r.result.distance, math.sqrt(8) - 1, places=9)
+                self.assertTrue(point_close(r.result.point_b, (
+                    0.5 * math.sqrt(0.5), 2 - 0.5 * math.sqrt(0.5), 10)), r.result.point_b)
+            spin(0.0)  # at rest: never
+            self.assertIsNotNone(wait_for(lambda: (lambda r: r if r.success and math.isinf(
+                r.result.time_to_collision) else None)(self.distance('arm', 'b')), 5.0))
+        finally:
+            self.m.add(Body(id='arm', operation=Body.REMOVE))
+            self.m.add(Body(id='b', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('arm', present=False))
+        self.assertTrue(self.m.wait_listed('b', present=False))
 
 
 if __name__ == '__main__':

@@ -162,44 +162,6 @@ PairResult headOn(double distance) {
   return r;
 }
 
-TEST(PairLogic, TimeToCollisionHeadOn) {
-  Twist ta;
-  ta.linear = Vec3(1, 0, 0);
-  Twist tb;
-  tb.linear = Vec3(-0.5, 0, 0);
-  const PairResult r = headOn(3.0);
-  EXPECT_EQ(timeToCollision(r, &ta, Vec3::Zero(), &tb, Vec3(5, 0, 0), 0.0), 2.0);
-  EXPECT_EQ(timeToCollision(r, &ta, Vec3::Zero(), nullptr, Vec3(5, 0, 0), 0.0), 3.0);
-  EXPECT_EQ(timeToCollision(r, nullptr, Vec3::Zero(), &tb, Vec3(5, 0, 0), 0.0), 6.0);
-  // Time until the COLLISION threshold, not until touching.
-  EXPECT_EQ(timeToCollision(r, &ta, Vec3::Zero(), &tb, Vec3(5, 0, 0), 0.75), 1.5);
-}
-
-TEST(PairLogic, TimeToCollisionFromRotation) {
-  // A's origin at (0,-1,0) spins about z at -2 rad/s: its witness point (1,0,0) moves at
-  // w x r = (0,0,-2) x (1,1,0) = (2,-2,0), towards B at 2 m/s along the normal.
-  Twist spin;
-  spin.angular = Vec3(0, 0, -2);
-  const PairResult r = headOn(3.0);
-  EXPECT_EQ(timeToCollision(r, &spin, Vec3(0, -1, 0), nullptr, Vec3(5, 0, 0), 0.0), 1.5);
-  spin.angular = Vec3(0, 0, 2);  // the other way: moving apart
-  EXPECT_EQ(timeToCollision(r, &spin, Vec3(0, -1, 0), nullptr, Vec3(5, 0, 0), 0.0), kInf);
-}
-
-TEST(PairLogic, TimeToCollisionDegenerateCases) {
-  Twist away;
-  away.linear = Vec3(-1, 0, 0);
-  Twist sideways;
-  sideways.linear = Vec3(0, 3, 0);
-  EXPECT_EQ(timeToCollision(headOn(3.0), nullptr, Vec3::Zero(), nullptr, Vec3::Zero(), 0.0), kInf);
-  EXPECT_EQ(timeToCollision(headOn(3.0), &away, Vec3::Zero(), nullptr, Vec3::Zero(), 0.0), kInf);
-  EXPECT_EQ(timeToCollision(headOn(3.0), &sideways, Vec3::Zero(), nullptr, Vec3::Zero(), 0.0),
-            kInf);
-  EXPECT_EQ(timeToCollision(headOn(-0.1), &away, Vec3::Zero(), nullptr, Vec3::Zero(), 0.0), 0.0);
-  EXPECT_EQ(timeToCollision(headOn(kInf), &away, Vec3::Zero(), nullptr, Vec3::Zero(), 0.0), kInf);
-  EXPECT_EQ(timeToCollision(headOn(kNaN), &away, Vec3::Zero(), nullptr, Vec3::Zero(), 0.0), kInf);
-}
-
 TEST(PairLogic, FlipPairSwapsRoles) {
   PairResult r = headOn(3.0);
   r.body_a = "a";

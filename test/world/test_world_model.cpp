@@ -1091,6 +1091,98 @@ TEST(WorldModel, TimeToCollisionOfTranslatingBodiesIsExact) {
   EXPECT_NEAR(r.pairs[0].time_to_collision, 3.0, 1e-12);
 }
 
+TEST(WorldModel, TimeToCollisionOfABodyOfSeveralParts) {
+  // A: spheres of radius 0.5 at (0, 1.2) and (-2, 0); b, radius 0.5 from (0.5, 0) at -1 m/s
+  // along x, passes the first (nearest, 0.3 m) at 1.2 m and meets the second head-on when
+  // 0.5 - t + 2 = 1: 1.5 s. Following only the nearest part pair said +inf (it recedes after
+  // 0.78 s).
+  Settings s = dyadic();
+  s.warning_distance = 5.0;
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(body("a", {Part{ConvexShape::sphere(0.5), at(0, 1.2)},
+                                 Part{ConvexShape::sphere(0.5), at(-2)}})),
+            "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  Twist tw;
+  tw.linear = Vec3(-1, 0, 0);
+  ASSERT_TRUE(w.setPose("a", at(0), 1.0));
+  ASSERT_TRUE(w.setPose("b", at(0.5), 1.0, tw));
+  const CycleResult r = w.check(1.0);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_NEAR(r.pairs[0].distance, 0.3, 1e-15);
+  EXPECT_NEAR(r.pairs[0].time_to_collision, 1.5, 1e-9);
+}
+
+/// time_to_collision of an arm: a sphere of radius 0.5 on a 2 m lever from body "arm"'s origin,
+/// which spins about z at `spin`; a sphere "b" of radius 0.5 at (0, y_b). Oracle: the arm's sphere
+/// centre is (2 cos wt, 2 sin wt), so the centres are 1 m apart when 4 + y_b^2 - 4 y_b sin wt = 1.
+double armTimeToCollision(double spin, double y_b, double horizon = Settings().ttc_horizon) {
+  Settings s = dyadic();
+  s.warning_distance = 5.0;
+  s.ttc_horizon = horizon;
+  WorldModel w(s);
+  EXPECT_EQ(w.addBody(body("arm", {Part{ConvexShape::sphere(0.5), at(2)}})), "");
+  EXPECT_EQ(w.addBody(sphere("b", 0.5)), "");
+  Twist tw;
+  tw.angular = Vec3(0, 0, spin);
+  EXPECT_TRUE(w.setPose("arm", at(0), 1.0, tw));
+  EXPECT_TRUE(w.setPose("b", at(0, y_b), 1.0));
+  const CycleResult r = w.check(1.0);
+  EXPECT_EQ(r.pairs.size(), 1u);
+  return r.pairs.empty() ? -1.0 : r.pairs[0].time_to_collision;
+}
+
+TEST(WorldModel, TimeToCollisionOfARotatingBody) {
+  const double inf = std::numeric_limits<double>::infinity();
+  // Towards b: sin t = 7/8. The estimate from the witness points' speed said 1.29 s.
+  EXPECT_NEAR(armTimeToCollision(1.0, 2.0), std::asin(0.875), 1e-8);
+  EXPECT_NEAR(armTimeToCollision(0.5, 2.0), 2.0 * std::asin(0.875), 1e-8);
+  // Away from b: the sphere comes round when sin(-t) = 7/8, after pi + asin(7/8) s, within the
+  // 10 s horizon.
+  EXPECT_NEAR(armTimeToCollision(-1.0, 2.0), M_PI + std::asin(0.875), 1e-8);
+  // Out of reach (centres never nearer than 3.5 - 2 = 1.5 m): never, though it comes nearer.
+  EXPECT_EQ(armTimeToCollision(1.0, 3.5), inf);
+  // Beyond the horizon: 4.2 s away, horizon 4 s.
+  EXPECT_EQ(armTimeToCollision(-1.0, 2.0, 4.0), inf);
+  EXPECT_NEAR(armTimeToCollision(1.0, 2.0, 4.0), std::asin(0.875), 1e-8);
+}
+
+/// A screw motion: a unit cube spinning about z at 1 rad/s while it moves along x at 0.5 m/s,
+/// towards a wall whose face is the plane x = 3. Oracle: the cube's largest x at time t is
+/// 0.5 t + max over its corners of sqrt(0.5) cos(t + pi/4 + k pi/2); the first t where it reaches
+/// 3, by a grid of 1 ms and bisection.
+TEST(WorldModel, TimeToCollisionOfAScrewMotion) {
+  Settings s = dyadic();
+  s.warning_distance = 5.0;
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(body("cube", {Part{ConvexShape::box(Vec3(1, 1, 1)), at(0)}})), "");
+  ASSERT_EQ(w.addBody(body("wall", {Part{ConvexShape::box(Vec3(2, 10, 10)), at(1)}})), "");
+  Twist tw;
+  tw.linear = Vec3(0.5, 0, 0);
+  tw.angular = Vec3(0, 0, 1);
+  ASSERT_TRUE(w.setPose("cube", at(0), 1.0, tw));
+  ASSERT_TRUE(w.setPose("wall", at(3), 1.0));
+  const CycleResult r = w.check(1.0);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_EQ(r.pairs[0].distance, 2.5);
+  const auto reach = [](double t) {
+    double x = -1e9;
+    for (int k = 0; k < 4; ++k)
+      x = std::max(x, 0.5 * t + std::sqrt(0.5) * std::cos(t + M_PI / 4 + k * M_PI / 2));
+    return x;
+  };
+  double lo = 0.0;
+  while (reach(lo + 1e-3) < 3.0)
+    lo += 1e-3;
+  double hi = lo + 1e-3;
+  for (int k = 0; k < 100; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    (reach(mid) < 3.0 ? lo : hi) = mid;
+  }
+  EXPECT_NEAR(r.pairs[0].time_to_collision, lo, 1e-8);
+  EXPECT_LT(lo, 5.0);  // sooner than the translation alone: a corner swings out
+}
+
 TEST(WorldModel, ShapeAabbEqualsTheSupportBox) {
   // The closed-form part boxes equal ConvexShape::aabb() (6 support queries) for every core.
   std::mt19937 g(11);

@@ -94,30 +94,6 @@ inline int transitionEvents(PairStatus from, PairStatus to, EventType out[2]) {
   return n;
 }
 
-/// Velocity (m/s, fixed frame) of the material point `p` (fixed frame) of a body whose origin is
-/// at `origin` (fixed frame) and moves with `twist` (angular about the origin).
-inline Vec3 pointVelocity(const Twist& twist, const Vec3& origin, const Vec3& p) {
-  return twist.linear + twist.angular.cross(p - origin);
-}
-
-/// Time (s) until the pair's distance reaches `contact_distance` (the COLLISION threshold) under
-/// the current twists, to first order: the witness points move with their bodies and the
-/// distance changes at rate dot(v_b - v_a, normal). 0 when already at or below the threshold,
-/// +inf when not approaching, when neither body has a twist, or when the distance is unknown.
-/// A body without a twist counts as at rest.
-inline double timeToCollision(const PairResult& r, const Twist* twist_a, const Vec3& origin_a,
-                              const Twist* twist_b, const Vec3& origin_b, double contact_distance) {
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  if (!std::isfinite(r.distance)) return kInf;
-  if (r.distance <= contact_distance) return 0.0;
-  if (twist_a == nullptr && twist_b == nullptr) return kInf;
-  const Vec3 va = twist_a ? pointVelocity(*twist_a, origin_a, r.point_a) : Vec3::Zero();
-  const Vec3 vb = twist_b ? pointVelocity(*twist_b, origin_b, r.point_b) : Vec3::Zero();
-  const double rate = (vb - va).dot(r.normal);  // d(distance)/dt, m/s
-  if (!(rate < 0.0)) return kInf;
-  return (r.distance - contact_distance) / -rate;
-}
-
 /// Swaps the roles of a and b in a result: names, witness points, normal.
 inline void flipPair(PairResult* r) {
   std::swap(r->body_a, r->body_b);

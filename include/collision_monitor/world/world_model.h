@@ -101,6 +101,10 @@ struct Settings {
   double contact_distance = 0.0;   ///< m
   double hysteresis = 0.005;       ///< m: a status is left only once past its threshold by this
   double pose_timeout = 0.5;       ///< s
+  /// s: with a rotating body, a contact later than this is reported as time_to_collision +inf
+  /// (a body spinning near another, without ever touching it, would otherwise be followed for
+  /// ever). Bodies that only translate get their exact time however far.
+  double ttc_horizon = 10.0;
   core::BackendType backend = core::BackendType::Gjk;
   std::size_t max_bodies = 10000;
   std::size_t max_vertices_per_part = 100000;
