@@ -151,11 +151,14 @@ void tessellate(const ConvexShape& shape, double radius, int n, Marker* m) {
   dirs.reserve(static_cast<std::size_t>((rings + 1) * segments));
   pts.reserve(dirs.capacity());
   for (int i = 0; i <= rings; ++i) {
+    // The poles exactly: sin(pi) is 1.2e-16, enough to pick rim points of a face whose normal
+    // is -z (a cone's base, a padded box's bottom), which then had no triangles.
     const double theta = M_PI * i / rings;
+    const double st = (i == 0 || i == rings) ? 0.0 : std::sin(theta);
+    const double ct = i == 0 ? 1.0 : i == rings ? -1.0 : std::cos(theta);
     for (int j = 0; j < segments; ++j) {
       const double phi = 2.0 * M_PI * j / segments;
-      const Vec3 d(std::sin(theta) * std::cos(phi), std::sin(theta) * std::sin(phi),
-                   std::cos(theta));
+      const Vec3 d(st * std::cos(phi), st * std::sin(phi), ct);
       dirs.push_back(d);
       pts.push_back(shape.coreSupport(d) + radius * d);
     }
@@ -268,19 +271,9 @@ std::string MarkerBuilder::distanceLabel(double distance) {
 }
 
 void MarkerBuilder::reset() {
-  shown_.clear();
-  ids_.clear();
   geometry_.clear();
-  first_ = true;
   last_build_ = -1.0;
-}
-
-int MarkerBuilder::markerId(const std::string& ns, const std::string& key) {
-  const auto it = ids_.find({ns, key});
-  if (it != ids_.end()) return it->second;
-  const int id = next_id_++;
-  ids_.emplace(std::make_pair(ns, key), id);
-  return id;
+  num_shown_ = 0;
 }
 
 const MarkerBuilder::BodyGeometry& MarkerBuilder::geometryOf(const world::BodySpec& spec) {
@@ -344,18 +337,18 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
   header.frame_id = fixed_frame;
   header.stamp = toRosTime(cycle.stamp);
 
-  if (first_) {
-    Marker clear_all;
-    clear_all.header = header;
-    clear_all.action = Marker::DELETEALL;
-    clear_all.pose = identityPose();
-    out.markers.push_back(clear_all);
-    first_ = false;
-  }
-
-  std::map<std::pair<std::string, int>, std::string> shown;
-  auto emit = [&](Marker&& m, const std::string& key) {
-    shown.emplace(std::make_pair(m.ns, m.id), key);
+  // Every array is the whole picture: it starts by clearing what the last one showed, so an
+  // array that a subscriber missed (the publisher's queue is 1) leaves nothing behind.
+  Marker clear_all;
+  clear_all.header = header;
+  clear_all.action = Marker::DELETEALL;
+  clear_all.pose = identityPose();
+  out.markers.push_back(clear_all);
+  const ros::Duration lifetime(std::max(options_.lifetime, 0.0));
+  std::map<std::string, int> next_id;  // per namespace
+  auto emit = [&](Marker&& m) {
+    m.id = next_id[m.ns]++;
+    m.lifetime = lifetime;
     out.markers.push_back(std::move(m));
   };
 
@@ -373,7 +366,11 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
       w.distance = distance;
     }
   };
+  // A pair is UNKNOWN because one of its bodies is stale: that body is grey, the other keeps
+  // the colour of its pairs that are known (all pairs of a stale body are UNKNOWN, and only some
+  // of them are listed, so colouring by them would grey the listed partners only).
   for (const auto& p : cycle.pairs) {
+    if (p.status == PairStatus::Unknown) continue;
     note(p.body_a, p.status, p.distance);
     note(p.body_b, p.status, p.distance);
   }
@@ -399,24 +396,21 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
       const geometry_msgs::Pose pose =
           toPose(*body_pose * spec->parts[i].pose *
                  core::makeTransform(Eigen::Quaterniond::Identity(), pg.offset));
-      const std::string key = info.id + '#' + std::to_string(i);
       Marker m = pg.solid;
       m.header = header;
       m.ns = kBodies;
-      m.id = markerId(kBodies, key);
       m.color = color;
       m.pose = pose;
       if (!pg.solid_shade.empty()) applyShade(pg.solid_shade, color, &m);
-      emit(std::move(m), key);
+      emit(std::move(m));
       if (pg.has_shell) {
         Marker s = pg.shell;
         s.header = header;
         s.ns = kPadding;
-        s.id = markerId(kPadding, key);
         s.color = shell_color;
         s.pose = pose;
         if (!pg.shell_shade.empty()) applyShade(pg.shell_shade, shell_color, &s);
-        emit(std::move(s), key);
+        emit(std::move(s));
       }
     }
   }
@@ -428,25 +422,22 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
   for (const auto& p : cycle.pairs) {
     if (p.status != PairStatus::Warning && p.status != PairStatus::Collision) continue;
     if (!p.point_a.allFinite() || !p.point_b.allFinite()) continue;
-    const std::string key = p.body_a + '\n' + p.body_b;
     const std_msgs::ColorRGBA color = statusColor(p.status, p.distance, warning_distance);
 
     Marker line;
     line.header = header;
     line.ns = kWitness;
-    line.id = markerId(kWitness, key);
     line.type = Marker::LINE_LIST;
     line.action = Marker::ADD;
     line.pose = identityPose();
     line.scale.x = options_.line_width;
     line.color = color;
     line.points = {toPoint(p.point_a), toPoint(p.point_b)};
-    emit(std::move(line), key);
+    emit(std::move(line));
 
     Marker label;
     label.header = header;
     label.ns = kLabels;
-    label.id = markerId(kLabels, key);
     label.type = Marker::TEXT_VIEW_FACING;
     label.action = Marker::ADD;
     label.pose = identityPose();
@@ -456,14 +447,13 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     // Lighter than the bodies so that the text stays readable in front of them.
     label.color = rgba(0.5 + 0.5 * color.r, 0.5 + 0.5 * color.g, 0.5 + 0.5 * color.b);
     label.text = distanceLabel(p.distance);
-    emit(std::move(label), key);
+    emit(std::move(label));
 
     if (p.distance < 0.0 && p.normal.allFinite() && p.normal.norm() > 0.5) {
       const double length = std::max(-p.distance, options_.min_arrow_length);
       Marker arrow;
       arrow.header = header;
       arrow.ns = kNormals;
-      arrow.id = markerId(kNormals, key);
       arrow.type = Marker::ARROW;
       arrow.action = Marker::ADD;
       arrow.pose = identityPose();
@@ -472,23 +462,11 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
       arrow.scale.z = std::min(0.4 * length, 0.02);  // head length
       arrow.color = color;
       arrow.points = {toPoint(p.point_a), toPoint(p.point_a + length * p.normal.normalized())};
-      emit(std::move(arrow), key);
+      emit(std::move(arrow));
     }
   }
 
-  // Deletions: whatever was shown last time and is gone now.
-  for (const auto& [ns_id, key] : shown_) {
-    if (shown.count(ns_id) != 0) continue;
-    Marker del;
-    del.header = header;
-    del.ns = ns_id.first;
-    del.id = ns_id.second;
-    del.action = Marker::DELETE;
-    del.pose = identityPose();
-    out.markers.push_back(std::move(del));
-    ids_.erase({ns_id.first, key});
-  }
-  shown_ = std::move(shown);
+  num_shown_ = out.markers.size() - 1;
   return out;
 }
 

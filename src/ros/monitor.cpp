@@ -62,6 +62,7 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
     : nh_(nh), pnh_(pnh), name_(name) {
   readParameters();
   world_ = std::make_unique<world::WorldModel>(settings_);
+  marker_builder_ = MarkerBuilder(markerOptions());
   mesh_cache_ = std::make_unique<MeshCache>(
       [this] {
         std::vector<std::string> roots;
@@ -185,6 +186,7 @@ void Monitor::readParameters() {
   check_on_pose_ = typedParam("check_on_pose", true, "a boolean");
   check_on_tf_ = typedParam("check_on_tf", true, "a boolean");
   publish_markers_ = typedParam("publish_markers", true, "a boolean");
+  marker_rate_ = number("marker_rate", MarkerOptions().max_rate, positive, "> 0");
   settings_.exact_min_distance = typedParam("exact_min_distance", true, "a boolean");
   robot_description_param_ =
       typedParam<std::string>("robot_description_param", "robot_description", "a string");
@@ -225,6 +227,15 @@ void Monitor::readParameters() {
   settings_.max_unknown_pairs = count("max_unknown_pairs", kDefaultMaxUnknownPairs);
   limits_.max_vertices_per_part = settings_.max_vertices_per_part;
   limits_.max_parts_per_body = settings_.max_parts_per_body;
+}
+
+MarkerOptions Monitor::markerOptions() const {
+  MarkerOptions o;
+  o.max_rate = marker_rate_;
+  // Arrays come at least as often as the slower of the heartbeat and the marker rate; a marker
+  // lives for three such periods, and at least 1 s.
+  o.lifetime = std::max(1.0, 3.0 / std::min(rate_, marker_rate_));
+  return o;
 }
 
 std::string Monitor::robotParamKey(const std::string& name, const std::string& fallback) const {
@@ -979,6 +990,7 @@ void Monitor::runCycle() {
     stats_.stale_ids = cycle.stale_bodies;
     stats_.bodies = cycle.num_bodies;
     stats_.pairs_checked = cycle.num_pairs_checked;
+    stats_.pairs_checked_sum += cycle.num_pairs_checked;
     stats_.pose_msgs_applied = pose_msgs_applied;
     stats_.checks_with_new_poses = checks_with_new_poses;
   }
@@ -1018,6 +1030,16 @@ void Monitor::setupDiagnostics() {
     } else {
       s.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
     }
+    const std::size_t cycles = now.cycles - before.cycles;
+    const double mean_cycle =
+        cycles ? (now.cycle_time_sum - before.cycle_time_sum) / static_cast<double>(cycles) : 0.0;
+    if (mean_cycle > 1.0 / rate_) {
+      // The checks cannot keep up with `rate`: verdicts come later than configured.
+      s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                      "overloaded: a check takes %.1f ms on average, longer than the %.1f ms "
+                      "period of rate %.1f Hz (%.1f checks/s)",
+                      1e3 * mean_cycle, 1e3 / rate_, rate_, cycles / dt);
+    }
     s.add("backend", core::toString(settings_.backend));
     s.add("fixed_frame", fixed_frame_);
     s.add("bodies", now.bodies);
@@ -1029,13 +1051,15 @@ void Monitor::setupDiagnostics() {
     s.add("rejected inputs (total)", now.rejected);
     s.add("rejected inputs (since last report)", rejected);
     s.add("last rejection", now.last_rejection);
-    const std::size_t cycles = now.cycles - before.cycles;
     s.addf("check rate (Hz)", "%.1f", cycles / dt);
     s.addf("target rate (Hz)", "%.1f", rate_);
-    s.addf("mean cycle time (ms)", "%.3f",
-           cycles ? 1e3 * (now.cycle_time_sum - before.cycle_time_sum) / cycles : 0.0);
+    s.addf("mean cycle time (ms)", "%.3f", 1e3 * mean_cycle);
     s.addf("max cycle time since last report (ms)", "%.3f", 1e3 * now.cycle_time_max);
     s.add("pairs checked (last cycle)", now.pairs_checked);
+    s.addf("pairs checked (mean per check since last report)", "%.1f",
+           cycles ? static_cast<double>(now.pairs_checked_sum - before.pairs_checked_sum) /
+                        static_cast<double>(cycles)
+                  : 0.0);
     s.add("checks (total)", now.cycles);
     s.add("~body_poses messages (total)", now.poses_msgs);
     s.add("pose_topic messages (total)", now.pose_topic_msgs);

@@ -35,11 +35,11 @@ class BadParams(unittest.TestCase):
         self.assertEqual(d.level, DiagnosticStatus.ERROR, d.message)
         errors = [kv.value for kv in d.values if kv.key == 'invalid parameter']
         for key in ('rate', 'fixed_frame', 'warning_distance', 'hysteresis', 'pose_timeout',
-                    'ttc_horizon', 'publish_markers', 'check_on_pose', 'exact_min_distance', 'backend',
+                    'ttc_horizon', 'marker_rate', 'publish_markers', 'check_on_pose', 'exact_min_distance', 'backend',
                     'max_bodies', 'max_vertices_per_part', 'max_parts_per_body',
                     'robot_description_param'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
-        self.assertEqual(len(errors), 14, errors)  # max_unknown_pairs = 1.0 is valid
+        self.assertEqual(len(errors), 15, errors)  # max_unknown_pairs = 1.0 is valid
         # roscpp threw on it: the node exited 1 with only "cannot load ...Nodelet".
         self.assertIn("robot_description_param = 'robot-description' (must be a ROS name, not "
                       "private); using robot_description", errors)

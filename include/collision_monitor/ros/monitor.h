@@ -89,6 +89,8 @@ class Monitor {
   /// in its private namespace (as roscpp resolves `~` elsewhere), remappings applied. Throws
   /// ros::Exception on a name roscpp refuses.
   std::string resolvePoseTopic(const std::string& topic) const;
+  /// How ~markers look and how often they go out (marker_rate, lifetime from the rates).
+  MarkerOptions markerOptions() const;
   /// The parameter key of robot parameter `name`: its remapped name when remapped, else
   /// `fallback`, else the key found searching upward from the node's namespace.
   std::string robotParamKey(const std::string& name, const std::string& fallback) const;
@@ -134,6 +136,7 @@ class Monitor {
   Limits limits_;
   std::string fixed_frame_;
   double rate_ = 50.0;
+  double marker_rate_ = 15.0;  ///< Hz, at most this many ~markers arrays per second
   double min_check_interval_ = 0.002;
   bool check_on_pose_ = true;
   bool check_on_tf_ = true;
@@ -185,7 +188,7 @@ class Monitor {
     std::size_t rejected = 0;
     std::string last_rejection;
     double cycle_time_max = 0.0, cycle_time_sum = 0.0;
-    std::size_t stale = 0, bodies = 0, pairs_checked = 0;
+    std::size_t stale = 0, bodies = 0, pairs_checked = 0, pairs_checked_sum = 0;
     std::vector<std::string> stale_ids;
   } stats_, stats_window_start_;
   ros::WallTime window_start_;
