@@ -30,6 +30,10 @@ if(NOT COLLISION_MONITOR_CORE_ONLY AND CATKIN_ENABLE_TESTING)
   target_link_libraries(collision_monitor_soak_driver ${catkin_LIBRARIES})
   target_compile_options(collision_monitor_soak_driver PRIVATE ${CM_WARNING_FLAGS})
   add_dependencies(collision_monitor_soak_driver ${${PROJECT_NAME}_EXPORTED_TARGETS})
+  if(NOT CM_STANDALONE)  # in a workspace: built by `make tests`, like the gtests
+    set_target_properties(collision_monitor_soak_driver PROPERTIES EXCLUDE_FROM_ALL TRUE)
+    add_dependencies(tests collision_monitor_soak_driver)
+  endif()
 endif()
 
 # rostests over a real roscore (python test nodes in test/robustness, /usr/bin/python3).
