@@ -58,7 +58,7 @@ else
   FAILED=$((FAILED + 1))
 fi
 
-echo "=== 4/4 build and install inside a catkin workspace (catkin_make install), the demo from the install space"
+echo "=== 4/4 build and install inside a catkin workspace (catkin_make install), the demo from the install space, a downstream package against it"
 WS="$CM_BUILD-ws"
 mkdir -p "$WS/src"
 ln -sfn "$CM_ROOT" "$WS/src/collision_monitor"
@@ -67,6 +67,7 @@ ln -sfn "$CM_ROOT" "$WS/src/collision_monitor"
   || { tail -50 "$WS.log"; exit 1; }
 echo "catkin workspace build and install: ok"
 bash "$CM_ROOT/scripts/check_install.sh" "$WS/install"
+bash "$CM_ROOT/scripts/check_consumer.sh" "$WS/install"
 
 # One closing line for CI: every CTest test of both builds.
 echo "all: $PASSED passed, $FAILED failed"
