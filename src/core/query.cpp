@@ -408,15 +408,22 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
     return r;
   }
   if (!want_depth) {
-    // distance(): the cores overlap (or touch within the GJK tolerance); no EPA. A full simplex
-    // encloses the origin (penetration); a smaller one means the origin is on A - B within the
-    // tolerance: touching when there are no radii.
-    const bool enclosed = g.simplex.size == 4;
+    // distance(): the cores overlap (or touch within the GJK tolerance). A full simplex encloses
+    // the origin (penetration); with radii beyond the band the shapes overlap. A smaller simplex
+    // has the origin on it: on A - B's boundary (touching), or inside A - B on a segment or
+    // triangle of support points by symmetry (a point at a cylinder's centre, concentric boxes:
+    // both were reported touching). EPA tells them apart, only here.
+    const double band = o.touch_tolerance * f.size;
+    bool enclosed = g.simplex.size == 4 || f.rA + f.rB > band;
+    if (!enclosed) {
+      const EpaResult<3> e = runEpa(eraseDifference(md), g.simplex, epaSettings(f, o));
+      r.epa_iterations = e.iterations;
+      enclosed = e.status != EpaStatus::Flat && e.depth > o.touch_tolerance * f.workSize();
+    }
     const Vec3 n = unitOr(f.T_AB.t, Vec3::UnitX());
     finish(f, o, 0.0, g.point_a, g.point_b, n, false, r);
     r.distance = 0.0;
-    r.status = (enclosed || f.rA + f.rB > o.touch_tolerance * f.size) ? Status::Penetrating
-                                                                      : Status::Touching;
+    r.status = enclosed ? Status::Penetrating : Status::Touching;
     return r;
   }
   const EpaSettings es = epaSettings(f, o);

@@ -344,6 +344,31 @@ TEST(ExactPoint, PointInsideSphereAndCylinder) {
   expectVecNear(r.normal, Vec3::UnitX(), 1e-5);
 }
 
+TEST(ExactPoint, DistanceOfAShapeAroundAPointOrAConcentricShapeIsPenetration) {
+  // distance() (no depth): the origin on a segment or triangle of support points by symmetry is
+  // inside A - B, not on its boundary. These were reported Touching.
+  const Transform3 o = at(0, 0, 0);
+  const ConvexShape point = ConvexShape::point(Vec3::Zero());
+  for (const auto& [outer, inner] : std::vector<std::pair<ConvexShape, ConvexShape>>{
+           {ConvexShape::cylinder(1.0, 1.0), point},
+           {ConvexShape::cone(2.0, 1.0), point},
+           {ConvexShape::ellipsoid(Vec3(1, 2, 3)), point},
+           {ConvexShape::box(Vec3(1, 1, 1)), point},
+           {ConvexShape::box(Vec3(2, 2, 2)), ConvexShape::box(Vec3(1, 1, 1))},
+           {ConvexShape::cylinder(2.0, 2.0), ConvexShape::cylinder(1.0, 1.0)}}) {
+    const ContactResult r = cm::distance(outer, o, inner, o);
+    EXPECT_EQ(r.status, Status::Penetrating) << outer.describe() << " / " << inner.describe();
+    EXPECT_EQ(r.distance, 0.0);
+  }
+  // On the boundary it stays touching: a point on a box's face, a box on another's face.
+  EXPECT_EQ(cm::distance(ConvexShape::box(Vec3(1, 1, 1)), o, point, at(0.5, 0, 0)).status,
+            Status::Touching);
+  EXPECT_EQ(
+      cm::distance(ConvexShape::box(Vec3(1, 1, 1)), o, ConvexShape::box(Vec3(1, 1, 1)), at(1, 0, 0))
+          .status,
+      Status::Touching);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Curved shapes against box faces
 // ---------------------------------------------------------------------------------------------
