@@ -216,6 +216,9 @@ ConvexShape ConvexShape::padded(double padding) const {
   out.radius_ += padding;
   out.bounding_radius_ += padding;
   out.local_radius_ += padding;
+  // 1e308 m of padding on a 1e308 m shape: an infinite size, with which every query fails.
+  if (!std::isfinite(out.bounding_radius_))
+    fail("padded", "padding", padding, "small enough that the padded shape's size is finite");
   return out;
 }
 

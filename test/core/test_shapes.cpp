@@ -67,6 +67,9 @@ TEST(ShapeValidation, RejectsNaNAndInf) {
   expectRejected([] { ConvexShape::segment(Vec3::Zero(), Vec3(0.0, 0.0, kInf)); },
                  {"segment", "b.z", "inf"});
   expectRejected([] { ConvexShape::sphere(1.0).padded(kNaN); }, {"padded", "padding", "nan"});
+  // Finite, but the padded size overflows: queries returned +inf, FailedToConverge.
+  expectRejected([] { ConvexShape::cylinder(1.0, 1e308).padded(1e308); },
+                 {"padded", "padding", "1e+308", "finite"});
   expectRejected(
       [] {
         ConvexShape::polytope(std::make_shared<cm::Polytope<3>>(
