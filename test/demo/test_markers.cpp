@@ -31,11 +31,17 @@ Transform3 at(double x, double y, double z) {
   return t;
 }
 
-cm::world::BodySpec boxBody(const std::string& id, double padding = 0.0) {
+/// A body without parts, posed from a topic in the fixed frame.
+cm::world::BodySpec topicBody(const std::string& id) {
   cm::world::BodySpec spec;
   spec.id = id;
   spec.frame = kFrame;
   spec.pose_source = cm::world::PoseSource::Topic;
+  return spec;
+}
+
+cm::world::BodySpec boxBody(const std::string& id, double padding = 0.0) {
+  cm::world::BodySpec spec = topicBody(id);
   const ConvexShape box = ConvexShape::box(Vec3(0.1, 0.1, 0.1));
   // Parts are stored already padded (world_model.h); padding keeps the amount for reporting.
   spec.parts.push_back(
@@ -176,10 +182,7 @@ TEST(MarkerBuilder, BodiesColouredByWorstPairStatus) {
 
 TEST(MarkerBuilder, CubeHullIsTwelveTriangles) {
   cm::world::WorldModel world;
-  cm::world::BodySpec spec;
-  spec.id = "cube";
-  spec.frame = kFrame;
-  spec.pose_source = cm::world::PoseSource::Topic;
+  cm::world::BodySpec spec = topicBody("cube");
   std::vector<Vec3> corners;
   for (int i = 0; i < 8; ++i) {
     corners.emplace_back(i & 1 ? 0.1 : -0.1, i & 2 ? 0.1 : -0.1, i & 4 ? 0.1 : -0.1);
@@ -211,10 +214,7 @@ TEST(MarkerBuilder, ShapesGivenFarOutAreDrawnWhereTheyAre) {
   // Coordinates 1e4 m out are kept about their centre (ConvexShape::offset()): the hull's
   // triangles, its padding shell and a padded point still land on the given coordinates.
   cm::world::WorldModel world;
-  cm::world::BodySpec spec;
-  spec.id = "far";
-  spec.frame = kFrame;
-  spec.pose_source = cm::world::PoseSource::Topic;
+  cm::world::BodySpec spec = topicBody("far");
   const Vec3 c(1e4, -2e4, 3.0);
   std::vector<Vec3> corners;
   for (int i = 0; i < 8; ++i)
@@ -269,10 +269,7 @@ TEST(MarkerBuilder, ShapesGivenFarOutAreDrawnWhereTheyAre) {
 
 TEST(MarkerBuilder, PrimitivesAndTessellations) {
   cm::world::WorldModel world;
-  cm::world::BodySpec spec;
-  spec.id = "mixed";
-  spec.frame = kFrame;
-  spec.pose_source = cm::world::PoseSource::Topic;
+  cm::world::BodySpec spec = topicBody("mixed");
   for (const ConvexShape& s : {ConvexShape::sphere(0.05), ConvexShape::cylinder(0.2, 0.05),
                                ConvexShape::capsule(0.2, 0.05), ConvexShape::cone(0.2, 0.05),
                                ConvexShape::ellipsoid(Vec3(0.1, 0.05, 0.02))}) {
@@ -451,10 +448,7 @@ TEST(MarkerBuilder, TessellationsAreClosed) {
   // The cone's base and the padded shells' bottoms (faces whose normal is -z) had no triangles:
   // the grid's last ring took sin(pi) = 1.2e-16 for 0, and its support points were rim points.
   cm::world::WorldModel world;
-  cm::world::BodySpec spec;
-  spec.id = "parts";
-  spec.frame = kFrame;
-  spec.pose_source = cm::world::PoseSource::Topic;
+  cm::world::BodySpec spec = topicBody("parts");
   const double pad = 0.01;
   for (const ConvexShape& s :
        {ConvexShape::cone(0.2, 0.05).padded(pad), ConvexShape::cylinder(0.2, 0.05).padded(pad),
