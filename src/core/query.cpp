@@ -413,14 +413,17 @@ ContactResult query(const MD& md, const PairFrame& f, PairCache* cache, const Qu
     // has the origin on it: on A - B's boundary (touching), or inside A - B on a segment or
     // triangle of support points by symmetry (a point at a cylinder's centre, concentric boxes:
     // both were reported touching). EPA tells them apart, only here.
+    // The normal: EPA's where it ran (the contact normal of touching shapes), else from A's origin
+    // towards B's.
     const double band = o.touch_tolerance * f.size;
     bool enclosed = g.simplex.size == 4 || f.rA + f.rB > band;
+    Vec3 n = unitOr(f.T_AB.t, Vec3::UnitX());
     if (!enclosed) {
       const EpaResult<3> e = runEpa(eraseDifference(md), g.simplex, epaSettings(f, o));
       r.epa_iterations = e.iterations;
       enclosed = e.status != EpaStatus::Flat && e.depth > o.touch_tolerance * f.workSize();
+      if (e.status == EpaStatus::Converged) n = e.normal;
     }
-    const Vec3 n = unitOr(f.T_AB.t, Vec3::UnitX());
     finish(f, o, 0.0, g.point_a, g.point_b, n, false, r);
     r.distance = 0.0;
     r.status = enclosed ? Status::Penetrating : Status::Touching;

@@ -360,9 +360,12 @@ TEST(ExactPoint, DistanceOfAShapeAroundAPointOrAConcentricShapeIsPenetration) {
     EXPECT_EQ(r.status, Status::Penetrating) << outer.describe() << " / " << inner.describe();
     EXPECT_EQ(r.distance, 0.0);
   }
-  // On the boundary it stays touching: a point on a box's face, a box on another's face.
-  EXPECT_EQ(cm::distance(ConvexShape::box(Vec3(1, 1, 1)), o, point, at(0.5, 0, 0)).status,
-            Status::Touching);
+  // On the boundary it stays touching, with the contact normal: a point on a box's face, a box
+  // on another's face.
+  const ContactResult on_face =
+      cm::distance(ConvexShape::box(Vec3(1, 1, 1)), o, point, at(0.5, 0.3, 0.2));
+  EXPECT_EQ(on_face.status, Status::Touching);
+  expectVecNear(on_face.normal, Vec3::UnitX(), 1e-12);
   EXPECT_EQ(
       cm::distance(ConvexShape::box(Vec3(1, 1, 1)), o, ConvexShape::box(Vec3(1, 1, 1)), at(1, 0, 0))
           .status,

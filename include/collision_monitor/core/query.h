@@ -80,11 +80,15 @@ bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape
                const Transform3& pose_b, PairCache* cache = nullptr,
                const QueryOptions& options = {});
 
-/// Separation distance and witness points; 0 with status Penetrating when the shapes overlap
-/// (no EPA run). GJK runs in A's frame; where rounding leaves its answer uncertain by more than
-/// the touching band (its best lower bound, or its witness points' distance, that far from it),
-/// the query runs once more in B's frame and keeps that answer unless the first one's upper bound
-/// is lower by more than the band (also in signedDistance()): rare, and at most twice the cost.
+/// Separation distance and witness points; 0 with status Penetrating when the shapes overlap. No
+/// EPA runs, except where GJK ends on a segment or triangle through the origin: the origin is then
+/// on A - B's boundary (Touching) or inside it by symmetry (a point at a cylinder's centre), which
+/// EPA tells apart, and its normal is reported (a touching pair's contact normal). Elsewhere the
+/// normal of overlapping shapes points from A's origin towards B's. GJK runs in A's frame; where
+/// rounding leaves its answer uncertain by more than the touching band (its best lower bound, or
+/// its witness points' distance, that far from it), the query runs once more in B's frame and keeps
+/// that answer unless the first one's upper bound is lower by more than the band (also in
+/// signedDistance()): rare, and at most twice the cost.
 ContactResult distance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                        const Transform3& pose_b, PairCache* cache = nullptr,
                        const QueryOptions& options = {});
