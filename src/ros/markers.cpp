@@ -271,9 +271,19 @@ std::string MarkerBuilder::distanceLabel(double distance) {
 }
 
 void MarkerBuilder::reset() {
+  shown_.clear();
+  ids_.clear();
   geometry_.clear();
+  first_ = true;
   last_build_ = -1.0;
-  num_shown_ = 0;
+}
+
+int MarkerBuilder::markerId(const std::string& ns, const std::string& key) {
+  const auto it = ids_.find({ns, key});
+  if (it != ids_.end()) return it->second;
+  const int id = next_id_++;
+  ids_.emplace(std::make_pair(ns, key), id);
+  return id;
 }
 
 const MarkerBuilder::BodyGeometry& MarkerBuilder::geometryOf(const world::BodySpec& spec) {
@@ -337,18 +347,23 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
   header.frame_id = fixed_frame;
   header.stamp = toRosTime(cycle.stamp);
 
-  // Every array is the whole picture: it starts by clearing what the last one showed, so an
-  // array that a subscriber missed (the publisher's queue is 1) leaves nothing behind.
-  Marker clear_all;
-  clear_all.header = header;
-  clear_all.action = Marker::DELETEALL;
-  clear_all.pose = identityPose();
-  out.markers.push_back(clear_all);
+  if (first_) {
+    Marker clear_all;
+    clear_all.header = header;
+    clear_all.action = Marker::DELETEALL;
+    clear_all.pose = identityPose();
+    out.markers.push_back(clear_all);
+    first_ = false;
+  }
+
+  // Every marker has a lifetime: a subscriber that missed the array with its DELETE (the
+  // publisher's queue is 1) drops it that long after the last array that showed it, and rviz
+  // drops the picture of a monitor that stopped.
   const ros::Duration lifetime(std::max(options_.lifetime, 0.0));
-  std::map<std::string, int> next_id;  // per namespace
-  auto emit = [&](Marker&& m) {
-    m.id = next_id[m.ns]++;
+  std::map<std::pair<std::string, int>, std::string> shown;
+  auto emit = [&](Marker&& m, const std::string& key) {
     m.lifetime = lifetime;
+    shown.emplace(std::make_pair(m.ns, m.id), key);
     out.markers.push_back(std::move(m));
   };
 
@@ -396,21 +411,24 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
       const geometry_msgs::Pose pose =
           toPose(*body_pose * spec->parts[i].pose *
                  core::makeTransform(Eigen::Quaterniond::Identity(), pg.offset));
+      const std::string key = info.id + '#' + std::to_string(i);
       Marker m = pg.solid;
       m.header = header;
       m.ns = kBodies;
+      m.id = markerId(kBodies, key);
       m.color = color;
       m.pose = pose;
       if (!pg.solid_shade.empty()) applyShade(pg.solid_shade, color, &m);
-      emit(std::move(m));
+      emit(std::move(m), key);
       if (pg.has_shell) {
         Marker s = pg.shell;
         s.header = header;
         s.ns = kPadding;
+        s.id = markerId(kPadding, key);
         s.color = shell_color;
         s.pose = pose;
         if (!pg.shell_shade.empty()) applyShade(pg.shell_shade, shell_color, &s);
-        emit(std::move(s));
+        emit(std::move(s), key);
       }
     }
   }
@@ -422,22 +440,25 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
   for (const auto& p : cycle.pairs) {
     if (p.status != PairStatus::Warning && p.status != PairStatus::Collision) continue;
     if (!p.point_a.allFinite() || !p.point_b.allFinite()) continue;
+    const std::string key = p.body_a + '\n' + p.body_b;
     const std_msgs::ColorRGBA color = statusColor(p.status, p.distance, warning_distance);
 
     Marker line;
     line.header = header;
     line.ns = kWitness;
+    line.id = markerId(kWitness, key);
     line.type = Marker::LINE_LIST;
     line.action = Marker::ADD;
     line.pose = identityPose();
     line.scale.x = options_.line_width;
     line.color = color;
     line.points = {toPoint(p.point_a), toPoint(p.point_b)};
-    emit(std::move(line));
+    emit(std::move(line), key);
 
     Marker label;
     label.header = header;
     label.ns = kLabels;
+    label.id = markerId(kLabels, key);
     label.type = Marker::TEXT_VIEW_FACING;
     label.action = Marker::ADD;
     label.pose = identityPose();
@@ -447,13 +468,14 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     // Lighter than the bodies so that the text stays readable in front of them.
     label.color = rgba(0.5 + 0.5 * color.r, 0.5 + 0.5 * color.g, 0.5 + 0.5 * color.b);
     label.text = distanceLabel(p.distance);
-    emit(std::move(label));
+    emit(std::move(label), key);
 
     if (p.distance < 0.0 && p.normal.allFinite() && p.normal.norm() > 0.5) {
       const double length = std::max(-p.distance, options_.min_arrow_length);
       Marker arrow;
       arrow.header = header;
       arrow.ns = kNormals;
+      arrow.id = markerId(kNormals, key);
       arrow.type = Marker::ARROW;
       arrow.action = Marker::ADD;
       arrow.pose = identityPose();
@@ -462,11 +484,23 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
       arrow.scale.z = std::min(0.4 * length, 0.02);  // head length
       arrow.color = color;
       arrow.points = {toPoint(p.point_a), toPoint(p.point_a + length * p.normal.normalized())};
-      emit(std::move(arrow));
+      emit(std::move(arrow), key);
     }
   }
 
-  num_shown_ = out.markers.size() - 1;
+  // Deletions: whatever was shown last time and is gone now.
+  for (const auto& [ns_id, key] : shown_) {
+    if (shown.count(ns_id) != 0) continue;
+    Marker del;
+    del.header = header;
+    del.ns = ns_id.first;
+    del.id = ns_id.second;
+    del.action = Marker::DELETE;
+    del.pose = identityPose();
+    out.markers.push_back(std::move(del));
+    ids_.erase({ns_id.first, key});
+  }
+  shown_ = std::move(shown);
   return out;
 }
 

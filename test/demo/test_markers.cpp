@@ -368,20 +368,7 @@ TEST(MarkerBuilder, WitnessLabelAndNormal) {
   EXPECT_TRUE(isRed(arrows[0]->color));
 }
 
-/// What rviz shows after receiving `array`: its marker bookkeeping by (ns, id).
-void receive(const MarkerArray& array, std::map<std::pair<std::string, int>, Marker>* shown) {
-  for (const auto& m : array.markers) {
-    if (m.action == Marker::DELETEALL) {
-      shown->clear();
-    } else if (m.action == Marker::DELETE) {
-      shown->erase({m.ns, m.id});
-    } else {
-      (*shown)[{m.ns, m.id}] = m;
-    }
-  }
-}
-
-TEST(MarkerBuilder, EveryArrayIsTheWholePicture) {
+TEST(MarkerBuilder, DeletesRemovedBodiesAndClearedPairs) {
   cm::world::WorldModel world;
   addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
   addBody(world, boxBody("b", 0.01), at(1.0, 0.0, 0.0));
@@ -390,45 +377,92 @@ TEST(MarkerBuilder, EveryArrayIsTheWholePicture) {
   cycle.stamp = 1.0;
   cycle.pairs.push_back(pair("a", "b", PairStatus::Collision, -0.01));
   cycle.pairs.push_back(pair("a", "c", PairStatus::Warning, 0.03));
-  MarkerOptions options = everyCycle();
-  options.lifetime = 0.75;
-  MarkerBuilder builder(options);
+  MarkerBuilder builder(everyCycle());
 
   const MarkerArray first = builder.build(world, cycle, kFrame);
   ASSERT_FALSE(first.markers.empty());
-  EXPECT_EQ(first.markers.front().action, Marker::DELETEALL);
+  EXPECT_EQ(first.markers.front().action, Marker::DELETEALL) << "first build clears old markers";
   EXPECT_EQ(builder.numShown(), 3u + 1u + 2u * 2u + 1u);  // bodies, shell, 2 x (line, label), arrow
-  for (std::size_t i = 1; i < first.markers.size(); ++i) {
-    EXPECT_EQ(first.markers[i].action, Marker::ADD);
-    EXPECT_EQ(first.markers[i].lifetime.toSec(), 0.75) << "gone if the monitor stops";
-  }
-  std::map<std::pair<std::string, int>, Marker> rviz;
-  receive(first, &rviz);
-  EXPECT_EQ(rviz.size(), builder.numShown()) << "ids unique per namespace";
 
-  // Body b removed and pair a-c cleared, in an array that rviz misses (a slow subscriber of a
-  // queue of 1): the arrays after it still leave nothing of b or of the pairs. Deletions sent
-  // once, against what the last array showed, left them on screen for good.
+  // Same cycle again: same markers, nothing deleted, no DELETEALL.
+  const MarkerArray again = builder.build(world, cycle, kFrame);
+  for (const auto& m : again.markers)
+    EXPECT_EQ(m.action, Marker::ADD);
+  EXPECT_EQ(again.markers.size(), first.markers.size() - 1);
+
+  // Body b removed, pair a-c cleared: b's body and shell markers, both pairs' markers go.
   ASSERT_TRUE(world.removeBody("b"));
   cm::world::CycleResult later;
   later.stamp = 2.0;
-  const MarkerArray missed = builder.build(world, later, kFrame);
-  EXPECT_EQ(builder.numShown(), 2u);
-  const MarkerArray next = builder.build(world, later, kFrame);
-  receive(next, &rviz);
-  ASSERT_EQ(rviz.size(), 2u);
-  for (const auto& [ns_id, m] : rviz) {
-    EXPECT_EQ(ns_id.first, "bodies");
-    EXPECT_TRUE(isGreen(m.color));
+  const MarkerArray second = builder.build(world, later, kFrame);
+  std::map<std::string, int> deleted;
+  for (const auto& m : second.markers) {
+    if (m.action == Marker::DELETE) {
+      ++deleted[m.ns];
+      EXPECT_EQ(m.header.frame_id, kFrame);
+    }
   }
+  EXPECT_EQ(deleted,
+            (std::map<std::string, int>{
+                {"bodies", 1}, {"padding", 1}, {"witness", 2}, {"labels", 2}, {"normals", 1}}));
+  EXPECT_EQ(find(second, "bodies", Marker::ADD).size(), 2u);
+  EXPECT_EQ(builder.numShown(), 2u);
+
+  // Deleted once, not again.
+  const MarkerArray third = builder.build(world, later, kFrame);
+  for (const auto& m : third.markers)
+    EXPECT_EQ(m.action, Marker::ADD);
 
   // A pair that clears and comes back is shown again.
   cycle.pairs.erase(cycle.pairs.begin());  // a-b: b is gone
-  receive(builder.build(world, cycle, kFrame), &rviz);
-  std::map<std::string, int> per_ns;
-  for (const auto& [ns_id, m] : rviz)
-    ++per_ns[ns_id.first];
-  EXPECT_EQ(per_ns, (std::map<std::string, int>{{"bodies", 2}, {"witness", 1}, {"labels", 1}}));
+  const MarkerArray fourth = builder.build(world, cycle, kFrame);
+  EXPECT_EQ(find(fourth, "witness", Marker::ADD).size(), 1u);
+  EXPECT_EQ(find(fourth, "labels", Marker::ADD).size(), 1u);
+}
+
+TEST(MarkerBuilder, AMissedDeletionExpires) {
+  // A subscriber that misses the array with the DELETEs (a slow link; the publisher's queue is 1)
+  // kept cleared pairs' segments and labels, and removed bodies, for good. Every marker has a
+  // lifetime now: rviz (simulated: expiry = receipt + lifetime) drops them that long after the
+  // last array that showed them, while what is refreshed stays.
+  cm::world::WorldModel world;
+  addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
+  addBody(world, boxBody("b"), at(1.0, 0.0, 0.0));
+  cm::world::CycleResult warning;
+  warning.stamp = 1.0;
+  warning.pairs.push_back(pair("a", "b", PairStatus::Warning, 0.03));
+  MarkerOptions options = everyCycle();
+  options.lifetime = 0.5;
+  MarkerBuilder builder(options);
+  std::map<std::pair<std::string, int>, std::pair<Marker, double>> rviz;  // marker, expiry
+  const auto receive = [&rviz](const MarkerArray& array, double t) {
+    for (const auto& m : array.markers) {
+      if (m.action == Marker::DELETEALL) {
+        rviz.clear();
+      } else if (m.action == Marker::DELETE) {
+        rviz.erase({m.ns, m.id});
+      } else {
+        EXPECT_EQ(m.lifetime.toSec(), 0.5) << m.ns;
+        rviz[{m.ns, m.id}] = {m, t + m.lifetime.toSec()};
+      }
+    }
+    for (auto it = rviz.begin(); it != rviz.end();)
+      it = it->second.second <= t ? rviz.erase(it) : std::next(it);
+  };
+  receive(builder.build(world, warning, kFrame), 0.0);
+  EXPECT_EQ(rviz.size(), 4u);  // 2 bodies, segment, label
+  ASSERT_TRUE(world.removeBody("b"));
+  cm::world::CycleResult clear;
+  clear.stamp = 2.0;
+  const MarkerArray missed = builder.build(world, clear, kFrame);  // b and the pair deleted
+  EXPECT_EQ(find(missed, "witness", Marker::DELETE).size(), 1u);
+  receive(builder.build(world, clear, kFrame), 0.2);  // no DELETE again: orphans shown
+  EXPECT_EQ(rviz.size(), 4u);
+  receive(builder.build(world, clear, kFrame), 0.4);
+  EXPECT_EQ(rviz.size(), 4u);
+  receive(builder.build(world, clear, kFrame), 0.6);  // 0.5 s after the last array with them
+  ASSERT_EQ(rviz.size(), 1u);
+  EXPECT_EQ(rviz.begin()->first.first, "bodies");
 }
 
 /// Signed volume enclosed by a TRIANGLE_LIST, from the origin `o`: the same from any origin only

@@ -1,10 +1,11 @@
 /// \file
 /// rviz markers for the monitor's view of the world (~markers, visualization_msgs/MarkerArray):
 /// bodies drawn as their convex parts coloured by their worst pair status, witness segments,
-/// distance labels and penetration normals. Built from the world model and the last cycle. Every
-/// array is the whole picture and starts with a DELETEALL, so removed bodies and cleared pairs
-/// vanish with the next array a subscriber receives, even when it missed some (no ghosts); every
-/// marker has a lifetime, so the picture of a monitor that stopped publishing vanishes too.
+/// distance labels and penetration normals. Built from the world model and the last cycle; the
+/// builder remembers what it published so removed bodies and cleared pairs are deleted, and every
+/// marker has a lifetime: a subscriber that missed the array with a DELETE (a slow link; the
+/// publisher's queue is 1) drops the marker that long after the last array that showed it, and
+/// rviz drops the picture of a monitor that stopped publishing.
 ///
 /// Namespaces (one per kind, so each can be toggled in rviz):
 ///  - "bodies":  one marker per convex part, in the part's frame posed in the fixed frame:
@@ -15,8 +16,7 @@
 ///  - "labels":  TEXT_VIEW_FACING with the signed distance in mm beside the witness segment.
 ///  - "normals": ARROW along the normal (from a towards b) of a penetrating pair, as long as the
 ///               penetration depth (at least MarkerOptions::min_arrow_length, so it stays visible).
-/// Every marker is in the fixed frame and stamped with the cycle's stamp; ids count from 0 per
-/// namespace in each array. Geometry (hull
+/// Every marker is in the fixed frame and stamped with the cycle's stamp. Geometry (hull
 /// triangles, tessellations) is computed once per body shape and reused while the shape is
 /// unchanged; each cycle only poses and colours are refreshed. Triangle lists carry one colour
 /// per face (the status colour shaded by a fixed light in the part frame): rviz draws uncoloured
@@ -24,7 +24,8 @@
 ///
 /// rviz re-creates every marker it receives, which costs far more than building them: build()
 /// returns an empty array (callers skip publishing it) when called less than 1 / max_rate
-/// seconds (wall clock) after its last non-empty result.
+/// seconds (wall clock) after its last non-empty result. Deletions are computed against what was
+/// last published, and sent once.
 #pragma once
 
 #include <map>
@@ -50,8 +51,7 @@ struct MarkerOptions {
   double min_arrow_length = 0.03;  ///< normals shorter than this are drawn this long
   int tessellation = 12;           ///< directions per half turn for tessellated shapes (>= 4)
   double max_rate = 15.0;          ///< Hz: at most this many non-empty build()s per second; 0: all
-  /// s: each marker's lifetime, so that rviz drops the picture of a monitor that stopped
-  /// publishing (0: forever). Longer than the time between two arrays.
+  /// s: each marker's lifetime (0: forever). Longer than the time between two arrays.
   double lifetime = 1.0;
 };
 
@@ -59,13 +59,14 @@ class MarkerBuilder {
  public:
   explicit MarkerBuilder(const MarkerOptions& options = MarkerOptions()) : options_(options) {}
 
-  /// Markers for `cycle` (stamped with cycle.stamp) in `fixed_frame`, after a DELETEALL; empty
-  /// when rate limited.
+  /// Markers for `cycle` (stamped with cycle.stamp) in `fixed_frame`, including DELETE markers for
+  /// everything published last time that no longer exists. The first call also starts with a
+  /// DELETEALL so that markers of an earlier run of the node do not linger in an open rviz.
   visualization_msgs::MarkerArray build(const world::WorldModel& world,
                                         const world::CycleResult& cycle,
                                         const std::string& fixed_frame);
 
-  /// Forgets the cached geometry and the rate limit (the next build() produces markers).
+  /// Forgets what was shown (the next build() starts with a DELETEALL again).
   void reset();
 
   /// Colour of a status: green clear, amber warning (ramped from yellow at `warning_distance`
@@ -76,7 +77,7 @@ class MarkerBuilder {
   static std::string distanceLabel(double distance);
 
   /// Number of markers currently shown (after the last build()).
-  std::size_t numShown() const { return num_shown_; }
+  std::size_t numShown() const { return shown_.size(); }
 
  private:
   /// Drawable geometry of one part in the part's frame (everything but pose and colour).
@@ -96,11 +97,16 @@ class MarkerBuilder {
   };
 
   const BodyGeometry& geometryOf(const world::BodySpec& spec);
+  int markerId(const std::string& ns, const std::string& key);
 
   MarkerOptions options_;
-  std::map<std::string, BodyGeometry> geometry_;  ///< by body id
-  double last_build_ = -1.0;   ///< steady clock (s) of the last non-empty build()
-  std::size_t num_shown_ = 0;  ///< markers of the last non-empty build()
+  std::map<std::string, BodyGeometry> geometry_;            ///< by body id
+  std::map<std::pair<std::string, std::string>, int> ids_;  ///< (ns, key) -> marker id
+  int next_id_ = 0;
+  bool first_ = true;
+  double last_build_ = -1.0;  ///< steady clock (s) of the last non-empty build()
+  /// (namespace, id) -> key of every marker currently shown, to delete what disappears.
+  std::map<std::pair<std::string, int>, std::string> shown_;
 };
 
 }  // namespace ros_layer
