@@ -22,8 +22,8 @@ int main() {
   collision_monitor::GetDistance distance_srv;
   distance_srv.request.body_a = body.id;
 
-  const cm::ConvexShape a = cm::ConvexShape::capsule(body.parts[0].dimensions[0],
-                                                     body.parts[0].dimensions[1]);
+  const cm::ConvexShape a =
+      cm::ConvexShape::capsule(body.parts[0].dimensions[0], body.parts[0].dimensions[1]);
   const cm::ConvexShape b = cm::ConvexShape::box({0.2, 0.2, 0.2});
   cm::Transform3 pose_b = cm::Transform3::Identity();
   pose_b.t = cm::Vec3(0.5, 0, 0);
