@@ -2,7 +2,7 @@
 """Moving obstacles of the demo scene, one per way a body can be posed:
 
   tf_box        attached to the TF frame demo_tf_obstacle, which this node broadcasts (tf2)
-  topic_sphere  pose_from_topic with its own geometry_msgs/PoseStamped topic (/demo/sphere_pose)
+  topic_sphere  pose_from_topic with its own geometry_msgs/PoseStamped topic (demo/sphere_pose, in the demo's namespace)
   pillar        pose_from_topic, posed through <monitor>/body_poses (BodyPoses, with twists)
   crate         attached to the world frame; added and removed every half period (REMOVE)
 

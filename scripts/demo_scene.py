@@ -24,7 +24,9 @@ COLLISION_PAIR = ("gripper_link", "tf_box")
 WARNING_PAIR = ("base_link", "topic_sphere")
 
 TF_OBSTACLE_FRAME = "demo_tf_obstacle"
-SPHERE_POSE_TOPIC = "/demo/sphere_pose"
+# Relative: the publisher (demo_obstacles.py) and the monitor resolve it in their namespace, so
+# two demos in two namespaces do not share it.
+SPHERE_POSE_TOPIC = "demo/sphere_pose"
 
 BASE_RADIUS = 0.10  # base_link cylinder (urdf/demo_arm.urdf)
 SPHERE_RADIUS = 0.04
