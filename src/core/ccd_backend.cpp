@@ -26,8 +26,10 @@
 ///     contact, depth 0.055 m; 1 mm thick: depth 0.96 m); the backend then answers with our GJK.
 ///   - precision: libccd's GJK uses absolute epsilons in the unit-size frame; on very thin or long
 ///     pairs its verdicts can be wrong within ~1e-5 of the size (fuzz_core: a 2e6 m triangle
-///     3.13 m deep in a cylinder reported apart). A false "apart" is not refuted here (libccd
-///     gives no evidence to check); our GJK (the default backend) is exact to 1e-9 of the size.
+///     3.13 m deep in a cylinder reported apart), on cone and sphere pairs up to 1.3e-4 (the
+///     sixteenth session's audit, docs/reliability.md). A false "apart" is not refuted here
+///     (libccd gives no evidence to check); our GJK (the default backend) is exact to 1e-9 of the
+///     size.
 ///   - witness points: libccd's `pos` is a median of EPA polytope vertices, not a contact point;
 ///     point_a/point_b = pos +- depth/2 * normal are only indicative (off the surfaces by up to
 ///     ~0.4 of the size, measured).
