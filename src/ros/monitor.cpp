@@ -1036,8 +1036,8 @@ void Monitor::setupDiagnostics() {
     if (mean_cycle > 1.0 / rate_) {
       // The checks cannot keep up with `rate`: verdicts come later than configured.
       s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
-                      "overloaded: a check takes %.1f ms on average, longer than the %.1f ms "
-                      "period of rate %.1f Hz (%.1f checks/s)",
+                      "overloaded: a check takes %.3g ms on average, longer than the %.3g ms "
+                      "period of rate %.6g Hz (%.3g checks/s)",
                       1e3 * mean_cycle, 1e3 / rate_, rate_, cycles / dt);
     }
     s.add("backend", core::toString(settings_.backend));

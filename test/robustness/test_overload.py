@@ -33,15 +33,16 @@ class Overload(unittest.TestCase):
                                  text in d.message else None)(self.m.diagnostics), timeout, 0.05)
 
     def test_1_overloaded_then_not(self):
-        n = 40
+        n = 60
         for i in range(n):
             self.m.add(sphere_body('s%d' % i, 0.1))
         self.assertTrue(wait_for(lambda: len(self.m.list_bodies().ids) == n, 10.0))
         self.place(n)
         d = self.report(DiagnosticStatus.WARN, 'overloaded: a check takes')
         self.assertIsNotNone(d, self.m.diagnostics)
-        self.assertIn('period of rate 20000.0 Hz', d.message)
-        mean_ms = float(self.m.diag_value('mean cycle time (ms)'))
+        self.assertIn('0.05 ms period of rate 20000 Hz', d.message)
+        mean_ms = float(self.m.diag_value("mean cycle time (ms)"))
+        print("overloaded: %s" % d.message)
         self.assertGreater(mean_ms, 0.05)
         self.assertIsNotNone(self.m.diag_value('pairs checked (mean per check since last report)'))
         for i in range(2, n):
@@ -49,7 +50,8 @@ class Overload(unittest.TestCase):
         self.assertTrue(wait_for(lambda: len(self.m.list_bodies().ids) == 2, 10.0))
         d = self.report(DiagnosticStatus.OK, 'ok')
         self.assertIsNotNone(d, self.m.diagnostics)
-        self.assertLess(float(self.m.diag_value('mean cycle time (ms)')), 0.05)
+        print("recovered: mean cycle time %s ms" % self.m.diag_value("mean cycle time (ms)"))
+        self.assertLess(float(self.m.diag_value("mean cycle time (ms)")), 0.05)
 
 
 if __name__ == '__main__':
