@@ -167,18 +167,25 @@ struct BodyState {
     if (stamp.isStatic()) return true;
     return now - stamp <= timeout;
   }
-  const Twist* twistPtr() const { return has_twist ? &twist : nullptr; }
-  /// Moves this copy of `from` to where `from` is after `t` seconds under `motion` (fixed frame,
-  /// angular about the origin: a screw motion): its pose, part poses and part centres, not its
-  /// boxes (for timeToCollisionOf, which needs no boxes).
-  void moveTo(const BodyState& from, const Twist& motion, double t) {
+};
+
+/// A body's part poses and centres (fixed frame) after `t` seconds under a constant twist (angular
+/// about the body's origin: a screw motion), for timeToCollisionOf().
+struct MovedParts {
+  std::vector<Transform3> poses;
+  std::vector<Vec3> centres;
+
+  void place(const BodyState& S, const Twist& motion, double t) {
     const double angle = motion.angular.norm() * t;
-    pose = from.pose;
+    Transform3 pose = S.pose;
     pose.t += t * motion.linear;
-    if (angle > 0.0) pose.R = Eigen::AngleAxisd(angle, motion.angular.normalized()) * from.pose.R;
-    for (std::size_t i = 0; i < spec.parts.size(); ++i) {
-      part_poses[i] = pose * spec.parts[i].pose;
-      part_centres[i] = part_poses[i] * spec.parts[i].shape.offset();
+    if (angle > 0.0) pose.R = Eigen::AngleAxisd(angle, motion.angular.normalized()) * S.pose.R;
+    const std::size_t n = S.spec.parts.size();
+    poses.resize(n);
+    centres.resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      poses[i] = pose * S.spec.parts[i].pose;
+      centres[i] = poses[i] * S.spec.parts[i].shape.offset();
     }
   }
 };
@@ -606,24 +613,20 @@ struct WorldModel::Impl {
     const bool rotating = !ta.angular.isZero() || !tb.angular.isZero();
     constexpr int kMaxSteps = 128;
     constexpr double kTolerance = 1e-9;  // m
-    BodyState a_at = A;                  // A and B at time t
-    BodyState b_at = B;
+    MovedParts a_at, b_at;               // A's and B's parts at time t
     double t = 0.0;
     for (int k = 0; k < kMaxSteps; ++k) {
-      if (k > 0) {
-        a_at.moveTo(A, ta, t);
-        b_at.moveTo(B, tb, t);
-      }
+      a_at.place(A, ta, t);
+      b_at.place(B, tb, t);
       double step = kInf;
       for (std::size_t i = 0; i < A.spec.parts.size(); ++i) {
         for (std::size_t j = 0; j < B.spec.parts.size(); ++j) {
           const double bound = speed + spin_a[i] + spin_b[j];  // any point pair's closing speed
-          const double gap = (b_at.part_centres[j] - a_at.part_centres[i]).norm() -
-                             A.part_radii[i] - B.part_radii[j];
+          const double gap =
+              (b_at.centres[j] - a_at.centres[i]).norm() - A.part_radii[i] - B.part_radii[j];
           if (!(bound > 0.0) || (gap - c) / bound >= step) continue;
-          const core::ContactResult x =
-              narrow->signedDistance(A.spec.parts[i].shape, a_at.part_poses[i],
-                                     B.spec.parts[j].shape, b_at.part_poses[j], nullptr);
+          const core::ContactResult x = narrow->signedDistance(
+              A.spec.parts[i].shape, a_at.poses[i], B.spec.parts[j].shape, b_at.poses[j], nullptr);
           if (!std::isfinite(x.distance)) return t;  // the bound so far
           if (x.distance - c <= kTolerance) return t;
           const double mu = -w.dot(x.normal) + spin_a[i] + spin_b[j];
