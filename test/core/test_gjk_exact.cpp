@@ -488,6 +488,59 @@ TEST(ExactCurved, DeepConeInCylinderConvergesToACertifiedMinimum) {
   }
 }
 
+TEST(ExactCurved, DepthReachedAlongACircleOfDirections) {
+  // A point on the axis of a cone, of a cylinder taller than it is wide or of a prolate
+  // ellipsoid, coaxial shapes: the depth is reached along a whole circle of directions (or nearly:
+  // 1e-7 and 1e-4 off the axis), which EPA's polytope only closes in on all at once. Before the
+  // upper bound's refinement (epa.h refineUpperBound()) these ended after 256 iterations 4.0e-5,
+  // 1e-7 and 7.5e-5 m too deep with witness points off the shapes. EPA cannot certify such a depth
+  // (its lower bound closes as 1 / iterations^2), so the status stays FailedToConverge: it stops
+  // at its checkpoint of 128 iterations (epaStalls()).
+  struct Case {
+    const char* what;
+    ConvexShape a;
+    ConvexShape b;
+    Transform3 pose_b;
+    double depth;
+    Vec3 normal;  // the unique deepest direction, or zero where a circle of them ties
+    double (*off_a)(const Vec3&);  // how far a point is off A's side (0 on it)
+  };
+  const auto rho = [](const Vec3& p) { return std::hypot(p.x(), p.y()); };
+  const ConvexShape point = ConvexShape::point(Vec3::Zero());
+  const std::vector<Case> cases{
+      {"point at a cone's centre", ConvexShape::cone(2.0, 1.0), point, at(0, 0, 0),
+       1.0 / std::sqrt(5.0), Vec3::Zero(),
+       [](const Vec3& p) {
+         return (2.0 * std::hypot(p.x(), p.y()) + p.z() - 1.0) / std::sqrt(5.0);
+       }},
+      {"point 1e-7 off a needle cylinder's axis", ConvexShape::cylinder(2.0, 0.1), point,
+       at(1e-7, 0, 0), 0.1 - 1e-7, Vec3::UnitX(),
+       [](const Vec3& p) { return std::hypot(p.x(), p.y()) - 0.1; }},
+      {"capsule 1e-4 off a cylinder's axis", ConvexShape::cylinder(2.0, 0.5),
+       ConvexShape::capsule(1.0, 0.05), at(1e-4, 0, 0), 0.55 - 1e-4, Vec3::UnitX(),
+       [](const Vec3& p) { return std::hypot(p.x(), p.y()) - 0.5; }},
+      {"point at a prolate ellipsoid's centre", ConvexShape::ellipsoid(Vec3(0.3, 0.3, 1.0)), point,
+       at(0, 0, 0), 0.3, Vec3::Zero(),
+       [](const Vec3& p) { return 0.3 * (p.cwiseQuotient(Vec3(0.3, 0.3, 1.0)).norm() - 1.0); }},
+  };
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.what);
+    const ContactResult r = cm::signedDistance(c.a, at(0, 0, 0), c.b, c.pose_b);
+    EXPECT_NEAR(r.distance, -c.depth, 1e-12);
+    expectConsistent(r, 1e-12);
+    EXPECT_EQ(r.status, Status::FailedToConverge);
+    EXPECT_LE(r.epa_iterations, 128);
+    // The reported normal realises the depth: B moved by it along the normal clears A.
+    EXPECT_NEAR(overlapAlong(c.a, at(0, 0, 0), c.b, c.pose_b, r.normal), c.depth, 1e-12);
+    if (!c.normal.isZero()) expectVecNear(r.normal, c.normal, 1e-3);
+    // Witnesses on the shapes: B's on its core (a point, the capsule's axis), A's on its side.
+    const Vec3 b_local = r.point_b - c.pose_b.t;
+    const double off_b = c.b.radius() > 0.0 ? rho(b_local) - c.b.radius() : b_local.norm();
+    EXPECT_NEAR(off_b, 0.0, 1e-9) << r.point_b.transpose();
+    EXPECT_NEAR(c.off_a(r.point_a), 0.0, 1e-9) << r.point_a.transpose();
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Degenerate shapes
 // ---------------------------------------------------------------------------------------------

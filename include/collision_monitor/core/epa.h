@@ -126,21 +126,25 @@ inline void epaWitness3(const SupportPoint<3>& p0, const SupportPoint<3>& p1,
 /// iteration bound: a cone in a cylinder ends within 1.1e-3 of the size after 128 iterations;
 /// or a degenerate polytope: a 1.4e6 m needle of a hull with a 3e-6 m base) this is what it
 /// reports, rather than the lower bound of its nearest face whose normal does not realise it: a
-/// depth too large by at most the remaining gap, never too small (the safe side).
+/// depth too large by at most the remaining gap, never too small (the safe side). In 3D it is
+/// refined first (refineUpperBound()).
 template <int D>
 struct EpaUpperBound {
   double depth = std::numeric_limits<double>::infinity();
   Vec<D> normal = Vec<D>::Unit(0);
   Vec<D> point_a = Vec<D>::Zero();
+  Vec<D> point_b = Vec<D>::Zero();
   bool certified = false;  ///< settles() held: the answer, within EPA's tolerance
 
-  void offer(const Vec<D>& n, const SupportPoint<D>& p) {
+  /// Offers the support point p along the unit n; true when it lowered the bound.
+  bool offer(const Vec<D>& n, const SupportPoint<D>& p) {
     const double h = n.dot(p.w);
-    if (h < depth) {
-      depth = h;
-      normal = n;
-      point_a = p.a;
-    }
+    if (!(h < depth)) return false;
+    depth = h;
+    normal = n;
+    point_a = p.a;
+    point_b = p.a - h * n;
+    return true;
   }
   /// For EPA out of iterations (or stopped degenerate): true (and then the answer, not an estimate)
   /// when this bound is within `need` of EPA's lower bound `lower` (its nearest face), the depth
@@ -162,9 +166,156 @@ struct EpaUpperBound {
     r.depth = depth;
     r.normal = normal;
     r.point_a = point_a;
-    r.point_b = point_a - depth * normal;
+    r.point_b = point_b;
   }
 };
+
+/// EPA's checkpoints (iterations 64 and 128, see epa3): true when the gap between its bounds on
+/// the depth, `gap_half` at the previous checkpoint (half as many iterations) and `gap` now, will
+/// not be within `need` after `factor` times as many iterations, extrapolated at the rate it
+/// closed since, with a margin of 100. Where the depth is reached along a circle of directions
+/// the gap closes as 1 / iterations^2 (the polytope's polygon round the circle): a point at a
+/// cone's centre had 1.7e-3, 4.3e-4 and 1.1e-4 of the size after 32, 64 and 128 iterations; the
+/// 256 iterations cost 2.3 ms (each new point on the base's plane rebuilds the base's fan of
+/// faces) and ended 1e6 times above the tolerance.
+inline bool epaStalls(double gap_half, double gap, int factor, double need) {
+  if (gap <= need) return false;
+  const double rate = gap_half > gap ? gap_half / gap : 1.0;  // per doubling
+  double predicted = gap;
+  for (int f = factor; f > 1; f /= 2)
+    predicted /= rate;
+  return predicted > 1e4 * need;
+}
+
+/// Evaluations refineUpperBound() may spend (support calls; about 20 to 60 ns each on primitives).
+constexpr int kEpaRefineBudget = 240;
+
+/// Lowers EPA's upper bound on the depth, min over unit n of h_{A-B}(n), by a local search on the
+/// sphere of directions around its normal, for EPA stopped unconverged. Where the depth is
+/// reached along a whole circle of directions (a point on the axis of a cone, of a cylinder
+/// taller than it is wide or of a prolate ellipsoid, coaxial cylinders), EPA's polytope has to
+/// refine all of the circle before its nearest face's normal gets close to any of it: a point at
+/// a cone's centre stopped after 256 iterations with its bound 4.0e-5 of the size above the depth,
+/// a segment 1e-4 m off a cylinder's axis 7.5e-5 (with its normal 90 degrees away from the
+/// deepest one). Nelder-Mead in the tangent plane of the normal (h is only piecewise smooth: a
+/// cylinder's rims and a cone's apex give kinks), restarted twice from its best point, stopping
+/// when the triangle is below 1e-12 rad across or the budget is spent. Every direction evaluated
+/// bounds the depth from above, so the bound only gets closer to the depth, whatever the search
+/// does. Witness points: the point depth * normal in the hull of the last support points on the
+/// supporting plane (a generator of the cone, a side line of the cylinder: the support point
+/// itself is an end of it, off the other shape), or the point of that hull nearest to it.
+template <class MD>
+[[gnu::noinline, gnu::cold]] void refineUpperBound(const MD& md, EpaUpperBound<3>& upper,
+                                                   double need) {
+  static_assert(MD::kDim == 3, "refineUpperBound is 3D");
+  if (!std::isfinite(upper.depth)) return;
+  constexpr int kRecent = 8;
+  std::array<SupportPoint<3>, kRecent> recent;
+  int nrecent = 0;
+  int evals = 0;
+  Vec3 n0 = upper.normal;
+  Vec3 e1 = n0.unitOrthogonal();
+  Vec3 e2 = n0.cross(e1);
+  const auto eval = [&](const Vec2& u) {
+    const Vec3 n = (n0 + u.x() * e1 + u.y() * e2).normalized();
+    const SupportPoint<3> p = md.support(n);
+    ++evals;
+    recent[nrecent % kRecent] = p;
+    ++nrecent;
+    upper.offer(n, p);
+    return n.dot(p.w);
+  };
+  double step = 0.05;  // rad
+  for (int round = 0; round < 3 && evals < kEpaRefineBudget; ++round) {
+    // A fresh tangent plane at the best normal so far.
+    n0 = upper.normal;
+    e1 = n0.unitOrthogonal();
+    e2 = n0.cross(e1);
+    std::array<Vec2, 3> x{Vec2::Zero(), Vec2(step, 0.0), Vec2(0.0, step)};
+    std::array<double, 3> f{upper.depth, eval(x[1]), eval(x[2])};
+    while (evals < kEpaRefineBudget) {
+      // Order: x[0] best, x[2] worst.
+      if (f[1] < f[0]) std::swap(f[0], f[1]), std::swap(x[0], x[1]);
+      if (f[2] < f[1]) std::swap(f[1], f[2]), std::swap(x[1], x[2]);
+      if (f[1] < f[0]) std::swap(f[0], f[1]), std::swap(x[0], x[1]);
+      const double diam =
+          std::max({(x[1] - x[0]).norm(), (x[2] - x[0]).norm(), (x[2] - x[1]).norm()});
+      if (diam < 1e-12) break;
+      const Vec2 c = 0.5 * (x[0] + x[1]);
+      const Vec2 xr = c + (c - x[2]);
+      const double fr = eval(xr);
+      if (fr < f[0]) {
+        const Vec2 xe = c + 2.0 * (c - x[2]);
+        const double fe = eval(xe);
+        if (fe < fr) {
+          x[2] = xe;
+          f[2] = fe;
+        } else {
+          x[2] = xr;
+          f[2] = fr;
+        }
+      } else if (fr < f[1]) {
+        x[2] = xr;
+        f[2] = fr;
+      } else {
+        const Vec2 xc = fr < f[2] ? Vec2(c + 0.5 * (xr - c)) : Vec2(c + 0.5 * (x[2] - c));
+        const double fc = eval(xc);
+        if (fc < std::min(fr, f[2])) {
+          x[2] = xc;
+          f[2] = fc;
+        } else {
+          x[1] = x[0] + 0.5 * (x[1] - x[0]);
+          x[2] = x[0] + 0.5 * (x[2] - x[0]);
+          f[1] = eval(x[1]);
+          f[2] = eval(x[2]);
+        }
+      }
+    }
+    step = std::max(1e-3 * step, 1e-6);
+  }
+  // Witness points: depth * normal in the hull of the support points on the plane around the
+  // normal (probes 1e-11 rad off it: the ends of a cylinder's side line, a disc's rim points).
+  n0 = upper.normal;
+  e1 = n0.unitOrthogonal();
+  e2 = n0.cross(e1);
+  for (int k = 0; k < kRecent; ++k) {
+    const double ang = k * (2.0 * 3.14159265358979323846 / kRecent);
+    eval(1e-11 * Vec2(std::cos(ang), std::sin(ang)));
+  }
+  const Vec3 t = upper.depth * upper.normal;
+  std::array<SupportPoint<3>, kRecent> q;
+  int nq = 0;
+  for (int k = 0; k < kRecent; ++k) {
+    if (upper.normal.dot(recent[k].w) < upper.depth - need) continue;
+    q[nq] = recent[k];
+    q[nq].w -= t;
+    ++nq;
+  }
+  if (nq == 0) return;
+  Simplex<3> s;
+  s.v[0] = q[0];
+  s.size = 1;
+  Vec3 v = s.v[0].w;
+  for (int it = 0; it < 2 * kRecent && s.size < 4; ++it) {
+    int best = -1;
+    double lowest = v.squaredNorm() - 1e-12 * need * need;
+    for (int k = 0; k < nq; ++k) {
+      const double vq = v.dot(q[k].w);
+      if (vq < lowest) {
+        lowest = vq;
+        best = k;
+      }
+    }
+    if (best < 0) break;
+    s.v[s.size++] = q[best];
+    v = solveSimplex<3>(s);
+  }
+  Vec3 a;
+  Vec3 b;
+  s.witnesses(a, b);
+  upper.point_a = a;
+  upper.point_b = a - t;
+}
 
 }  // namespace detail
 
@@ -388,6 +539,8 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
   std::array<int, kMaxFaces> new_faces;
   Face best;
   bool have_best = false;
+  bool refined = false;     // refineUpperBound() ran
+  double lower_half = 0.0;  // the nearest face's distance at the last checkpoint
   r.status = EpaStatus::MaxIterations;
   for (int it = 0;; ++it) {
     int bi = -1;
@@ -407,6 +560,20 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
     if (it >= max_it || nv >= kMaxVerts) {
       r.status = EpaStatus::MaxIterations;
       break;
+    }
+    if (it >= 32 && (it & (it - 1)) == 0) {
+      // Checkpoints 32, 64, 128: give up when the gap between the bounds will not close within
+      // the iteration bound (detail::epaStalls()), with the upper bound refined first.
+      const double need = st.rel_tolerance * std::abs(best.d) + tol;
+      if (it >= 128) {
+        if (!refined) detail::refineUpperBound(md, upper, need);
+        refined = true;
+        if (detail::epaStalls(upper.depth - lower_half, upper.depth - best.d, max_it / it, need)) {
+          r.status = EpaStatus::MaxIterations;
+          break;
+        }
+      }
+      lower_half = best.d;
     }
     r.iterations = it + 1;
     const SupportPoint<3> p = md.support(best.n);
@@ -502,9 +669,12 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
     r.normal = best.n;
     detail::epaWitness3(verts[best.v[0]], verts[best.v[1]], verts[best.v[2]], best.d * best.n,
                         r.point_a, r.point_b);
-    if (r.status != EpaStatus::Converged &&
-        upper.settles(best.d, st.rel_tolerance * std::abs(best.d) + tol))
-      r.status = EpaStatus::Converged;
+    const double need = st.rel_tolerance * std::abs(best.d) + tol;
+    if (r.status != EpaStatus::Converged && !upper.settles(best.d, need)) {
+      detail::refineUpperBound(md, upper, need);
+      upper.settles(best.d, need);
+    }
+    if (upper.certified) r.status = EpaStatus::Converged;
   }
   upper.applyTo(r);
   return r;
