@@ -164,6 +164,31 @@ TEST(Epa2D, SquaresDepthNormalWitness) {
   EXPECT_NEAR(e.point_b.x(), 0.5, 1e-12);
 }
 
+TEST(Epa2D, PointAtOrNearADiscCentre) {
+  // Every direction ties at the centre (and nearly so 1e-7 and 1e-4 off it): EPA's polygon closes
+  // in on the whole circle at once. Before the upper bound's refinement (epa.h
+  // refineUpperBound()) the 1e-4 case ended after 256 iterations 7.5e-9 too deep; now the depth
+  // is exact and EPA stops at its checkpoint (uncertified: its lower bound lags).
+  const cm::EllipsoidShape<2> disc{cm::Vec2(1, 1)};
+  const Pt2 point{cm::Vec2::Zero()};
+  for (const double off : {0.0, 1e-7, 1e-4}) {
+    SCOPED_TRACE(off);
+    const cm::MinkowskiDifference<2, cm::EllipsoidShape<2>, Pt2> md(disc, point,
+                                                                    shift<2>(cm::Vec2(off, 0)));
+    const auto g = cm::gjkDistance(md, settings(2));
+    ASSERT_EQ(g.status, cm::GjkStatus::Intersecting);
+    const auto e = cm::epaPenetration(md, g.simplex, epaSettings(2));
+    EXPECT_NEAR(e.depth, 1.0 - off, 1e-12);
+    EXPECT_LE(e.iterations, 128);
+    EXPECT_NEAR(e.point_a.norm(), 1.0, 1e-12);  // on the circle
+    // The point, to 1e-9 of the size: where the depth is flat to rounding along the circle (1e-4
+    // off: 1e-4 (1 - cos a) < 1e-16 for a < 1.4e-6 rad) the normal is known to that angle only.
+    expectVecNear<2>(e.point_b, cm::Vec2(off, 0), 1e-9);
+    expectVecNear<2>(e.point_a - e.point_b, e.depth * e.normal, 1e-12);
+    if (off > 0.0) expectVecNear<2>(e.normal, cm::Vec2(1, 0), 1e-3);
+  }
+}
+
 TEST(Epa2D, TriangleInSquare) {
   // Square half 2 (x <= 2); triangle (0,0), (1,0), (0,1) at (1.5, -0.5): spans x in [1.5, 2.5]:
   // exits +x by 0.5 (others: 4.5 (-x), 2.5 (+y), 3.5 (-y)).

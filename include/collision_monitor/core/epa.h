@@ -170,14 +170,16 @@ struct EpaUpperBound {
   }
 };
 
-/// EPA's checkpoints (iterations 64 and 128, see epa3): true when the gap between its bounds on
-/// the depth, `gap_half` at the previous checkpoint (half as many iterations) and `gap` now, will
-/// not be within `need` after `factor` times as many iterations, extrapolated at the rate it
-/// closed since, with a margin of 100. Where the depth is reached along a circle of directions
-/// the gap closes as 1 / iterations^2 (the polytope's polygon round the circle): a point at a
-/// cone's centre had 1.7e-3, 4.3e-4 and 1.1e-4 of the size after 32, 64 and 128 iterations; the
-/// 256 iterations cost 2.3 ms (each new point on the base's plane rebuilds the base's fan of
-/// faces) and ended 1e6 times above the tolerance.
+/// EPA's checkpoint (EpaProgress): true when the gap between its bounds on the depth, `gap_half`
+/// at half as many iterations and `gap` now, will not be within `need` after `factor` times as
+/// many iterations, extrapolated at the rate it closed since, with a margin of 1e4. Where the
+/// depth is reached along a circle of directions the gap closes as 1 / iterations^2 (the
+/// polytope's polygon round the circle): a point at a cone's centre had 1.7e-3, 4.3e-4 and
+/// 1.1e-4 of the size after 32, 64 and 128 iterations; the 256 iterations cost 1.3 ms (each new
+/// point on the base's plane rebuilds the base's fan of faces) and ended 1e6 times above the
+/// tolerance. With a margin of 100 and a checkpoint at 64 iterations, 38 of 2,400 deep overlaps
+/// inside ellipsoids and identical shapes (the sixteenth session's audit, deep.cpp) lost a
+/// certificate they got by 256 iterations; with these, none.
 inline bool epaStalls(double gap_half, double gap, int factor, double need) {
   if (gap <= need) return false;
   const double rate = gap_half > gap ? gap_half / gap : 1.0;  // per doubling
@@ -191,34 +193,50 @@ inline bool epaStalls(double gap_half, double gap, int factor, double need) {
 constexpr int kEpaRefineBudget = 240;
 
 /// Lowers EPA's upper bound on the depth, min over unit n of h_{A-B}(n), by a local search on the
-/// sphere of directions around its normal, for EPA stopped unconverged. Where the depth is
-/// reached along a whole circle of directions (a point on the axis of a cone, of a cylinder
-/// taller than it is wide or of a prolate ellipsoid, coaxial cylinders), EPA's polytope has to
-/// refine all of the circle before its nearest face's normal gets close to any of it: a point at
-/// a cone's centre stopped after 256 iterations with its bound 4.0e-5 of the size above the depth,
-/// a segment 1e-4 m off a cylinder's axis 7.5e-5 (with its normal 90 degrees away from the
-/// deepest one). Nelder-Mead in the tangent plane of the normal (h is only piecewise smooth: a
+/// sphere (3D) or circle (2D) of directions around its normal, for EPA stopped unconverged. Where
+/// the depth is reached along a whole circle of directions (a point on the axis of a cone, of a
+/// cylinder taller than it is wide or of a prolate ellipsoid, coaxial cylinders; in 2D a point
+/// at a disc's centre), EPA's polytope has to refine all of the circle before its nearest face's
+/// normal gets close to any of it: a point at a cone's centre stopped after 256 iterations with
+/// its bound 4.0e-5 of the size above the depth, a segment 1e-4 m off a cylinder's axis 7.5e-5
+/// (with its normal 90 degrees away from the deepest one), a point 1e-4 m off a unit disc's
+/// centre 7.5e-9. Nelder-Mead in the tangent space of the normal (h is only piecewise smooth: a
 /// cylinder's rims and a cone's apex give kinks), restarted twice from its best point, stopping
-/// when the triangle is below 1e-12 rad across or the budget is spent. Every direction evaluated
+/// when the simplex is below 1e-12 rad across or the budget is spent. Every direction evaluated
 /// bounds the depth from above, so the bound only gets closer to the depth, whatever the search
-/// does. Witness points: the point depth * normal in the hull of the last support points on the
-/// supporting plane (a generator of the cone, a side line of the cylinder: the support point
-/// itself is an end of it, off the other shape), or the point of that hull nearest to it.
+/// does. Witness points: the point depth * normal in the hull of the support points on the
+/// supporting plane 1e-11 rad around the normal (a generator of the cone, a side line of the
+/// cylinder: the support point itself is an end of it, off the other shape), or the point of
+/// that hull nearest to it.
 template <class MD>
-[[gnu::noinline, gnu::cold]] void refineUpperBound(const MD& md, EpaUpperBound<3>& upper,
+[[gnu::noinline, gnu::cold]] void refineUpperBound(const MD& md, EpaUpperBound<MD::kDim>& upper,
                                                    double need) {
-  static_assert(MD::kDim == 3, "refineUpperBound is 3D");
+  constexpr int D = MD::kDim;
+  constexpr int M = D - 1;  // dimension of the search: the tangent space
+  static_assert(D == 2 || D == 3, "refineUpperBound is for EPA's dimensions");
+  using U = Vec<M>;
   if (!std::isfinite(upper.depth)) return;
   constexpr int kRecent = 8;
-  std::array<SupportPoint<3>, kRecent> recent;
+  std::array<SupportPoint<D>, kRecent> recent;
   int nrecent = 0;
   int evals = 0;
-  Vec3 n0 = upper.normal;
-  Vec3 e1 = n0.unitOrthogonal();
-  Vec3 e2 = n0.cross(e1);
-  const auto eval = [&](const Vec2& u) {
-    const Vec3 n = (n0 + u.x() * e1 + u.y() * e2).normalized();
-    const SupportPoint<3> p = md.support(n);
+  Vec<D> n0;
+  std::array<Vec<D>, M> e;  // orthonormal basis of the tangent space at n0
+  const auto tangentAtBest = [&] {
+    n0 = upper.normal;
+    if constexpr (D == 3) {
+      e[0] = n0.unitOrthogonal();
+      e[1] = n0.cross(e[0]);
+    } else {
+      e[0] = Vec2(-n0.y(), n0.x());
+    }
+  };
+  const auto eval = [&](const U& u) {
+    Vec<D> n = n0;
+    for (int i = 0; i < M; ++i)
+      n += u[i] * e[i];
+    n.normalize();
+    const SupportPoint<D> p = md.support(n);
     ++evals;
     recent[nrecent % kRecent] = p;
     ++nrecent;
@@ -227,47 +245,50 @@ template <class MD>
   };
   double step = 0.05;  // rad
   for (int round = 0; round < 3 && evals < kEpaRefineBudget; ++round) {
-    // A fresh tangent plane at the best normal so far.
-    n0 = upper.normal;
-    e1 = n0.unitOrthogonal();
-    e2 = n0.cross(e1);
-    std::array<Vec2, 3> x{Vec2::Zero(), Vec2(step, 0.0), Vec2(0.0, step)};
-    std::array<double, 3> f{upper.depth, eval(x[1]), eval(x[2])};
+    tangentAtBest();
+    std::array<U, M + 1> x;
+    std::array<double, M + 1> f;
+    x[0] = U::Zero();
+    f[0] = upper.depth;
+    for (int i = 1; i <= M; ++i) {
+      x[i] = step * U::Unit(i - 1);
+      f[i] = eval(x[i]);
+    }
     while (evals < kEpaRefineBudget) {
-      // Order: x[0] best, x[2] worst.
-      if (f[1] < f[0]) std::swap(f[0], f[1]), std::swap(x[0], x[1]);
-      if (f[2] < f[1]) std::swap(f[1], f[2]), std::swap(x[1], x[2]);
-      if (f[1] < f[0]) std::swap(f[0], f[1]), std::swap(x[0], x[1]);
-      const double diam =
-          std::max({(x[1] - x[0]).norm(), (x[2] - x[0]).norm(), (x[2] - x[1]).norm()});
+      // Order: x[0] best, x[M] worst.
+      for (int i = 1; i <= M; ++i)
+        for (int j = i; j > 0 && f[j] < f[j - 1]; --j) {
+          std::swap(f[j], f[j - 1]);
+          std::swap(x[j], x[j - 1]);
+        }
+      double diam = 0.0;
+      for (int i = 1; i <= M; ++i)
+        diam = std::max(diam, (x[i] - x[0]).norm());
       if (diam < 1e-12) break;
-      const Vec2 c = 0.5 * (x[0] + x[1]);
-      const Vec2 xr = c + (c - x[2]);
+      U c = U::Zero();
+      for (int i = 0; i < M; ++i)
+        c += x[i] / M;
+      const U xr = c + (c - x[M]);
       const double fr = eval(xr);
       if (fr < f[0]) {
-        const Vec2 xe = c + 2.0 * (c - x[2]);
+        const U xe = c + 2.0 * (c - x[M]);
         const double fe = eval(xe);
-        if (fe < fr) {
-          x[2] = xe;
-          f[2] = fe;
-        } else {
-          x[2] = xr;
-          f[2] = fr;
-        }
-      } else if (fr < f[1]) {
-        x[2] = xr;
-        f[2] = fr;
+        x[M] = fe < fr ? xe : xr;
+        f[M] = std::min(fe, fr);
+      } else if (fr < f[M - 1]) {
+        x[M] = xr;
+        f[M] = fr;
       } else {
-        const Vec2 xc = fr < f[2] ? Vec2(c + 0.5 * (xr - c)) : Vec2(c + 0.5 * (x[2] - c));
+        const U xc = fr < f[M] ? U(c + 0.5 * (xr - c)) : U(c + 0.5 * (x[M] - c));
         const double fc = eval(xc);
-        if (fc < std::min(fr, f[2])) {
-          x[2] = xc;
-          f[2] = fc;
+        if (fc < std::min(fr, f[M])) {
+          x[M] = xc;
+          f[M] = fc;
         } else {
-          x[1] = x[0] + 0.5 * (x[1] - x[0]);
-          x[2] = x[0] + 0.5 * (x[2] - x[0]);
-          f[1] = eval(x[1]);
-          f[2] = eval(x[2]);
+          for (int i = 1; i <= M; ++i) {
+            x[i] = x[0] + 0.5 * (x[i] - x[0]);
+            f[i] = eval(x[i]);
+          }
         }
       }
     }
@@ -275,15 +296,16 @@ template <class MD>
   }
   // Witness points: depth * normal in the hull of the support points on the plane around the
   // normal (probes 1e-11 rad off it: the ends of a cylinder's side line, a disc's rim points).
-  n0 = upper.normal;
-  e1 = n0.unitOrthogonal();
-  e2 = n0.cross(e1);
+  tangentAtBest();
   for (int k = 0; k < kRecent; ++k) {
     const double ang = k * (2.0 * 3.14159265358979323846 / kRecent);
-    eval(1e-11 * Vec2(std::cos(ang), std::sin(ang)));
+    U u;
+    u[0] = std::cos(ang);
+    if constexpr (M == 2) u[1] = std::sin(ang);
+    eval(1e-11 * u);
   }
-  const Vec3 t = upper.depth * upper.normal;
-  std::array<SupportPoint<3>, kRecent> q;
+  const Vec<D> t = upper.depth * upper.normal;
+  std::array<SupportPoint<D>, kRecent> q;
   int nq = 0;
   for (int k = 0; k < kRecent; ++k) {
     if (upper.normal.dot(recent[k].w) < upper.depth - need) continue;
@@ -292,11 +314,11 @@ template <class MD>
     ++nq;
   }
   if (nq == 0) return;
-  Simplex<3> s;
+  Simplex<D> s;
   s.v[0] = q[0];
   s.size = 1;
-  Vec3 v = s.v[0].w;
-  for (int it = 0; it < 2 * kRecent && s.size < 4; ++it) {
+  Vec<D> v = s.v[0].w;
+  for (int it = 0; it < 2 * kRecent && s.size <= D; ++it) {
     int best = -1;
     double lowest = v.squaredNorm() - 1e-12 * need * need;
     for (int k = 0; k < nq; ++k) {
@@ -308,14 +330,43 @@ template <class MD>
     }
     if (best < 0) break;
     s.v[s.size++] = q[best];
-    v = solveSimplex<3>(s);
+    v = solveSimplex<D>(s);
   }
-  Vec3 a;
-  Vec3 b;
+  Vec<D> a;
+  Vec<D> b;
   s.witnesses(a, b);
   upper.point_a = a;
   upper.point_b = a - t;
 }
+
+/// EPA's checkpoint (iteration 128) and its end, the same in 2D and 3D.
+struct EpaProgress {
+  static constexpr int kCheckpoint = 128;
+  double lower_half = 0.0;  ///< the nearest face's distance at kCheckpoint / 2 iterations
+
+  /// Before iteration `it` with EPA's lower bound `lower`: true when EPA should stop there
+  /// (epaStalls(), the upper bound refined first).
+  template <class MD>
+  bool stalls(const MD& md, EpaUpperBound<MD::kDim>& upper, int it, int max_it, double lower,
+              double need) {
+    if (it == kCheckpoint / 2) lower_half = lower;
+    if (it != kCheckpoint) return false;
+    refineUpperBound(md, upper, need);
+    return epaStalls(upper.depth - lower_half, upper.depth - lower, max_it / it, need);
+  }
+  /// At the end, EPA unconverged with lower bound `lower`: converged after all when the upper
+  /// bound, refined, is within `need` of it (EpaUpperBound::settles()).
+  template <class MD>
+  static void settle(const MD& md, EpaUpperBound<MD::kDim>& upper, double lower, double need,
+                     EpaStatus& status) {
+    if (status == EpaStatus::Converged) return;
+    if (!upper.settles(lower, need)) {
+      refineUpperBound(md, upper, need);
+      upper.settles(lower, need);
+    }
+    if (upper.certified) status = EpaStatus::Converged;
+  }
+};
 
 }  // namespace detail
 
@@ -539,8 +590,7 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
   std::array<int, kMaxFaces> new_faces;
   Face best;
   bool have_best = false;
-  bool refined = false;     // refineUpperBound() ran
-  double lower_half = 0.0;  // the nearest face's distance at the last checkpoint
+  detail::EpaProgress progress;
   r.status = EpaStatus::MaxIterations;
   for (int it = 0;; ++it) {
     int bi = -1;
@@ -561,19 +611,9 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
       r.status = EpaStatus::MaxIterations;
       break;
     }
-    if (it >= 32 && (it & (it - 1)) == 0) {
-      // Checkpoints 32, 64, 128: give up when the gap between the bounds will not close within
-      // the iteration bound (detail::epaStalls()), with the upper bound refined first.
-      const double need = st.rel_tolerance * std::abs(best.d) + tol;
-      if (it >= 128) {
-        if (!refined) detail::refineUpperBound(md, upper, need);
-        refined = true;
-        if (detail::epaStalls(upper.depth - lower_half, upper.depth - best.d, max_it / it, need)) {
-          r.status = EpaStatus::MaxIterations;
-          break;
-        }
-      }
-      lower_half = best.d;
+    if (progress.stalls(md, upper, it, max_it, best.d, st.rel_tolerance * std::abs(best.d) + tol)) {
+      r.status = EpaStatus::MaxIterations;
+      break;
     }
     r.iterations = it + 1;
     const SupportPoint<3> p = md.support(best.n);
@@ -669,12 +709,8 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
     r.normal = best.n;
     detail::epaWitness3(verts[best.v[0]], verts[best.v[1]], verts[best.v[2]], best.d * best.n,
                         r.point_a, r.point_b);
-    const double need = st.rel_tolerance * std::abs(best.d) + tol;
-    if (r.status != EpaStatus::Converged && !upper.settles(best.d, need)) {
-      detail::refineUpperBound(md, upper, need);
-      upper.settles(best.d, need);
-    }
-    if (upper.certified) r.status = EpaStatus::Converged;
+    detail::EpaProgress::settle(md, upper, best.d, st.rel_tolerance * std::abs(best.d) + tol,
+                                r.status);
   }
   upper.applyTo(r);
   return r;
@@ -783,6 +819,7 @@ EpaResult<2> epa2(const MD& md, const Simplex<2>& simplex, const EpaSettings& st
   std::array<double, kMaxVerts> ed;
   std::array<SupportPoint<2>, kMaxVerts> Q;
   int bi = 0;
+  detail::EpaProgress progress;
   r.status = EpaStatus::MaxIterations;
   for (int it = 0;; ++it) {
     // Outward edge normals (counter-clockwise polygon: outward is the edge turned clockwise).
@@ -814,6 +851,8 @@ EpaResult<2> epa2(const MD& md, const Simplex<2>& simplex, const EpaSettings& st
       break;
     }
     if (it >= max_it || n >= kMaxVerts) break;
+    if (progress.stalls(md, upper, it, max_it, ed[bi], st.rel_tolerance * std::abs(ed[bi]) + tol))
+      break;
     r.iterations = it + 1;
     const SupportPoint<2> p = md.support(en[bi]);
     upper.offer(en[bi], p);
@@ -864,9 +903,8 @@ EpaResult<2> epa2(const MD& md, const Simplex<2>& simplex, const EpaSettings& st
     r.normal = en[bi];
     r.point_a = (1.0 - t) * a.a + t * b.a;
     r.point_b = (1.0 - t) * a.b + t * b.b;
-    if (r.status != EpaStatus::Converged &&
-        upper.settles(ed[bi], st.rel_tolerance * std::abs(ed[bi]) + tol))
-      r.status = EpaStatus::Converged;
+    detail::EpaProgress::settle(md, upper, ed[bi], st.rel_tolerance * std::abs(ed[bi]) + tol,
+                                r.status);
   }
   upper.applyTo(r);
   return r;
