@@ -126,8 +126,8 @@ inline void epaWitness3(const SupportPoint<3>& p0, const SupportPoint<3>& p1,
 /// iteration bound: a cone in a cylinder ends within 1.1e-3 of the size after 128 iterations;
 /// or a degenerate polytope: a 1.4e6 m needle of a hull with a 3e-6 m base) this is what it
 /// reports, rather than the lower bound of its nearest face whose normal does not realise it: a
-/// depth too large by at most the remaining gap, never too small (the safe side). In 3D it is
-/// refined first (refineUpperBound()).
+/// depth too large by at most the remaining gap, never too small (the safe side), refined first
+/// (refineUpperBound()).
 template <int D>
 struct EpaUpperBound {
   double depth = std::numeric_limits<double>::infinity();
@@ -136,15 +136,14 @@ struct EpaUpperBound {
   Vec<D> point_b = Vec<D>::Zero();
   bool certified = false;  ///< settles() held: the answer, within EPA's tolerance
 
-  /// Offers the support point p along the unit n; true when it lowered the bound.
-  bool offer(const Vec<D>& n, const SupportPoint<D>& p) {
+  /// Offers the support point p along the unit n.
+  void offer(const Vec<D>& n, const SupportPoint<D>& p) {
     const double h = n.dot(p.w);
-    if (!(h < depth)) return false;
+    if (!(h < depth)) return;
     depth = h;
     normal = n;
     point_a = p.a;
     point_b = p.a - h * n;
-    return true;
   }
   /// For EPA out of iterations (or stopped degenerate): true (and then the answer, not an estimate)
   /// when this bound is within `need` of EPA's lower bound `lower` (its nearest face), the depth
@@ -343,6 +342,8 @@ template <class MD>
 struct EpaProgress {
   static constexpr int kCheckpoint = 128;
   double lower_half = 0.0;  ///< the nearest face's distance at kCheckpoint / 2 iterations
+  /// The upper bound as refineUpperBound() left it (NaN before): not refined again unchanged.
+  double refined = std::numeric_limits<double>::quiet_NaN();
 
   /// Before iteration `it` with EPA's lower bound `lower`: true when EPA should stop there
   /// (epaStalls(), the upper bound refined first).
@@ -352,15 +353,16 @@ struct EpaProgress {
     if (it == kCheckpoint / 2) lower_half = lower;
     if (it != kCheckpoint) return false;
     refineUpperBound(md, upper, need);
+    refined = upper.depth;
     return epaStalls(upper.depth - lower_half, upper.depth - lower, max_it / it, need);
   }
   /// At the end, EPA unconverged with lower bound `lower`: converged after all when the upper
   /// bound, refined, is within `need` of it (EpaUpperBound::settles()).
   template <class MD>
-  static void settle(const MD& md, EpaUpperBound<MD::kDim>& upper, double lower, double need,
-                     EpaStatus& status) {
+  void settle(const MD& md, EpaUpperBound<MD::kDim>& upper, double lower, double need,
+              EpaStatus& status) {
     if (status == EpaStatus::Converged) return;
-    if (!upper.settles(lower, need)) {
+    if (!upper.settles(lower, need) && upper.depth != refined) {
       refineUpperBound(md, upper, need);
       upper.settles(lower, need);
     }
@@ -709,8 +711,7 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
     r.normal = best.n;
     detail::epaWitness3(verts[best.v[0]], verts[best.v[1]], verts[best.v[2]], best.d * best.n,
                         r.point_a, r.point_b);
-    detail::EpaProgress::settle(md, upper, best.d, st.rel_tolerance * std::abs(best.d) + tol,
-                                r.status);
+    progress.settle(md, upper, best.d, st.rel_tolerance * std::abs(best.d) + tol, r.status);
   }
   upper.applyTo(r);
   return r;
@@ -903,8 +904,7 @@ EpaResult<2> epa2(const MD& md, const Simplex<2>& simplex, const EpaSettings& st
     r.normal = en[bi];
     r.point_a = (1.0 - t) * a.a + t * b.a;
     r.point_b = (1.0 - t) * a.b + t * b.b;
-    detail::EpaProgress::settle(md, upper, ed[bi], st.rel_tolerance * std::abs(ed[bi]) + tol,
-                                r.status);
+    progress.settle(md, upper, ed[bi], st.rel_tolerance * std::abs(ed[bi]) + tol, r.status);
   }
   upper.applyTo(r);
   return r;
