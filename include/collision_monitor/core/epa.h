@@ -342,8 +342,6 @@ template <class MD>
 struct EpaProgress {
   static constexpr int kCheckpoint = 128;
   double lower_half = 0.0;  ///< the nearest face's distance at kCheckpoint / 2 iterations
-  /// The upper bound as refineUpperBound() left it (NaN before): not refined again unchanged.
-  double refined = std::numeric_limits<double>::quiet_NaN();
 
   /// Before iteration `it` with EPA's lower bound `lower`: true when EPA should stop there
   /// (epaStalls(), the upper bound refined first).
@@ -353,16 +351,17 @@ struct EpaProgress {
     if (it == kCheckpoint / 2) lower_half = lower;
     if (it != kCheckpoint) return false;
     refineUpperBound(md, upper, need);
-    refined = upper.depth;
     return epaStalls(upper.depth - lower_half, upper.depth - lower, max_it / it, need);
   }
   /// At the end, EPA unconverged with lower bound `lower`: converged after all when the upper
-  /// bound, refined, is within `need` of it (EpaUpperBound::settles()).
+  /// bound, refined, is within `need` of it (EpaUpperBound::settles()). Refined again after the
+  /// checkpoint's search: starting over from its best point, with its first step, lowered the
+  /// deep-tie audit's value errors from 13 to 11 and witness errors from 93 to 81 of 3,600.
   template <class MD>
-  void settle(const MD& md, EpaUpperBound<MD::kDim>& upper, double lower, double need,
-              EpaStatus& status) {
+  static void settle(const MD& md, EpaUpperBound<MD::kDim>& upper, double lower, double need,
+                     EpaStatus& status) {
     if (status == EpaStatus::Converged) return;
-    if (!upper.settles(lower, need) && upper.depth != refined) {
+    if (!upper.settles(lower, need)) {
       refineUpperBound(md, upper, need);
       upper.settles(lower, need);
     }
