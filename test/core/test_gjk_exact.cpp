@@ -533,7 +533,8 @@ TEST(ExactCurved, DepthReachedAlongACircleOfDirections) {
     // The reported normal realises the depth: B moved by it along the normal clears A.
     EXPECT_NEAR(overlapAlong(c.a, at(0, 0, 0), c.b, c.pose_b, r.normal), c.depth, 1e-12);
     if (!c.normal.isZero()) expectVecNear(r.normal, c.normal, 1e-3);
-    // Witnesses on the shapes: B's on its core (a point, the capsule's axis), A's on its side.
+    // Witnesses on the shapes: B's on its surface (the point itself, the capsule's side), A's on
+    // its side.
     const Vec3 b_local = r.point_b - c.pose_b.t;
     const double off_b = c.b.radius() > 0.0 ? rho(b_local) - c.b.radius() : b_local.norm();
     EXPECT_NEAR(off_b, 0.0, 1e-9) << r.point_b.transpose();
