@@ -13,6 +13,7 @@ set(CM_ROS_SOURCES
   src/ros/robot_model.cpp
   src/ros/params.cpp
   src/ros/monitor.cpp
+  src/ros/tf_receiver.cpp
   src/ros/nodelet.cpp
   src/ros/markers.cpp
   src/ros/logger_services.cpp

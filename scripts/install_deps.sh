@@ -10,7 +10,7 @@ PACKAGES=(
   ros-message-generation ros-message-runtime
   python3-rostest python3-rospy python3-roslaunch python3-rostopic python3-rosservice
   python3-tf2-ros python3-visualization-msgs python3-diagnostic-msgs python3-sensor-msgs
-  libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev
+  libtf2-ros-dev libtf2-msgs-dev libtf2-eigen-dev libtf2-geometry-msgs-dev
   libnodeletlib-dev libnodelet-dev pluginlib-dev liblog4cxx-dev
   libdiagnostic-updater-dev libvisualization-msgs-dev
   ros-robot-state-publisher librobot-state-publisher-dev joint-state-publisher

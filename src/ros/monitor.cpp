@@ -85,13 +85,11 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   tf_buffer_ = std::make_shared<tf2_ros::Buffer>(ros::Duration(10.0));
   // TCP_NODELAY: TF comes as many small messages; with Nagle's algorithm they arrived in bursts
   // up to ~40 ms late (soak test: TF-pair event latency p50 21 ms, p99 47 ms; with it 2.2 / 5.9).
-  tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh_, true,
-                                                              ros::TransportHints().tcpNoDelay());
-  if (check_on_tf_) {
-    // New TF data is pose input for every TF-attached body (robot links): check promptly,
-    // coalesced with other triggers by min_check_interval.
-    tf_changed_ = tf_buffer_->_addTransformsChangedListener([this] { trigger(); });
-  }
+  // New TF data is pose input for every TF-attached body (robot links): with check_on_tf, check
+  // promptly after each message, coalesced with other triggers by min_check_interval.
+  tf_receiver_ = std::make_unique<TfReceiver>(
+      *tf_buffer_, nh_, ros::TransportHints().tcpNoDelay(),
+      check_on_tf_ ? std::function<void()>([this] { trigger(); }) : std::function<void()>());
 
   loadRobot();
   loadParameterBodies();
@@ -121,13 +119,13 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
 }
 
 Monitor::~Monitor() {
-  if (tf_changed_.connected()) tf_buffer_->_removeTransformsChangedListener(tf_changed_);
   {
     std::lock_guard<std::mutex> lock(loop_mutex_);
     stop_ = true;
   }
   loop_cv_.notify_all();
   if (loop_thread_.joinable()) loop_thread_.join();
+  tf_receiver_.reset();  // after the loop, which reads through it; its trigger()s are harmless
   bodies_sub_.shutdown();
   poses_sub_.shutdown();
   distance_srv_.shutdown();
@@ -920,6 +918,8 @@ void Monitor::runCycle() {
   }
   std::map<std::string, std::optional<std::pair<Transform3, world::Stamp>>> frames;
   std::vector<std::string> future_frames;
+  // Every frame from the same TF messages: none goes in while these lookups run (TfReceiver).
+  auto tf_snapshot = tf_receiver_->snapshot();
   for (const auto& [id, frame] : attached) {
     if (frames.count(frame)) continue;
     if (frame == fixed_frame_) {
@@ -943,6 +943,7 @@ void Monitor::runCycle() {
       frames[frame] = std::nullopt;
     }
   }
+  tf_snapshot.unlock();
   if (!future_frames.empty()) {
     const bool clear = steady_now < tf_clear_until_;
     ROS_WARN_STREAM_THROTTLE(
@@ -1066,6 +1067,7 @@ void Monitor::setupDiagnostics() {
     s.add("pose messages applied (total)", now.pose_msgs_applied);
     s.add("checks with new poses (total)", now.checks_with_new_poses);
     s.add("waits for TF (total)", tf_waits_.load());
+    s.add("TF messages (total)", tf_receiver_->messages());
     s.add("pose messages coalesced (total)",
           now.pose_msgs_applied - std::min(now.pose_msgs_applied, now.checks_with_new_poses));
     for (const auto& e : param_errors_)

@@ -7,7 +7,7 @@
 /// multi-threaded (the nodelet's MT queue); the check loop runs on its own thread, woken at
 /// `rate` Hz and promptly after pose input and new TF data (coalescing bursts, at most one check
 /// per `min_check_interval`). One mutex guards the world model; TF lookups, mesh loading and
-/// publishing happen outside it.
+/// publishing happen outside it. TF comes in on TfReceiver's own thread, a message at a time.
 #pragma once
 
 #include <atomic>
@@ -32,12 +32,11 @@
 #include <geometry_msgs/PoseStamped.h>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
-#include <tf2_ros/transform_listener.h>
-#include <boost/signals2/connection.hpp>
 
 #include "collision_monitor/ros/conversions.h"
 #include "collision_monitor/ros/markers.h"
 #include "collision_monitor/ros/mesh_loader.h"
+#include "collision_monitor/ros/tf_receiver.h"
 #include "collision_monitor/ros/wire_check.h"
 #include "collision_monitor/world/world_model.h"
 
@@ -140,7 +139,6 @@ class Monitor {
   double min_check_interval_ = 0.002;
   bool check_on_pose_ = true;
   bool check_on_tf_ = true;
-  boost::signals2::connection tf_changed_;  ///< TF buffer "transforms changed" -> trigger()
   bool publish_markers_ = true;
   double robot_padding_ = 0.0;
   std::string robot_description_param_ = "robot_description";
@@ -152,7 +150,7 @@ class Monitor {
   std::string name_;
 
   std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
-  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<TfReceiver> tf_receiver_;  ///< fills tf_buffer_ a message at a time
   std::unique_ptr<MeshCache> mesh_cache_;
   MeshLoader mesh_loader_;
 

@@ -1,0 +1,120 @@
+#!/usr/bin/python3
+"""rostest: a check sees every TF message whole.
+
+40 spheres (radius 0.14 m) are attached to frames f00..f39, which one publisher moves together
+in one /tf message per tick, as robot_state_publisher sends a robot's links: at tick k frame i is
+at x = 0.3 i + 1 mm * k. Neighbours are then 0.02 m apart (WARNING) at every tick; a check that
+posed some frames at tick k and others at k - 1 (TF going in transform by transform while the
+check looks them up) would list a neighbour pair at 0.019 or 0.021 m. Every ~state must list
+exactly the 39 neighbour pairs at 0.02 m, with the stamp of a published tick and witness points
+at that tick's positions."""
+import threading
+import time
+import unittest
+
+import rospy
+import rostest
+from collision_monitor.msg import CollisionState, PairState
+from geometry_msgs.msg import TransformStamped
+from tf2_msgs.msg import TFMessage
+
+from cm_test_util import NS, Monitor, sphere_body, wait_for
+
+N = 40
+SPACING = 0.3
+RADIUS = 0.14
+STEP = 1e-3  # m per tick
+RATE = 250.0  # ticks per second
+GAP = SPACING - 2 * RADIUS
+
+
+def body_id(i):
+    return 'b%02d' % i
+
+
+class TfSnapshot(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_tf_snapshot')
+        cls.monitor = Monitor()
+        cls.tf_pub = rospy.Publisher('/tf', TFMessage, queue_size=1000, tcp_nodelay=True)
+        assert wait_for(lambda: cls.tf_pub.get_num_connections() > 0, 10.0), \
+            'the monitor did not subscribe to /tf'
+        for i in range(N):
+            cls.monitor.add(sphere_body(body_id(i), RADIUS, frame='f%02d' % i,
+                                        pose_from_topic=False))
+        assert wait_for(lambda: len(cls.monitor.ids()) == N, 10.0), 'bodies not added'
+
+    def tick_message(self, k, stamp):
+        msg = TFMessage()
+        for i in range(N):
+            t = TransformStamped()
+            t.header.stamp = stamp
+            t.header.frame_id = 'world'
+            t.child_frame_id = 'f%02d' % i
+            t.transform.translation.x = SPACING * i + STEP * k
+            t.transform.rotation.w = 1.0
+            msg.transforms.append(t)
+        return msg
+
+    def test_every_state_holds_one_tick(self):
+        ticks = {}  # stamp (ns) -> tick
+        states = []
+        lock = threading.Lock()
+        recording = [False]
+
+        def on_state(msg):
+            with lock:
+                if recording[0]:
+                    states.append(msg)
+
+        sub = rospy.Subscriber(NS + 'state', CollisionState, on_state, queue_size=10000)
+        time.sleep(0.5)
+        k = 0
+        start = time.monotonic()
+        while time.monotonic() - start < 8.0 and not rospy.is_shutdown():
+            stamp = rospy.Time.now()
+            with lock:
+                ticks[stamp.to_nsec()] = k
+                recording[0] = time.monotonic() - start > 0.5  # every body posed by then
+            self.tf_pub.publish(self.tick_message(k, stamp))
+            k += 1
+            time.sleep(1.0 / RATE)
+        time.sleep(0.3)
+        sub.unregister()
+        with lock:
+            recording[0] = False
+
+        neighbours = {(body_id(i), body_id(i + 1)) for i in range(N - 1)}
+        mixed, unknown_stamp, wrong = [], [], []
+        for s in states:
+            tick = ticks.get(s.header.stamp.to_nsec())
+            if tick is None:
+                unknown_stamp.append(s.header.stamp.to_sec())
+                continue
+            listed = {(p.body_a, p.body_b): p for p in s.pairs}
+            if set(listed) != neighbours or any(p.status != PairState.WARNING
+                                                for p in listed.values()):
+                wrong.append((tick, sorted((a, b, p.status) for (a, b), p in listed.items()
+                                           if (a, b) not in neighbours or
+                                           p.status != PairState.WARNING)[:5]))
+                continue
+            for i in range(N - 1):
+                p = listed[(body_id(i), body_id(i + 1))]
+                x_a = SPACING * i + STEP * tick + RADIUS  # a's surface facing b, at this tick
+                if abs(p.distance - GAP) > 1e-9 or abs(p.point_a.x - x_a) > 1e-9 or \
+                        abs(p.point_b.x - (x_a + GAP)) > 1e-9:
+                    mixed.append((tick, p.body_a, p.body_b, p.distance, p.point_a.x - x_a))
+                    break
+        print('tf_snapshot: %d ticks published, %d states checked, %d mixed, %d with an unknown '
+              'stamp, %d with other pairs' % (k, len(states), len(mixed), len(unknown_stamp),
+                                                len(wrong)), flush=True)
+        self.assertGreater(len(states), 200, 'too few ~state messages to tell')
+        self.assertEqual(unknown_stamp[:5], [], 'stamps not of any published tick')
+        self.assertEqual(wrong[:5], [], 'pairs other than the 39 neighbours in WARNING')
+        self.assertEqual(mixed[:5], [], 'states posing frames at two ticks (tick, a, b, distance, '
+                         'offset of point_a from the tick\'s position)')
+
+
+if __name__ == '__main__':
+    rostest.rosrun('collision_monitor', 'tf_snapshot', TfSnapshot)
