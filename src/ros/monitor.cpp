@@ -116,6 +116,7 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
                           << core::toString(settings_.backend));
   }
   loop_thread_ = std::thread([this] { loopThread(); });
+  diagnostics_thread_ = std::thread([this] { diagnosticsThread(); });
 }
 
 Monitor::~Monitor() {
@@ -124,7 +125,9 @@ Monitor::~Monitor() {
     stop_ = true;
   }
   loop_cv_.notify_all();
+  diagnostics_cv_.notify_all();
   if (loop_thread_.joinable()) loop_thread_.join();
+  if (diagnostics_thread_.joinable()) diagnostics_thread_.join();
   tf_receiver_.reset();  // after the loop, which reads through it; its trigger()s are harmless
   bodies_sub_.shutdown();
   poses_sub_.shutdown();
@@ -876,11 +879,13 @@ void Monitor::loopThread() {
     triggered_ = false;
     last_start = Clock::now();
     lock.unlock();
+    check_started_ = Clock::now().time_since_epoch().count();
     try {
       runCycle();
     } catch (const std::exception& e) {
       ROS_ERROR_STREAM_THROTTLE(1.0, name_ << ": check cycle failed: " << e.what());
     }
+    check_started_ = 0;
     lock.lock();
     next = last_start + period;
   }
@@ -903,7 +908,11 @@ void Monitor::runCycle() {
     tf_clear_until_ = steady_now + std::chrono::seconds(kTfClearWindow);
     // diagnostic_updater waits for the ROS time of its next report, now in the future: publish
     // now, which also schedules the next report from the new time.
-    diagnostics_->force_update();
+    {
+      std::lock_guard<std::mutex> lock(loop_mutex_);
+      force_diagnostics_ = true;
+    }
+    diagnostics_cv_.notify_one();
   }
   last_now_ = now;
   if (stamp_now.isZero()) return;  // simulated time not started yet (or reset to 0)
@@ -995,7 +1004,25 @@ void Monitor::runCycle() {
     stats_.pose_msgs_applied = pose_msgs_applied;
     stats_.checks_with_new_poses = checks_with_new_poses;
   }
-  diagnostics_->update();
+}
+
+void Monitor::diagnosticsThread() {
+  // diagnostic_updater sends a report once its period (ROS time) has passed since the last:
+  // asked every 0.1 s, a report is at most that late.
+  std::unique_lock<std::mutex> lock(loop_mutex_);
+  while (!stop_) {
+    diagnostics_cv_.wait_for(lock, std::chrono::milliseconds(100),
+                             [this] { return stop_ || force_diagnostics_; });
+    if (stop_) break;
+    const bool force = std::exchange(force_diagnostics_, false);
+    lock.unlock();
+    if (force) {
+      diagnostics_->force_update();
+    } else {
+      diagnostics_->update();
+    }
+    lock.lock();
+  }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -1034,6 +1061,19 @@ void Monitor::setupDiagnostics() {
     const std::size_t cycles = now.cycles - before.cycles;
     const double mean_cycle =
         cycles ? (now.cycle_time_sum - before.cycle_time_sum) / static_cast<double>(cycles) : 0.0;
+    // A check still running after a second (or a period of `rate`, if longer): verdicts are
+    // that late, and the figures above are those of the checks before it.
+    const auto started = check_started_.load();
+    const double running =
+        started == 0
+            ? 0.0
+            : std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch() -
+                                            std::chrono::steady_clock::duration(started))
+                  .count();
+    if (running > std::max(1.0, 1.0 / rate_)) {
+      s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                      "a check has been running for %.1f s", running);
+    }
     if (mean_cycle > 1.0 / rate_) {
       // The checks cannot keep up with `rate`: verdicts come later than configured.
       s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
@@ -1056,6 +1096,7 @@ void Monitor::setupDiagnostics() {
     s.addf("target rate (Hz)", "%.1f", rate_);
     s.addf("mean cycle time (ms)", "%.3f", 1e3 * mean_cycle);
     s.addf("max cycle time since last report (ms)", "%.3f", 1e3 * now.cycle_time_max);
+    s.addf("check in progress for (s)", "%.3f", running);
     s.add("pairs checked (last cycle)", now.pairs_checked);
     s.addf("pairs checked (mean per check since last report)", "%.1f",
            cycles ? static_cast<double>(now.pairs_checked_sum - before.pairs_checked_sum) /

@@ -1,16 +1,19 @@
 #!/usr/bin/python3
 """rostest: /diagnostics WARNs "overloaded" while the mean check takes longer than the period of
-~rate, and goes back to OK once it does not (overload.test)."""
+~rate, and goes back to OK once it does not; it keeps coming while a long check runs, and says
+so (overload.test)."""
 import sys
+import threading
+import time
 import unittest
 
 import rospy
 import rostest
-from collision_monitor.msg import Body, BodyPoses
-from diagnostic_msgs.msg import DiagnosticStatus
+from collision_monitor.msg import Body, BodyPoses, Shape
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 import robust_util  # noqa: F401 (puts test/ros on the path)
-from cm_test_util import Monitor, pose, sphere_body, wait_for
+from cm_test_util import Monitor, pose, shape, sphere_body, wait_for
 
 
 class Overload(unittest.TestCase):
@@ -52,6 +55,58 @@ class Overload(unittest.TestCase):
         self.assertIsNotNone(d, self.m.diagnostics)
         print("recovered: mean cycle time %s ms" % self.m.diag_value("mean cycle time (ms)"))
         self.assertLess(float(self.m.diag_value("mean cycle time (ms)")), 0.05)
+
+    def test_2_long_check_reported_while_it_runs(self):
+        """Three bodies of 1,000 overlapping boxes each, one of them moved by every pose message:
+        every check runs 3 x 1,000,000 box pairs (several seconds). /diagnostics keeps coming
+        every diagnostic_period (0.5 s) meanwhile and says that a check is running."""
+        n = 1000
+        for name in ('big_a', 'big_b', 'big_c'):
+            b = Body(id=name, operation=Body.ADD, pose_from_topic=True)
+            for i in range(n):
+                p = shape(Shape.BOX, [0.2, 0.2, 0.2])
+                p.pose = pose(0.001 * (i % 10), 0.001 * (i // 10 % 10), 0.001 * (i // 100))
+                b.parts.append(p)
+            self.m.add(b)
+        self.assertTrue(wait_for(lambda: len(self.m.list_bodies().ids) == 5, 20.0))
+        reports = []  # (receive time, level, message)
+        lock = threading.Lock()
+
+        def on_diag(msg):
+            for st in msg.status:
+                if 'collision_monitor' in st.name:
+                    with lock:
+                        reports.append((time.monotonic(), st.level, st.message))
+
+        sub = rospy.Subscriber('/diagnostics', DiagnosticArray, on_diag, queue_size=100)
+        start = time.monotonic()
+        k = 0
+        while time.monotonic() - start < 8.0:
+            msg = BodyPoses(ids=['big_a', 'big_b', 'big_c'],
+                            poses=[pose(10.0, 0, 0), pose(10.05 + 1e-4 * k, 0, 0),
+                                   pose(10.0, 0.05 + 1e-4 * k, 0)])
+            msg.header.frame_id = 'world'
+            msg.header.stamp = rospy.Time(0)
+            self.m.poses_pub.publish(msg)
+            k += 1
+            time.sleep(0.2)
+        sub.unregister()
+        with lock:
+            got = list(reports)
+        running = [m for _, _, m in got if 'a check has been running for' in m]
+        gaps = [b[0] - a[0] for a, b in zip(got, got[1:])]
+        print('long checks: %d reports in 8 s, largest gap %.2f s, %d say a check is running '
+              '(%s)' % (len(got), max(gaps, default=0.0), len(running), running[:1]), flush=True)
+        self.assertTrue(running, 'no report said a check was running: %s' % got[:5])
+        self.assertTrue(all(level == DiagnosticStatus.WARN for _, level, m in got
+                            if 'a check has been running for' in m))
+        self.assertGreater(len(got), 8)
+        self.assertLess(max(gaps), 1.5, 'reports held back by the checks: %s' % gaps)
+        for name in ('big_a', 'big_b', 'big_c'):
+            self.m.add(Body(id=name, operation=Body.REMOVE))
+        self.assertTrue(wait_for(lambda: len(self.m.list_bodies().ids) == 2, 30.0))
+        d = self.report(DiagnosticStatus.OK, 'ok', timeout=20.0)
+        self.assertIsNotNone(d, self.m.diagnostics)
 
 
 if __name__ == '__main__':
