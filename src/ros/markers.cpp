@@ -272,6 +272,7 @@ std::string MarkerBuilder::distanceLabel(double distance) {
 
 void MarkerBuilder::reset() {
   shown_.clear();
+  sent_.clear();
   ids_.clear();
   geometry_.clear();
   first_ = true;
@@ -299,6 +300,7 @@ const MarkerBuilder::BodyGeometry& MarkerBuilder::geometryOf(const world::BodySp
   BodyGeometry g;
   g.parts = spec.parts;
   g.padding = spec.padding;
+  g.generation = next_generation_++;
   g.geometry.resize(spec.parts.size());
   const double padding = std::max(spec.padding, 0.0);
   for (std::size_t i = 0; i < spec.parts.size(); ++i) {
@@ -335,9 +337,15 @@ const MarkerBuilder::BodyGeometry& MarkerBuilder::geometryOf(const world::BodySp
 visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& world,
                                                      const world::CycleResult& cycle,
                                                      const std::string& fixed_frame) {
+  return build(
+      world, cycle, fixed_frame,
+      std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count());
+}
+
+visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& world,
+                                                     const world::CycleResult& cycle,
+                                                     const std::string& fixed_frame, double now) {
   visualization_msgs::MarkerArray out;
-  const double now =
-      std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
   if (options_.max_rate > 0.0 && last_build_ >= 0.0 &&
       now - last_build_ < 1.0 / options_.max_rate) {
     return out;  // too soon: nothing to publish this cycle
@@ -365,6 +373,23 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     m.lifetime = lifetime;
     shown.emplace(std::make_pair(m.ns, m.id), key);
     out.markers.push_back(std::move(m));
+  };
+  // A body marker goes out again when anything in it changed, or a third of its lifetime after
+  // it last did: it never expires while shown, and a new subscriber has the whole picture after
+  // that long (forever-markers: 1 s).
+  const double refresh = options_.lifetime > 0.0 ? options_.lifetime / 3.0 : 1.0;
+  auto unchanged = [&](const char* ns, int id, const std::string& key, const std::string& frame,
+                       const geometry_msgs::Pose& pose, const std_msgs::ColorRGBA& color,
+                       std::uint64_t generation) {
+    const auto ns_id = std::make_pair(std::string(ns), id);
+    Sent& s = sent_[ns_id];
+    if (s.generation == generation && s.frame == frame && s.pose == pose && s.color == color &&
+        now - s.time < refresh) {
+      shown.emplace(ns_id, key);
+      return true;
+    }
+    s = Sent{frame, pose, color, generation, now};
+    return false;
   };
 
   // Worst status (and smallest distance within it) per body.
@@ -406,27 +431,41 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     std_msgs::ColorRGBA shell_color = color;
     color.a = static_cast<float>(options_.body_alpha);
     shell_color.a = static_cast<float>(options_.padding_alpha);
+    // In the body's TF frame, where rviz moves it with TF (its pose there never changes), or in
+    // the fixed frame at the pose the check used.
+    const bool locked =
+        options_.frame_locked && spec->pose_source == world::PoseSource::Tf && !spec->frame.empty();
+    std_msgs::Header body_header = header;
+    if (locked) body_header.frame_id = spec->frame;
     for (std::size_t i = 0; i < g.geometry.size(); ++i) {
       const PartGeometry& pg = g.geometry[i];
-      const geometry_msgs::Pose pose =
-          toPose(*body_pose * spec->parts[i].pose *
-                 core::makeTransform(Eigen::Quaterniond::Identity(), pg.offset));
+      const core::Transform3 in_body =
+          spec->parts[i].pose * core::makeTransform(Eigen::Quaterniond::Identity(), pg.offset);
+      const geometry_msgs::Pose pose = toPose(locked ? in_body : *body_pose * in_body);
       const std::string key = info.id + '#' + std::to_string(i);
-      Marker m = pg.solid;
-      m.header = header;
-      m.ns = kBodies;
-      m.id = markerId(kBodies, key);
-      m.color = color;
-      m.pose = pose;
-      if (!pg.solid_shade.empty()) applyShade(pg.solid_shade, color, &m);
-      emit(std::move(m), key);
-      if (pg.has_shell) {
+      const int id = markerId(kBodies, key);
+      if (!unchanged(kBodies, id, key, body_header.frame_id, pose, color, g.generation)) {
+        Marker m = pg.solid;
+        m.header = body_header;
+        m.ns = kBodies;
+        m.id = id;
+        m.color = color;
+        m.pose = pose;
+        m.frame_locked = locked;
+        if (!pg.solid_shade.empty()) applyShade(pg.solid_shade, color, &m);
+        emit(std::move(m), key);
+      }
+      if (!pg.has_shell) continue;
+      const int shell_id = markerId(kPadding, key);
+      if (!unchanged(kPadding, shell_id, key, body_header.frame_id, pose, shell_color,
+                     g.generation)) {
         Marker s = pg.shell;
-        s.header = header;
+        s.header = body_header;
         s.ns = kPadding;
-        s.id = markerId(kPadding, key);
+        s.id = shell_id;
         s.color = shell_color;
         s.pose = pose;
+        s.frame_locked = locked;
         if (!pg.shell_shade.empty()) applyShade(pg.shell_shade, shell_color, &s);
         emit(std::move(s), key);
       }
@@ -499,6 +538,7 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     del.pose = identityPose();
     out.markers.push_back(std::move(del));
     ids_.erase({ns_id.first, key});
+    sent_.erase(ns_id);
   }
   shown_ = std::move(shown);
   return out;

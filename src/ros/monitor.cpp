@@ -187,6 +187,7 @@ void Monitor::readParameters() {
   check_on_pose_ = typedParam("check_on_pose", true, "a boolean");
   check_on_tf_ = typedParam("check_on_tf", true, "a boolean");
   publish_markers_ = typedParam("publish_markers", true, "a boolean");
+  marker_frame_locked_ = typedParam("marker_frame_locked", true, "a boolean");
   marker_rate_ = number("marker_rate", MarkerOptions().max_rate, positive, "> 0");
   settings_.exact_min_distance = typedParam("exact_min_distance", true, "a boolean");
   robot_description_param_ =
@@ -236,6 +237,7 @@ MarkerOptions Monitor::markerOptions() const {
   // Arrays come at least as often as the slower of the heartbeat and the marker rate; a marker
   // lives for three such periods, and at least 1 s.
   o.lifetime = std::max(1.0, 3.0 / std::min(rate_, marker_rate_));
+  o.frame_locked = marker_frame_locked_;
   return o;
 }
 

@@ -384,11 +384,13 @@ TEST(MarkerBuilder, DeletesRemovedBodiesAndClearedPairs) {
   EXPECT_EQ(first.markers.front().action, Marker::DELETEALL) << "first build clears old markers";
   EXPECT_EQ(builder.numShown(), 3u + 1u + 2u * 2u + 1u);  // bodies, shell, 2 x (line, label), arrow
 
-  // Same cycle again: same markers, nothing deleted, no DELETEALL.
+  // Same cycle again: the pairs' markers, nothing deleted, no DELETEALL; the bodies are
+  // unchanged and were sent less than a third of their lifetime ago (UnchangedBodiesAreNotSent).
   const MarkerArray again = builder.build(world, cycle, kFrame);
   for (const auto& m : again.markers)
     EXPECT_EQ(m.action, Marker::ADD);
-  EXPECT_EQ(again.markers.size(), first.markers.size() - 1);
+  EXPECT_EQ(again.markers.size(), first.markers.size() - 1 - 4);
+  EXPECT_EQ(builder.numShown(), 3u + 1u + 2u * 2u + 1u);
 
   // Body b removed, pair a-c cleared: b's body and shell markers, both pairs' markers go.
   ASSERT_TRUE(world.removeBody("b"));
@@ -449,20 +451,101 @@ TEST(MarkerBuilder, AMissedDeletionExpires) {
     for (auto it = rviz.begin(); it != rviz.end();)
       it = it->second.second <= t ? rviz.erase(it) : std::next(it);
   };
-  receive(builder.build(world, warning, kFrame), 0.0);
+  receive(builder.build(world, warning, kFrame, 0.0), 0.0);
   EXPECT_EQ(rviz.size(), 4u);  // 2 bodies, segment, label
   ASSERT_TRUE(world.removeBody("b"));
   cm::world::CycleResult clear;
   clear.stamp = 2.0;
-  const MarkerArray missed = builder.build(world, clear, kFrame);  // b and the pair deleted
+  const MarkerArray missed = builder.build(world, clear, kFrame, 0.1);  // b, the pair deleted
   EXPECT_EQ(find(missed, "witness", Marker::DELETE).size(), 1u);
-  receive(builder.build(world, clear, kFrame), 0.2);  // no DELETE again: orphans shown
+  // a is green now (no pair): sent again in the array that was missed, then only as a refresh
+  // (a third of its lifetime after it was last sent).
+  EXPECT_EQ(find(missed, "bodies", Marker::ADD).size(), 1u);
+  const MarkerArray quiet = builder.build(world, clear, kFrame, 0.2);
+  EXPECT_TRUE(quiet.markers.empty()) << quiet.markers.size();
+  receive(quiet, 0.2);  // no DELETE again: orphans shown
   EXPECT_EQ(rviz.size(), 4u);
-  receive(builder.build(world, clear, kFrame), 0.4);
+  const MarkerArray refreshed = builder.build(world, clear, kFrame, 0.3);
+  EXPECT_EQ(find(refreshed, "bodies", Marker::ADD).size(), 1u);
+  receive(refreshed, 0.3);
+  receive(builder.build(world, clear, kFrame, 0.4), 0.4);
   EXPECT_EQ(rviz.size(), 4u);
-  receive(builder.build(world, clear, kFrame), 0.6);  // 0.5 s after the last array with them
-  ASSERT_EQ(rviz.size(), 1u);
-  EXPECT_EQ(rviz.begin()->first.first, "bodies");
+  for (double t = 0.6; t < 3.0; t += 0.1) {  // from 0.5 s after the last array with them
+    receive(builder.build(world, clear, kFrame, t), t);
+    ASSERT_EQ(rviz.size(), 1u) << t;  // a, refreshed before it expires
+    EXPECT_EQ(rviz.begin()->first.first, "bodies");
+  }
+}
+
+TEST(MarkerBuilder, UnchangedBodiesAreNotSent) {
+  // A body marker goes out when its pose, colour or geometry changed, else only as a refresh a
+  // third of its lifetime after it was last sent (lifetime 0.3 s here: every 0.1 s).
+  cm::world::WorldModel world;
+  addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
+  addBody(world, boxBody("b"), at(1.0, 0.0, 0.0));
+  cm::world::CycleResult cycle;
+  cycle.stamp = 1.0;
+  MarkerOptions options = everyCycle();
+  options.lifetime = 0.3;
+  MarkerBuilder builder(options);
+  auto sent = [&](double t) {
+    std::vector<double> xs;
+    for (const Marker* m : find(builder.build(world, cycle, kFrame, t), "bodies", Marker::ADD))
+      xs.push_back(m->pose.position.x);
+    std::sort(xs.begin(), xs.end());
+    return xs;
+  };
+  EXPECT_EQ(sent(0.0), (std::vector<double>{0.0, 1.0}));
+  EXPECT_EQ(sent(0.05), std::vector<double>{});
+  EXPECT_EQ(builder.numShown(), 2u);
+  ASSERT_TRUE(world.setPose("b", at(1.5, 0.0, 0.0), 0.0));  // moved
+  EXPECT_EQ(sent(0.06), std::vector<double>{1.5});
+  cycle.pairs.push_back(pair("a", "b", PairStatus::Warning, 0.04));  // both amber now
+  EXPECT_EQ(sent(0.07), (std::vector<double>{0.0, 1.5}));
+  EXPECT_EQ(sent(0.08), std::vector<double>{});
+  cycle.pairs.back().distance = 0.03;  // a deeper amber
+  EXPECT_EQ(sent(0.09), (std::vector<double>{0.0, 1.5}));
+  EXPECT_EQ(sent(0.15), std::vector<double>{});
+  EXPECT_EQ(sent(0.19), (std::vector<double>{0.0, 1.5}));  // refreshed: 0.1 s after 0.09
+  EXPECT_EQ(builder.numShown(), 2u + 2u);                  // and the segment and label
+  builder.reset();                                         // a new start sends everything
+  EXPECT_EQ(sent(0.2), (std::vector<double>{0.0, 1.5}));
+}
+
+TEST(MarkerBuilder, TfBodiesDrawnInTheirFrameLocked) {
+  // A body on a TF frame is drawn in that frame with frame_locked: rviz moves it with TF, and
+  // its marker does not change (is not sent again) when it moves. Without frame_locked it is
+  // drawn in the fixed frame at the pose the check used.
+  cm::world::BodySpec spec;
+  spec.id = "link";
+  spec.frame = "link_frame";
+  spec.pose_source = cm::world::PoseSource::Tf;
+  spec.parts.push_back(cm::world::Part{ConvexShape::box(Vec3(0.1, 0.2, 0.3)), at(0.0, 0.0, 0.25)});
+  for (const bool locked : {true, false}) {
+    cm::world::WorldModel world;
+    addBody(world, spec, at(1.0, 2.0, 3.0));
+    cm::world::CycleResult cycle;
+    cycle.stamp = 1.0;
+    MarkerOptions options = everyCycle();
+    options.frame_locked = locked;
+    MarkerBuilder builder(options);
+    const MarkerArray first = builder.build(world, cycle, kFrame, 0.0);
+    const auto bodies = find(first, "bodies", Marker::ADD);
+    ASSERT_EQ(bodies.size(), 1u);
+    EXPECT_EQ(bodies[0]->header.frame_id, locked ? "link_frame" : kFrame);
+    EXPECT_EQ(bodies[0]->frame_locked, locked);
+    EXPECT_EQ(bodies[0]->type, Marker::CUBE);
+    EXPECT_EQ(bodies[0]->pose.position.x, locked ? 0.0 : 1.0);
+    EXPECT_EQ(bodies[0]->pose.position.y, locked ? 0.0 : 2.0);
+    EXPECT_EQ(bodies[0]->pose.position.z, locked ? 0.25 : 3.25);
+    ASSERT_TRUE(world.setPose("link", at(1.0, 2.0, 4.0), 0.0));  // the link moved
+    const MarkerArray moved = builder.build(world, cycle, kFrame, 0.01);
+    const auto again = find(moved, "bodies", Marker::ADD);
+    ASSERT_EQ(again.size(), locked ? 0u : 1u);
+    if (!locked) {
+      EXPECT_EQ(again[0]->pose.position.z, 4.25);
+    }
+  }
 }
 
 /// Signed volume enclosed by a TRIANGLE_LIST, from the origin `o`: the same from any origin only

@@ -35,15 +35,17 @@ class BadParams(unittest.TestCase):
         self.assertEqual(d.level, DiagnosticStatus.ERROR, d.message)
         errors = [kv.value for kv in d.values if kv.key == 'invalid parameter']
         for key in ('rate', 'fixed_frame', 'warning_distance', 'hysteresis', 'pose_timeout',
-                    'ttc_horizon', 'marker_rate', 'publish_markers', 'check_on_pose', 'exact_min_distance', 'backend',
+                    'ttc_horizon', 'marker_rate', 'publish_markers', 'marker_frame_locked',
+                    'check_on_pose', 'exact_min_distance', 'backend',
                     'max_bodies', 'max_vertices_per_part', 'max_parts_per_body',
                     'robot_description_param'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
-        self.assertEqual(len(errors), 15, errors)  # max_unknown_pairs = 1.0 is valid
+        self.assertEqual(len(errors), 16, errors)  # max_unknown_pairs = 1.0 is valid
         # roscpp threw on it: the node exited 1 with only "cannot load ...Nodelet".
         self.assertIn("robot_description_param = 'robot-description' (must be a ROS name, not "
                       "private); using robot_description", errors)
         self.assertIn('publish_markers: not a boolean', ' | '.join(errors))
+        self.assertIn('marker_frame_locked: not a boolean', ' | '.join(errors))
         self.assertIn('max_bodies: not an integer', ' | '.join(errors))
         # Not rounded to 3 (roscpp's getParam(int) would): refused, the default (1000) used.
         self.assertIn('max_parts_per_body = 2.5 (must be a whole number > 0); using 1000', errors)

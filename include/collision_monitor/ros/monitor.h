@@ -7,7 +7,8 @@
 /// multi-threaded (the nodelet's MT queue); the check loop runs on its own thread, woken at
 /// `rate` Hz and promptly after pose input and new TF data (coalescing bursts, at most one check
 /// per `min_check_interval`). One mutex guards the world model; TF lookups, mesh loading and
-/// publishing happen outside it. TF comes in on TfReceiver's own thread, a message at a time.
+/// publishing happen outside it. TF comes in on TfReceiver's own thread, a message at a time;
+/// /diagnostics go out from a thread of their own.
 #pragma once
 
 #include <atomic>
@@ -143,6 +144,7 @@ class Monitor {
   bool check_on_pose_ = true;
   bool check_on_tf_ = true;
   bool publish_markers_ = true;
+  bool marker_frame_locked_ = true;  ///< TF-attached bodies' markers in their frames
   double robot_padding_ = 0.0;
   std::string robot_description_param_ = "robot_description";
   std::string backend_name_;
