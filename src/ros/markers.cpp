@@ -437,38 +437,30 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
         options_.frame_locked && spec->pose_source == world::PoseSource::Tf && !spec->frame.empty();
     std_msgs::Header body_header = header;
     if (locked) body_header.frame_id = spec->frame;
+    // A part's solid or padding shell, unless unchanged since it was last sent.
+    auto part = [&](const char* ns, const Marker& shape, const std::vector<float>& shade,
+                    const std_msgs::ColorRGBA& c, const geometry_msgs::Pose& pose,
+                    const std::string& key) {
+      const int id = markerId(ns, key);
+      if (unchanged(ns, id, key, body_header.frame_id, pose, c, g.generation)) return;
+      Marker m = shape;
+      m.header = body_header;
+      m.ns = ns;
+      m.id = id;
+      m.color = c;
+      m.pose = pose;
+      m.frame_locked = locked;
+      if (!shade.empty()) applyShade(shade, c, &m);
+      emit(std::move(m), key);
+    };
     for (std::size_t i = 0; i < g.geometry.size(); ++i) {
       const PartGeometry& pg = g.geometry[i];
       const core::Transform3 in_body =
           spec->parts[i].pose * core::makeTransform(Eigen::Quaterniond::Identity(), pg.offset);
       const geometry_msgs::Pose pose = toPose(locked ? in_body : *body_pose * in_body);
       const std::string key = info.id + '#' + std::to_string(i);
-      const int id = markerId(kBodies, key);
-      if (!unchanged(kBodies, id, key, body_header.frame_id, pose, color, g.generation)) {
-        Marker m = pg.solid;
-        m.header = body_header;
-        m.ns = kBodies;
-        m.id = id;
-        m.color = color;
-        m.pose = pose;
-        m.frame_locked = locked;
-        if (!pg.solid_shade.empty()) applyShade(pg.solid_shade, color, &m);
-        emit(std::move(m), key);
-      }
-      if (!pg.has_shell) continue;
-      const int shell_id = markerId(kPadding, key);
-      if (!unchanged(kPadding, shell_id, key, body_header.frame_id, pose, shell_color,
-                     g.generation)) {
-        Marker s = pg.shell;
-        s.header = body_header;
-        s.ns = kPadding;
-        s.id = shell_id;
-        s.color = shell_color;
-        s.pose = pose;
-        s.frame_locked = locked;
-        if (!pg.shell_shade.empty()) applyShade(pg.shell_shade, shell_color, &s);
-        emit(std::move(s), key);
-      }
+      part(kBodies, pg.solid, pg.solid_shade, color, pose, key);
+      if (pg.has_shell) part(kPadding, pg.shell, pg.shell_shade, shell_color, pose, key);
     }
   }
   for (auto it = geometry_.begin(); it != geometry_.end();) {
