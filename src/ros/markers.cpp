@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <limits>
 #include <memory>
+#include <random>
 #include <type_traits>
 #include <variant>
 
@@ -29,6 +30,10 @@ const char* const kPadding = "padding";
 const char* const kWitness = "witness";
 const char* const kLabels = "labels";
 const char* const kNormals = "normals";
+
+/// Body and padding markers live this many times MarkerOptions::lifetime (they are refreshed
+/// between a quarter and a half of it: ten refreshes or more per lifetime).
+constexpr double kBodyLifetimes = 5.0;
 
 /// Smallest drawn size (m): zero-thickness shapes (flat boxes, segments, flat hulls) stay visible.
 constexpr double kMinSize = 0.002;
@@ -273,6 +278,7 @@ std::string MarkerBuilder::distanceLabel(double distance) {
 void MarkerBuilder::reset() {
   shown_.clear();
   sent_.clear();
+  deleting_.clear();
   ids_.clear();
   geometry_.clear();
   first_ = true;
@@ -364,31 +370,36 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     first_ = false;
   }
 
-  // Every marker has a lifetime: a subscriber that missed the array with its DELETE (the
+  // Every marker has a lifetime: a subscriber that missed the arrays with its DELETE (the
   // publisher's queue is 1) drops it that long after the last array that showed it, and rviz
-  // drops the picture of a monitor that stopped.
-  const ros::Duration lifetime(std::max(options_.lifetime, 0.0));
+  // drops the picture of a monitor that stopped. Body and padding markers live kBodyLifetimes
+  // times as long: they are sent again only when they change or to refresh.
+  const double life = std::max(options_.lifetime, 0.0);
+  const ros::Duration lifetime(life), body_lifetime(kBodyLifetimes * life);
   std::map<std::pair<std::string, int>, std::string> shown;
   auto emit = [&](Marker&& m, const std::string& key) {
-    m.lifetime = lifetime;
+    m.lifetime = m.ns == kBodies || m.ns == kPadding ? body_lifetime : lifetime;
     shown.emplace(std::make_pair(m.ns, m.id), key);
     out.markers.push_back(std::move(m));
   };
-  // A body marker goes out again when anything in it changed, or a third of its lifetime after
-  // it last did: it never expires while shown, and a new subscriber has the whole picture after
-  // that long (forever-markers: 1 s).
-  const double refresh = options_.lifetime > 0.0 ? options_.lifetime / 3.0 : 1.0;
+  // A body marker goes out again when anything in it changed, or when its refresh is due: at a
+  // random time between a quarter and a half of `lifetime` (of 2 s for markers that live
+  // forever) after it last went out. At random, so that refreshes spread evenly over the arrays
+  // (arrays of one size, no burst of every body at once) and a subscriber that drops arrays
+  // does not keep missing the same markers' refreshes; at least ten of them per body lifetime.
+  const double refresh = life > 0.0 ? life : 2.0;
   auto unchanged = [&](const char* ns, int id, const std::string& key, const std::string& frame,
                        const geometry_msgs::Pose& pose, const std_msgs::ColorRGBA& color,
                        std::uint64_t generation) {
     const auto ns_id = std::make_pair(std::string(ns), id);
     Sent& s = sent_[ns_id];
     if (s.generation == generation && s.frame == frame && s.pose == pose && s.color == color &&
-        now - s.time < refresh) {
+        now < s.refresh_due) {
       shown.emplace(ns_id, key);
       return true;
     }
-    s = Sent{frame, pose, color, generation, now};
+    std::uniform_real_distribution<double> quarter_to_half(0.25, 0.5);
+    s = Sent{frame, pose, color, generation, now + refresh * quarter_to_half(random_)};
     return false;
   };
 
@@ -436,7 +447,12 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     const bool locked =
         options_.frame_locked && spec->pose_source == world::PoseSource::Tf && !spec->frame.empty();
     std_msgs::Header body_header = header;
-    if (locked) body_header.frame_id = spec->frame;
+    if (locked) {
+      // Stamp 0, "the latest TF": rviz waits (in its message filter) for TF at a marker's stamp,
+      // and a body whose TF stopped (stale, grey) has none at the cycle's stamp, so it vanished.
+      body_header.frame_id = spec->frame;
+      body_header.stamp = ros::Time();
+    }
     // A part's solid or padding shell, unless unchanged since it was last sent.
     auto part = [&](const char* ns, const Marker& shape, const std::vector<float>& shade,
                     const std_msgs::ColorRGBA& c, const geometry_msgs::Pose& pose,
@@ -519,18 +535,28 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     }
   }
 
-  // Deletions: whatever was shown last time and is gone now.
+  // Deletions: whatever was shown last time and is gone now, sent again in every array for a
+  // lifetime (1 s for markers that live forever): a subscriber that missed one array gets it
+  // with the next. Ids are never reused, so a late DELETE cannot hit a new marker.
   for (const auto& [ns_id, key] : shown_) {
     if (shown.count(ns_id) != 0) continue;
+    deleting_[ns_id] = now + (life > 0.0 ? life : 1.0);
+    ids_.erase({ns_id.first, key});
+    sent_.erase(ns_id);
+  }
+  for (auto it = deleting_.begin(); it != deleting_.end();) {
+    if (now > it->second) {
+      it = deleting_.erase(it);
+      continue;
+    }
     Marker del;
     del.header = header;
-    del.ns = ns_id.first;
-    del.id = ns_id.second;
+    del.ns = it->first.first;
+    del.id = it->first.second;
     del.action = Marker::DELETE;
     del.pose = identityPose();
     out.markers.push_back(std::move(del));
-    ids_.erase({ns_id.first, key});
-    sent_.erase(ns_id);
+    ++it;
   }
   shown_ = std::move(shown);
   return out;

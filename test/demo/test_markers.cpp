@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -379,14 +380,14 @@ TEST(MarkerBuilder, DeletesRemovedBodiesAndClearedPairs) {
   cycle.pairs.push_back(pair("a", "c", PairStatus::Warning, 0.03));
   MarkerBuilder builder(everyCycle());
 
-  const MarkerArray first = builder.build(world, cycle, kFrame);
+  const MarkerArray first = builder.build(world, cycle, kFrame, 0.0);
   ASSERT_FALSE(first.markers.empty());
   EXPECT_EQ(first.markers.front().action, Marker::DELETEALL) << "first build clears old markers";
   EXPECT_EQ(builder.numShown(), 3u + 1u + 2u * 2u + 1u);  // bodies, shell, 2 x (line, label), arrow
 
   // Same cycle again: the pairs' markers, nothing deleted, no DELETEALL; the bodies are
   // unchanged and were sent less than a third of their lifetime ago (UnchangedBodiesAreNotSent).
-  const MarkerArray again = builder.build(world, cycle, kFrame);
+  const MarkerArray again = builder.build(world, cycle, kFrame, 0.01);
   for (const auto& m : again.markers)
     EXPECT_EQ(m.action, Marker::ADD);
   EXPECT_EQ(again.markers.size(), first.markers.size() - 1 - 4);
@@ -396,7 +397,7 @@ TEST(MarkerBuilder, DeletesRemovedBodiesAndClearedPairs) {
   ASSERT_TRUE(world.removeBody("b"));
   cm::world::CycleResult later;
   later.stamp = 2.0;
-  const MarkerArray second = builder.build(world, later, kFrame);
+  const MarkerArray second = builder.build(world, later, kFrame, 0.02);
   std::map<std::string, int> deleted;
   for (const auto& m : second.markers) {
     if (m.action == Marker::DELETE) {
@@ -410,23 +411,27 @@ TEST(MarkerBuilder, DeletesRemovedBodiesAndClearedPairs) {
   EXPECT_EQ(find(second, "bodies", Marker::ADD).size(), 2u);
   EXPECT_EQ(builder.numShown(), 2u);
 
-  // Deleted once, not again.
-  const MarkerArray third = builder.build(world, later, kFrame);
-  for (const auto& m : third.markers)
+  // The DELETEs again in every array for a lifetime (1 s), then no more.
+  const MarkerArray third = builder.build(world, later, kFrame, 1.0);
+  EXPECT_EQ(find(third, "witness", Marker::DELETE).size(), 2u);
+  EXPECT_EQ(find(third, "bodies", Marker::DELETE).size(), 1u);
+  const MarkerArray after = builder.build(world, later, kFrame, 1.03);
+  for (const auto& m : after.markers)
     EXPECT_EQ(m.action, Marker::ADD);
 
   // A pair that clears and comes back is shown again.
   cycle.pairs.erase(cycle.pairs.begin());  // a-b: b is gone
-  const MarkerArray fourth = builder.build(world, cycle, kFrame);
+  const MarkerArray fourth = builder.build(world, cycle, kFrame, 1.04);
   EXPECT_EQ(find(fourth, "witness", Marker::ADD).size(), 1u);
   EXPECT_EQ(find(fourth, "labels", Marker::ADD).size(), 1u);
 }
 
-TEST(MarkerBuilder, AMissedDeletionExpires) {
+TEST(MarkerBuilder, AMissedDeletionComesAgainOrExpires) {
   // A subscriber that misses the array with the DELETEs (a slow link; the publisher's queue is 1)
-  // kept cleared pairs' segments and labels, and removed bodies, for good. Every marker has a
-  // lifetime now: rviz (simulated: expiry = receipt + lifetime) drops them that long after the
-  // last array that showed them, while what is refreshed stays.
+  // kept cleared pairs' segments and labels, and removed bodies, for good. DELETEs now come again
+  // in every array for a lifetime, and every marker has a lifetime (bodies five): rviz
+  // (simulated: expiry = receipt + lifetime) drops them that long after the last array that
+  // showed them, while what is refreshed stays.
   cm::world::WorldModel world;
   addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
   addBody(world, boxBody("b"), at(1.0, 0.0, 0.0));
@@ -444,7 +449,7 @@ TEST(MarkerBuilder, AMissedDeletionExpires) {
       } else if (m.action == Marker::DELETE) {
         rviz.erase({m.ns, m.id});
       } else {
-        EXPECT_EQ(m.lifetime.toSec(), 0.5) << m.ns;
+        EXPECT_EQ(m.lifetime.toSec(), m.ns == "bodies" ? 2.5 : 0.5) << m.ns;
         rviz[{m.ns, m.id}] = {m, t + m.lifetime.toSec()};
       }
     }
@@ -458,35 +463,34 @@ TEST(MarkerBuilder, AMissedDeletionExpires) {
   clear.stamp = 2.0;
   const MarkerArray missed = builder.build(world, clear, kFrame, 0.1);  // b, the pair deleted
   EXPECT_EQ(find(missed, "witness", Marker::DELETE).size(), 1u);
-  // a is green now (no pair): sent again in the array that was missed, then only as a refresh
-  // (a third of its lifetime after it was last sent).
-  EXPECT_EQ(find(missed, "bodies", Marker::ADD).size(), 1u);
-  const MarkerArray quiet = builder.build(world, clear, kFrame, 0.2);
-  EXPECT_TRUE(quiet.markers.empty()) << quiet.markers.size();
-  receive(quiet, 0.2);  // no DELETE again: orphans shown
-  EXPECT_EQ(rviz.size(), 4u);
-  const MarkerArray refreshed = builder.build(world, clear, kFrame, 0.3);
-  EXPECT_EQ(find(refreshed, "bodies", Marker::ADD).size(), 1u);
-  receive(refreshed, 0.3);
-  receive(builder.build(world, clear, kFrame, 0.4), 0.4);
-  EXPECT_EQ(rviz.size(), 4u);
-  for (double t = 0.6; t < 3.0; t += 0.1) {  // from 0.5 s after the last array with them
+  EXPECT_EQ(find(missed, "bodies", Marker::ADD).size(), 1u);  // a: green now (no pair)
+  const MarkerArray again = builder.build(world, clear, kFrame, 0.2);
+  EXPECT_EQ(find(again, "witness", Marker::DELETE).size(), 1u);  // the same DELETEs again
+  EXPECT_EQ(find(again, "bodies", Marker::DELETE).size(), 1u);
+  EXPECT_EQ(find(again, "bodies", Marker::ADD).size(), 0u);  // a unchanged, not due
+  // A subscriber that misses every array for the DELETEs' lifetime keeps the orphans until they
+  // expire: the segment and label 0.5 s, b's body 2.5 s after the array that showed them.
+  for (double t = 0.3; t < 0.65; t += 0.1)
+    builder.build(world, clear, kFrame, t);  // all missed
+  for (double t = 0.7; t < 6.0; t += 0.1) {
     receive(builder.build(world, clear, kFrame, t), t);
-    ASSERT_EQ(rviz.size(), 1u) << t;  // a, refreshed before it expires
-    EXPECT_EQ(rviz.begin()->first.first, "bodies");
+    const std::size_t expected = t < 2.5 ? 2u : 1u;  // a, and b until it expires
+    ASSERT_EQ(rviz.size(), expected) << t;           // a refreshed before it expires
   }
+  EXPECT_EQ(rviz.begin()->second.first.pose.position.x, 0.0);  // a
 }
 
 TEST(MarkerBuilder, UnchangedBodiesAreNotSent) {
-  // A body marker goes out when its pose, colour or geometry changed, else only as a refresh a
-  // third of its lifetime after it was last sent (lifetime 0.3 s here: every 0.1 s).
+  // A body marker goes out when its pose, colour or geometry changed, else only as a refresh at
+  // a random time between a quarter and a half of its lifetime after it last went out (lifetime
+  // 0.4 s here: 0.1 to 0.2 s).
   cm::world::WorldModel world;
   addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
   addBody(world, boxBody("b"), at(1.0, 0.0, 0.0));
   cm::world::CycleResult cycle;
   cycle.stamp = 1.0;
   MarkerOptions options = everyCycle();
-  options.lifetime = 0.3;
+  options.lifetime = 0.4;
   MarkerBuilder builder(options);
   auto sent = [&](double t) {
     std::vector<double> xs;
@@ -505,11 +509,93 @@ TEST(MarkerBuilder, UnchangedBodiesAreNotSent) {
   EXPECT_EQ(sent(0.08), std::vector<double>{});
   cycle.pairs.back().distance = 0.03;  // a deeper amber
   EXPECT_EQ(sent(0.09), (std::vector<double>{0.0, 1.5}));
-  EXPECT_EQ(sent(0.15), std::vector<double>{});
-  EXPECT_EQ(sent(0.19), (std::vector<double>{0.0, 1.5}));  // refreshed: 0.1 s after 0.09
-  EXPECT_EQ(builder.numShown(), 2u + 2u);                  // and the segment and label
-  builder.reset();                                         // a new start sends everything
-  EXPECT_EQ(sent(0.2), (std::vector<double>{0.0, 1.5}));
+  EXPECT_EQ(sent(0.18), std::vector<double>{});  // not due before 0.09 + 0.1
+  // Due between 0.19 and 0.29: each of a and b goes out exactly once in that time.
+  std::vector<double> refreshed;
+  for (double t = 0.19; t < 0.2899; t += 0.01) {
+    for (double x : sent(t))
+      refreshed.push_back(x);
+  }
+  std::sort(refreshed.begin(), refreshed.end());
+  EXPECT_EQ(refreshed, (std::vector<double>{0.0, 1.5}));
+  EXPECT_EQ(builder.numShown(), 2u + 2u);  // and the segment and label
+  builder.reset();                         // a new start sends everything
+  EXPECT_EQ(sent(0.3), (std::vector<double>{0.0, 1.5}));
+}
+
+TEST(MarkerBuilder, RefreshesSpreadAndSurviveASlowLink) {
+  // 32 hull bodies (as the PR2's links), arrays at 12.5 Hz for 60 s, to a subscriber behind a
+  // link of a given bandwidth with the publisher's queue of 1 (an array published while the link
+  // is busy waits, replaced by any newer one). Refreshes were due at one time for every body, so
+  // every fifth array carried all of them and a slow link kept dropping those: markers vanished
+  // for seconds. Now arrays keep about one size, and on a link slower than the mean load (a
+  // fifth of the arrays dropped) no body marker ever expires.
+  cm::world::WorldModel world;
+  const int n = 32;
+  std::mt19937 rng(7);
+  std::normal_distribution<double> normal;
+  for (int i = 0; i < n; ++i) {
+    std::vector<Vec3> points;
+    for (int k = 0; k < 60; ++k)
+      points.push_back(0.1 * Vec3(normal(rng), normal(rng), normal(rng)).normalized());
+    cm::world::BodySpec spec = topicBody("b" + std::to_string(i));
+    spec.parts.push_back(cm::world::Part{ConvexShape::convexHull(points), Transform3::Identity()});
+    addBody(world, spec, at(i, 0.0, 0.0));
+  }
+  cm::world::CycleResult cycle;
+  cycle.stamp = 1.0;
+  const double period = 0.08;
+  MarkerBuilder builder(everyCycle());  // lifetime 1 s: bodies 5 s, refreshed 0.25 to 0.5 s
+  std::vector<std::pair<double, MarkerArray>> published;
+  for (int k = 0; k * period < 60.0; ++k)
+    published.emplace_back(k * period, builder.build(world, cycle, kFrame, k * period));
+  std::size_t most = 0, total = 0, bytes = 0, full = 0;
+  for (const auto& [t, a] : published) {
+    const std::size_t count = find(a, "bodies", Marker::ADD).size();
+    if (t == 0.0) {
+      full = ros::serialization::serializationLength(a);
+    } else if (t > 2.0) {  // after the first refreshes
+      most = std::max(most, count);
+      total += count;
+      bytes += ros::serialization::serializationLength(a);
+    }
+  }
+  const double arrays = static_cast<double>(published.size()) - 1.0 - 2.0 / period;
+  const double mean = static_cast<double>(total) / arrays;
+  // Refreshed on the first array at or after a due time 0.25 to 0.5 s after the last.
+  EXPECT_NEAR(mean, n * period / (0.375 + period / 2), 0.5);
+  EXPECT_LE(most, 2.5 * mean);                                    // no burst of every body at once
+  const double load = static_cast<double>(bytes) / (60.0 - 2.0);  // B/s
+  EXPECT_LT(load, 0.4 * static_cast<double>(full) / period);      // a full array each time
+  for (const double capacity : {1.25 * load, 0.8 * load}) {
+    std::map<int, double> expiry;  // body marker id -> expiry in the simulated rviz
+    std::size_t delivered = 0, lost = 0;
+    double busy_until = 0.0;
+    const MarkerArray* waiting = nullptr;
+    double arrival = 0.0;
+    auto deliver = [&](const MarkerArray& a, double t) {
+      ++delivered;
+      for (const Marker* m : find(a, "bodies", Marker::ADD))
+        expiry[m->id] = t + m->lifetime.toSec();
+    };
+    for (const auto& [t, a] : published) {
+      while (waiting != nullptr && busy_until <= t) {  // the link is free: the waiting one goes
+        const double start = std::max(busy_until, arrival);
+        busy_until = start + ros::serialization::serializationLength(*waiting) / capacity;
+        deliver(*waiting, busy_until);
+        waiting = nullptr;
+      }
+      waiting = &a;  // replaces any array still waiting (queue of 1)
+      arrival = t;
+      for (const auto& [id, until] : expiry)
+        lost += until <= t;
+    }
+    EXPECT_EQ(expiry.size(), static_cast<std::size_t>(n)) << capacity;
+    EXPECT_EQ(lost, 0u) << "link at " << capacity / load << " of the load";
+    if (capacity < load) {
+      EXPECT_LT(delivered, published.size() * 9 / 10);  // the link did drop arrays
+    }
+  }
 }
 
 TEST(MarkerBuilder, TfBodiesDrawnInTheirFrameLocked) {
@@ -534,6 +620,9 @@ TEST(MarkerBuilder, TfBodiesDrawnInTheirFrameLocked) {
     ASSERT_EQ(bodies.size(), 1u);
     EXPECT_EQ(bodies[0]->header.frame_id, locked ? "link_frame" : kFrame);
     EXPECT_EQ(bodies[0]->frame_locked, locked);
+    // Locked: stamp 0, the latest TF (rviz waits for TF at a marker's stamp; a stale link has
+    // none at the cycle's stamp, and its grey marker never showed).
+    EXPECT_EQ(bodies[0]->header.stamp.toSec(), locked ? 0.0 : 1.0);
     EXPECT_EQ(bodies[0]->type, Marker::CUBE);
     EXPECT_EQ(bodies[0]->pose.position.x, locked ? 0.0 : 1.0);
     EXPECT_EQ(bodies[0]->pose.position.y, locked ? 0.0 : 2.0);

@@ -2,10 +2,11 @@
 /// rviz markers for the monitor's view of the world (~markers, visualization_msgs/MarkerArray):
 /// bodies drawn as their convex parts coloured by their worst pair status, witness segments,
 /// distance labels and penetration normals. Built from the world model and the last cycle; the
-/// builder remembers what it published so removed bodies and cleared pairs are deleted, and every
-/// marker has a lifetime: a subscriber that missed the array with a DELETE (a slow link; the
-/// publisher's queue is 1) drops the marker that long after the last array that showed it, and
-/// rviz drops the picture of a monitor that stopped publishing.
+/// builder remembers what it published so removed bodies and cleared pairs are deleted (the
+/// DELETE is repeated in every array for a lifetime), and every marker has a lifetime: a
+/// subscriber that missed the arrays with a DELETE (a slow link; the publisher's queue is 1)
+/// drops the marker that long after the last array that showed it, and rviz drops the picture
+/// of a monitor that stopped publishing.
 ///
 /// Namespaces (one per kind, so each can be toggled in rviz):
 ///  - "bodies":  one marker per convex part: SPHERE (sphere, ellipsoid), CUBE (box), CYLINDER
@@ -18,13 +19,15 @@
 ///  - "labels":  TEXT_VIEW_FACING with the signed distance in mm beside the witness segment.
 ///  - "normals": ARROW along the normal (from a towards b) of a penetrating pair, as long as the
 ///               penetration depth (at least MarkerOptions::min_arrow_length, so it stays visible).
-/// The other markers are in the fixed frame. Every marker is stamped with the cycle's stamp.
-/// Geometry (hull triangles, tessellations) is computed once per body shape and reused while the
-/// shape is unchanged. A body marker is sent again only when its frame, pose, colour or geometry
-/// changed, or a third of its lifetime after it was last sent (so that it never expires while
-/// shown and a new subscriber gets the whole picture within that time): a frame-locked robot
-/// standing or moving in the clear costs the refreshes only (the PR2's 131 body markers are
-/// 293 kB; sent every array, 3.8 MB/s at 13 Hz). Triangle lists carry one colour
+/// The other markers are in the fixed frame. Markers are stamped with the cycle's stamp, the
+/// frame-locked ones with 0 ("the latest TF": rviz would wait for TF at the cycle's stamp, which
+/// a body whose TF stopped never gets). Geometry (hull triangles, tessellations) is computed once
+/// per body shape and reused while the shape is unchanged. A body marker is sent again only when
+/// its frame, pose, colour or geometry changed, or to refresh it, at a random time between a
+/// quarter and a half of MarkerOptions::lifetime after it last went out; body markers live five
+/// lifetimes (ten refreshes or more), the others one. A frame-locked robot standing or moving in
+/// the clear costs the refreshes only (the PR2's 32 body markers are 273 kB; sent in every
+/// array, 3.65 MB/s at 12.5 Hz). Triangle lists carry one colour
 /// per face (the status colour shaded by a fixed light in the part frame): rviz draws uncoloured
 /// triangle lists unlit and dark, so facets would be indistinguishable.
 ///
@@ -36,6 +39,7 @@
 
 #include <cstdint>
 #include <map>
+#include <random>
 #include <string>
 #include <utility>
 #include <vector>
@@ -58,7 +62,8 @@ struct MarkerOptions {
   double min_arrow_length = 0.03;  ///< normals shorter than this are drawn this long
   int tessellation = 12;           ///< directions per half turn for tessellated shapes (>= 4)
   double max_rate = 15.0;          ///< Hz: at most this many non-empty build()s per second; 0: all
-  /// s: each marker's lifetime (0: forever). Longer than the time between two arrays.
+  /// s: each marker's lifetime (0: forever), five times this for body and padding markers.
+  /// Longer than the time between two arrays.
   double lifetime = 1.0;
   /// Bodies attached to TF frames drawn in those frames with frame_locked (rviz re-poses them
   /// with its latest TF); false: at the poses the check used, in the fixed frame.
@@ -116,7 +121,7 @@ class MarkerBuilder {
     geometry_msgs::Pose pose;
     std_msgs::ColorRGBA color;
     std::uint64_t generation = 0;
-    double time = 0.0;  ///< steady clock, s
+    double refresh_due = 0.0;  ///< steady clock, s
   };
 
   const BodyGeometry& geometryOf(const world::BodySpec& spec);
@@ -131,8 +136,11 @@ class MarkerBuilder {
   double last_build_ = -1.0;  ///< steady clock (s) of the last non-empty build()
   /// (namespace, id) -> key of every marker currently shown, to delete what disappears.
   std::map<std::pair<std::string, int>, std::string> shown_;
-  std::map<std::pair<std::string, int>, Sent>
-      sent_;  ///< body markers: (namespace, id) -> last sent
+  /// Body markers: (namespace, id) -> what they were last sent with.
+  std::map<std::pair<std::string, int>, Sent> sent_;
+  /// Deleted markers: (namespace, id) -> until when (steady clock, s) their DELETE is repeated.
+  std::map<std::pair<std::string, int>, double> deleting_;
+  std::minstd_rand random_;  ///< refresh times (fixed seed: the same sequence every run)
 };
 
 }  // namespace ros_layer
