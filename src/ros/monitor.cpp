@@ -1111,6 +1111,9 @@ void Monitor::setupDiagnostics() {
     s.add("checks with new poses (total)", now.checks_with_new_poses);
     s.add("waits for TF (total)", tf_waits_.load());
     s.add("TF messages (total)", tf_receiver_->messages());
+    const auto [tf_refused, tf_last_refusal] = tf_receiver_->refused();
+    s.add("TF transforms refused (total)", tf_refused);
+    s.add("last refused TF transform", tf_last_refusal);
     s.add("pose messages coalesced (total)",
           now.pose_msgs_applied - std::min(now.pose_msgs_applied, now.checks_with_new_poses));
     for (const auto& e : param_errors_)

@@ -1,5 +1,6 @@
 #include "collision_monitor/ros/tf_receiver.h"
 
+#include <cmath>
 #include <utility>
 
 namespace collision_monitor {
@@ -9,13 +10,15 @@ TfReceiver::TfReceiver(tf2_ros::Buffer& buffer, const ros::NodeHandle& nh,
                        const ros::TransportHints& hints, std::function<void()> on_message)
     : buffer_(buffer), on_message_(std::move(on_message)), nh_(nh) {
   // As tf2_ros::TransformListener: queues of 100 messages, /tf_static latched by its publishers.
+  // The callback takes the whole MessageEvent, which names the publisher (tf2's authority):
+  // SubscribeOptions::create (as TransformListener uses it) passes the message alone, and every
+  // transform came from "unknown_publisher".
+  using Event = const ros::MessageEvent<const tf2_msgs::TFMessage>&;
   auto subscribe = [this](const std::string& topic, bool is_static, const ros::TransportHints& h) {
-    ros::SubscribeOptions ops = ros::SubscribeOptions::create<tf2_msgs::TFMessage>(
-        topic, 100,
-        [this, is_static](const ros::MessageEvent<const tf2_msgs::TFMessage>& e) {
-          onMessage(e, is_static);
-        },
-        ros::VoidPtr(), &queue_);
+    ros::SubscribeOptions ops;
+    ops.initByFullCallbackType<Event>(topic, 100,
+                                      [this, is_static](Event e) { onMessage(e, is_static); });
+    ops.callback_queue = &queue_;
     ops.transport_hints = h;
     return nh_.subscribe(ops);
   };
@@ -29,12 +32,35 @@ TfReceiver::TfReceiver(tf2_ros::Buffer& buffer, const ros::NodeHandle& nh,
 TfReceiver::~TfReceiver() {
   tf_sub_.shutdown();
   static_sub_.shutdown();
+  queue_.disable();  // the spinner's wait for callbacks returns at once (0.1 s otherwise)
   spinner_->stop();  // waits for a callback in progress
 }
 
 std::size_t TfReceiver::messages() const {
   std::lock_guard<std::mutex> lock(batch_mutex_);
   return messages_;
+}
+
+std::pair<std::size_t, std::string> TfReceiver::refused() const {
+  std::lock_guard<std::mutex> lock(batch_mutex_);
+  return {refused_, last_refusal_};
+}
+
+std::string TfReceiver::whyRefused(const geometry_msgs::TransformStamped& t) {
+  const auto strip = [](const std::string& f) {
+    return f.empty() || f[0] != '/' ? f : f.substr(1);
+  };
+  const auto& p = t.transform.translation;
+  const auto& q = t.transform.rotation;
+  if (strip(t.child_frame_id).empty() || strip(t.header.frame_id).empty()) return "empty frame id";
+  if (strip(t.child_frame_id) == strip(t.header.frame_id)) return "frame is its own parent";
+  if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+    return "non-finite translation";
+  }
+  // tf2's own test (TF_DENORMALIZED_QUATERNION): |q|^2 within 0.01 of 1.
+  const double norm2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
+  if (!(std::abs(norm2 - 1.0) < 10e-3)) return "rotation not a unit quaternion";
+  return {};
 }
 
 void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& event,
@@ -54,12 +80,25 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
     last_update_ = now;
     for (const auto& t : event.getConstMessage()->transforms) {
       if (time_reset && t.header.stamp > now) continue;
-      try {
-        buffer_.setTransform(t, authority, is_static);
-      } catch (const tf2::TransformException& e) {
-        ROS_ERROR_STREAM_THROTTLE(1.0, "Failure to set received transform from "
-                                           << t.child_frame_id << " to " << t.header.frame_id
-                                           << " with error: " << e.what());
+      // tf2 refuses these itself, but logs each one (about 1,100 lines/s for one bad frame at
+      // 200 Hz): refused here, counted, and logged at most once every 5 s.
+      std::string why = whyRefused(t);
+      if (why.empty()) {
+        try {
+          buffer_.setTransform(t, authority, is_static);
+        } catch (const std::exception& e) {
+          // tf2::TransformException, and std::runtime_error from ros::Time for a stamp within
+          // the cache time of the largest ROS time: it escaped this thread and aborted the
+          // process (the whole nodelet manager).
+          why = e.what();
+        }
+      }
+      if (!why.empty()) {
+        ++refused_;
+        last_refusal_ = "transform " + t.header.frame_id + " -> " + t.child_frame_id + " from " +
+                        authority + ": " + why;
+        ROS_WARN_STREAM_THROTTLE(
+            5.0, "TF: refused " << last_refusal_ << " (" << refused_ << " refused so far)");
       }
     }
     ++messages_;

@@ -29,6 +29,7 @@ import tf2_ros
 from collision_monitor.msg import Body, BodyPoses, Shape
 from collision_monitor.srv import GetDistance, ListBodies
 from geometry_msgs.msg import Pose, Twist, TransformStamped
+from tf2_msgs.msg import TFMessage
 
 from robust_util import (alive, body_bytes, node_pid, proc_status_kb, raw_class, save_figures,
                          shape_bytes)
@@ -494,6 +495,66 @@ class HostileInput(unittest.TestCase):
         self.assertIn("parameter ~bodies[0] body 'wand\\x0a[ERROR] injected' refused: pose_topic "
                       "'/mocap/wand-1/pose' is not a valid ROS name: Character [-]", lines[0])
         self.assertEqual(code, 0, 'the node did not exit cleanly on SIGINT')
+
+    def test_0_hostile_tf(self):
+        # /tf messages with a good transform and bad ones. Bug: a stamp within tf2's cache time
+        # (10 s) of the largest ROS time made tf2 throw std::runtime_error ("Time is out of dual
+        # 32-bit range") on the receiving thread: the node (or the whole nodelet manager)
+        # aborted. The others tf2 refuses itself, logging each one (1,100 lines/s for one bad
+        # frame at 200 Hz): now refused before, counted on /diagnostics, logged every 5 s.
+        pub = rospy.Publisher('/tf', TFMessage, queue_size=100)
+        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 10.0))
+        self.m.add(tracked_body('track_tf', 'tf_good', Shape.SPHERE, [0.5]))
+        self.assertTrue(self.m.wait_listed('track_tf', timeout=10.0))
+
+        def transform(child, parent='world', stamp=None, xyz=(0.0, 0.0, 0.0), q=(0, 0, 0, 1)):
+            t = TransformStamped()
+            t.header.stamp = stamp if stamp is not None else rospy.Time.now()
+            t.header.frame_id = parent
+            t.child_frame_id = child
+            t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = xyz
+            (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+             t.transform.rotation.w) = q
+            return t
+
+        bad = [lambda: transform('tf_end_of_time', stamp=rospy.Time(4294967290, 0)),
+               lambda: transform('tf_nan', q=(NAN, 0, 0, 1)),
+               lambda: transform('tf_zero', q=(0, 0, 0, 0)),
+               lambda: transform('tf_long', q=(0, 0, 0, 2)),
+               lambda: transform('tf_inf', xyz=(INF, 0, 0)),
+               lambda: transform('world'),
+               lambda: transform('', parent='world'),
+               lambda: transform('tf_orphan', parent='')]
+        refused0 = int(self.m.diag_value('TF transforms refused (total)') or 0)
+        sent = 0
+        distances = []
+        start = time.monotonic()
+        while time.monotonic() - start < 2.0:
+            msg = TFMessage(transforms=[transform('tf_good', xyz=(0.0, -5.0, 0.0))] +
+                            [make() for make in bad])
+            pub.publish(msg)
+            sent += len(bad)
+            time.sleep(0.01)
+            if len(distances) < 5:
+                d = self._distance('track_a', 'track_tf')
+                if d is not None:
+                    distances.append(d)
+        self.assertTrue(alive(self.pid), 'the node died on hostile /tf')
+        # The good transform of every message was used: track_tf 5 m from track_a's centre.
+        self.assertTrue(distances, 'track_tf never had a pose')
+        for d in distances:
+            self.assertAlmostEqual(d, 4.0, delta=1e-9)
+        refused = wait_for(lambda: int(self.m.diag_value('TF transforms refused (total)') or 0)
+                           - refused0 >= sent - len(bad), 5.0, 0.1)
+        self.assertTrue(refused, (self.m.diag_value('TF transforms refused (total)'), sent))
+        last = self.m.diag_value('last refused TF transform')
+        figure('hostile /tf: %d bad transforms in 2 s with a good one in each message: node '
+               'alive, good frame used (distance %.9f m), refused (total) %s, last: %s'
+               % (sent, distances[0], self.m.diag_value('TF transforms refused (total)'), last))
+        self.assertIn('from %s: ' % rospy.get_name(), last)  # was unknown_publisher
+        self.m.add(Body(id='track_tf', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('track_tf', present=False))
+        self.assert_world_intact('after hostile /tf')
 
     @classmethod
     def tearDownClass(cls):

@@ -15,6 +15,8 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <string>
+#include <utility>
 
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
@@ -40,6 +42,12 @@ class TfReceiver {
 
   /// Messages inserted so far (/tf and /tf_static).
   std::size_t messages() const;
+  /// Transforms refused so far (empty or self-parented frames, non-finite values, rotations that
+  /// are not unit quaternions, anything tf2 throws on), and the last one's description.
+  std::pair<std::size_t, std::string> refused() const;
+
+  /// Why tf2 would refuse `t`, or empty.
+  static std::string whyRefused(const geometry_msgs::TransformStamped& t);
 
  private:
   void onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& event, bool is_static);
@@ -53,6 +61,8 @@ class TfReceiver {
   mutable std::mutex batch_mutex_;  ///< held while a message goes in and by snapshot()
   ros::Time last_update_;           ///< receiving thread only
   std::size_t messages_ = 0;        ///< guarded by batch_mutex_
+  std::size_t refused_ = 0;         ///< guarded by batch_mutex_
+  std::string last_refusal_;        ///< guarded by batch_mutex_
 };
 
 }  // namespace ros_layer
