@@ -46,7 +46,9 @@ class TfReceiver {
   /// are not unit quaternions, anything tf2 throws on), and the last one's description.
   std::pair<std::size_t, std::string> refused() const;
 
-  /// Why tf2 would refuse `t`, or empty.
+  /// Why `t` is refused, or empty: what tf2 refuses itself (logging every one: empty or
+  /// self-parented frames, NaN, rotations whose |q|^2 is 0.01 or more off 1), and non-finite
+  /// translations, which tf2 takes.
   static std::string whyRefused(const geometry_msgs::TransformStamped& t);
 
  private:
