@@ -535,12 +535,16 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     }
   }
 
-  // Deletions: whatever was shown last time and is gone now, sent again in every array for a
-  // lifetime (1 s for markers that live forever): a subscriber that missed one array gets it
-  // with the next. Ids are never reused, so a late DELETE cannot hit a new marker.
+  // Deletions: whatever was shown last time and is gone now, sent again in every array for as
+  // long as the marker would live (1 s for markers that live forever): a subscriber that missed
+  // one array gets it with the next. Ids are never reused, so a late DELETE cannot hit a new
+  // marker.
   for (const auto& [ns_id, key] : shown_) {
     if (shown.count(ns_id) != 0) continue;
-    deleting_[ns_id] = now + (life > 0.0 ? life : 1.0);
+    // Body markers for as long as they live (a subscriber that misses every DELETE would keep
+    // a removed body that long); the others for a lifetime.
+    const bool body = ns_id.first == kBodies || ns_id.first == kPadding;
+    deleting_[ns_id] = now + (body ? kBodyLifetimes : 1.0) * (life > 0.0 ? life : 1.0);
     ids_.erase({ns_id.first, key});
     sent_.erase(ns_id);
   }

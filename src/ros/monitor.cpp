@@ -98,7 +98,9 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
 
   events_pub_ = pnh_.advertise<collision_monitor::CollisionEvent>("events", 100);
   state_pub_ = pnh_.advertise<collision_monitor::CollisionState>("state", 10);
-  markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>("markers", 1);
+  // A new subscriber gets every body in the next array, not only as their refreshes come due.
+  markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>(
+      "markers", 1, [this](const ros::SingleSubscriberPublisher&) { markers_subscribed_ = true; });
   const auto hints = ros::TransportHints().tcpNoDelay();
   // Checked<M>: every length prefix is checked against the message size before anything is
   // allocated (wire_check.h).
@@ -985,7 +987,10 @@ void Monitor::runCycle() {
     new_poses_ = false;
     pose_msgs_applied = pose_msgs_applied_;
     checks_with_new_poses = checks_with_new_poses_;
-    if (want_markers) markers = marker_builder_.build(*world_, cycle, fixed_frame_);
+    if (want_markers) {
+      if (markers_subscribed_.exchange(false)) marker_builder_.resendAll();
+      markers = marker_builder_.build(*world_, cycle, fixed_frame_);
+    }
   }
 
   for (const auto& e : cycle.events)

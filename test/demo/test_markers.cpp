@@ -411,17 +411,22 @@ TEST(MarkerBuilder, DeletesRemovedBodiesAndClearedPairs) {
   EXPECT_EQ(find(second, "bodies", Marker::ADD).size(), 2u);
   EXPECT_EQ(builder.numShown(), 2u);
 
-  // The DELETEs again in every array for a lifetime (1 s), then no more.
+  // The DELETEs again in every array for as long as the markers would live (1 s, bodies 5 s),
+  // then no more.
   const MarkerArray third = builder.build(world, later, kFrame, 1.0);
   EXPECT_EQ(find(third, "witness", Marker::DELETE).size(), 2u);
   EXPECT_EQ(find(third, "bodies", Marker::DELETE).size(), 1u);
   const MarkerArray after = builder.build(world, later, kFrame, 1.03);
-  for (const auto& m : after.markers)
+  EXPECT_EQ(find(after, "witness", Marker::DELETE).size(), 0u);
+  EXPECT_EQ(find(after, "bodies", Marker::DELETE).size(), 1u);
+  EXPECT_EQ(find(after, "padding", Marker::DELETE).size(), 1u);
+  const MarkerArray long_after = builder.build(world, later, kFrame, 5.03);
+  for (const auto& m : long_after.markers)
     EXPECT_EQ(m.action, Marker::ADD);
 
   // A pair that clears and comes back is shown again.
   cycle.pairs.erase(cycle.pairs.begin());  // a-b: b is gone
-  const MarkerArray fourth = builder.build(world, cycle, kFrame, 1.04);
+  const MarkerArray fourth = builder.build(world, cycle, kFrame, 5.04);
   EXPECT_EQ(find(fourth, "witness", Marker::ADD).size(), 1u);
   EXPECT_EQ(find(fourth, "labels", Marker::ADD).size(), 1u);
 }
@@ -429,55 +434,57 @@ TEST(MarkerBuilder, DeletesRemovedBodiesAndClearedPairs) {
 TEST(MarkerBuilder, AMissedDeletionComesAgainOrExpires) {
   // A subscriber that misses the array with the DELETEs (a slow link; the publisher's queue is 1)
   // kept cleared pairs' segments and labels, and removed bodies, for good. DELETEs now come again
-  // in every array for a lifetime, and every marker has a lifetime (bodies five): rviz
-  // (simulated: expiry = receipt + lifetime) drops them that long after the last array that
-  // showed them, while what is refreshed stays.
-  cm::world::WorldModel world;
-  addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
-  addBody(world, boxBody("b"), at(1.0, 0.0, 0.0));
-  cm::world::CycleResult warning;
-  warning.stamp = 1.0;
-  warning.pairs.push_back(pair("a", "b", PairStatus::Warning, 0.03));
-  MarkerOptions options = everyCycle();
-  options.lifetime = 0.5;
-  MarkerBuilder builder(options);
-  std::map<std::pair<std::string, int>, std::pair<Marker, double>> rviz;  // marker, expiry
-  const auto receive = [&rviz](const MarkerArray& array, double t) {
-    for (const auto& m : array.markers) {
-      if (m.action == Marker::DELETEALL) {
-        rviz.clear();
-      } else if (m.action == Marker::DELETE) {
-        rviz.erase({m.ns, m.id});
-      } else {
-        EXPECT_EQ(m.lifetime.toSec(), m.ns == "bodies" ? 2.5 : 0.5) << m.ns;
-        rviz[{m.ns, m.id}] = {m, t + m.lifetime.toSec()};
+  // in every array for as long as the marker would live, and every marker has a lifetime
+  // (bodies five): rviz (simulated: expiry = receipt + lifetime) drops them that long after the
+  // last array that showed them, while what is refreshed stays.
+  for (const double missed_until : {0.65, 2.55}) {
+    cm::world::WorldModel world;
+    addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
+    addBody(world, boxBody("b"), at(1.0, 0.0, 0.0));
+    cm::world::CycleResult warning;
+    warning.stamp = 1.0;
+    warning.pairs.push_back(pair("a", "b", PairStatus::Warning, 0.03));
+    MarkerOptions options = everyCycle();
+    options.lifetime = 0.5;
+    MarkerBuilder builder(options);
+    std::map<std::pair<std::string, int>, std::pair<Marker, double>> rviz;  // marker, expiry
+    const auto receive = [&rviz](const MarkerArray& array, double t) {
+      for (const auto& m : array.markers) {
+        if (m.action == Marker::DELETEALL) {
+          rviz.clear();
+        } else if (m.action == Marker::DELETE) {
+          rviz.erase({m.ns, m.id});
+        } else {
+          EXPECT_EQ(m.lifetime.toSec(), m.ns == "bodies" ? 2.5 : 0.5) << m.ns;
+          rviz[{m.ns, m.id}] = {m, t + m.lifetime.toSec()};
+        }
       }
+      for (auto it = rviz.begin(); it != rviz.end();)
+        it = it->second.second <= t ? rviz.erase(it) : std::next(it);
+    };
+    receive(builder.build(world, warning, kFrame, 0.0), 0.0);
+    EXPECT_EQ(rviz.size(), 4u);  // 2 bodies, segment, label
+    ASSERT_TRUE(world.removeBody("b"));
+    cm::world::CycleResult clear;
+    clear.stamp = 2.0;
+    const MarkerArray missed = builder.build(world, clear, kFrame, 0.1);  // b, the pair deleted
+    EXPECT_EQ(find(missed, "witness", Marker::DELETE).size(), 1u);
+    EXPECT_EQ(find(missed, "bodies", Marker::ADD).size(), 1u);  // a: green now (no pair)
+    const MarkerArray again = builder.build(world, clear, kFrame, 0.2);
+    EXPECT_EQ(find(again, "witness", Marker::DELETE).size(), 1u);  // the same DELETEs again
+    EXPECT_EQ(find(again, "bodies", Marker::DELETE).size(), 1u);
+    EXPECT_EQ(find(again, "bodies", Marker::ADD).size(), 0u);  // a unchanged, not due
+    // Arrays missed until `missed_until`: the segment and label expire 0.5 s after the array
+    // that showed them, b's body with the first array received (its DELETE comes for 2.5 s) or
+    // when it expires, 2.5 s after that array; a is refreshed before it expires.
+    for (double t = 0.3; t < missed_until; t += 0.1)
+      builder.build(world, clear, kFrame, t);
+    for (double t = missed_until + 0.05; t < 6.0; t += 0.1) {
+      receive(builder.build(world, clear, kFrame, t), t);
+      ASSERT_EQ(rviz.size(), 1u) << missed_until << " " << t;
+      EXPECT_EQ(rviz.begin()->second.first.pose.position.x, 0.0);  // a
     }
-    for (auto it = rviz.begin(); it != rviz.end();)
-      it = it->second.second <= t ? rviz.erase(it) : std::next(it);
-  };
-  receive(builder.build(world, warning, kFrame, 0.0), 0.0);
-  EXPECT_EQ(rviz.size(), 4u);  // 2 bodies, segment, label
-  ASSERT_TRUE(world.removeBody("b"));
-  cm::world::CycleResult clear;
-  clear.stamp = 2.0;
-  const MarkerArray missed = builder.build(world, clear, kFrame, 0.1);  // b, the pair deleted
-  EXPECT_EQ(find(missed, "witness", Marker::DELETE).size(), 1u);
-  EXPECT_EQ(find(missed, "bodies", Marker::ADD).size(), 1u);  // a: green now (no pair)
-  const MarkerArray again = builder.build(world, clear, kFrame, 0.2);
-  EXPECT_EQ(find(again, "witness", Marker::DELETE).size(), 1u);  // the same DELETEs again
-  EXPECT_EQ(find(again, "bodies", Marker::DELETE).size(), 1u);
-  EXPECT_EQ(find(again, "bodies", Marker::ADD).size(), 0u);  // a unchanged, not due
-  // A subscriber that misses every array for the DELETEs' lifetime keeps the orphans until they
-  // expire: the segment and label 0.5 s, b's body 2.5 s after the array that showed them.
-  for (double t = 0.3; t < 0.65; t += 0.1)
-    builder.build(world, clear, kFrame, t);  // all missed
-  for (double t = 0.7; t < 6.0; t += 0.1) {
-    receive(builder.build(world, clear, kFrame, t), t);
-    const std::size_t expected = t < 2.5 ? 2u : 1u;  // a, and b until it expires
-    ASSERT_EQ(rviz.size(), expected) << t;           // a refreshed before it expires
   }
-  EXPECT_EQ(rviz.begin()->second.first.pose.position.x, 0.0);  // a
 }
 
 TEST(MarkerBuilder, UnchangedBodiesAreNotSent) {
@@ -521,6 +528,9 @@ TEST(MarkerBuilder, UnchangedBodiesAreNotSent) {
   EXPECT_EQ(builder.numShown(), 2u + 2u);  // and the segment and label
   builder.reset();                         // a new start sends everything
   EXPECT_EQ(sent(0.3), (std::vector<double>{0.0, 1.5}));
+  EXPECT_EQ(sent(0.31), std::vector<double>{});  // not due before 0.4
+  builder.resendAll();                           // a new subscriber: everything in the next array
+  EXPECT_EQ(sent(0.32), (std::vector<double>{0.0, 1.5}));
 }
 
 TEST(MarkerBuilder, RefreshesSpreadAndSurviveASlowLink) {

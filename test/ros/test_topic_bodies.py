@@ -364,8 +364,10 @@ class TopicBodies(unittest.TestCase):
         try:
             self.assertTrue(wait_for(lambda: any(a.markers for a in arrays), 5.0),
                             'no ~markers while subscribed')
-            time.sleep(0.5)  # unchanged bodies come again within a third of their lifetime (1 s)
-            frames = {(m.header.frame_id, m.frame_locked) for a in arrays for m in a.markers
+            # A new subscriber gets every body in the next array (unchanged bodies otherwise
+            # only come again as their refreshes fall due): within the first two arrays.
+            self.assertTrue(wait_for(lambda: len(arrays) >= 2, 5.0))
+            frames = {(m.header.frame_id, m.frame_locked) for a in arrays[:2] for m in a.markers
                       if m.action != m.DELETE and m.action != m.DELETEALL}
             # The shelf hangs on shelf_frame: drawn there, moved by rviz with TF. Bodies posed
             # by topics are drawn in the fixed frame.
@@ -374,6 +376,20 @@ class TopicBodies(unittest.TestCase):
             self.assertTrue(all(m.ns == 'bodies' and m.type == m.CUBE and
                                 (m.pose.position.x, m.pose.position.y, m.pose.position.z) ==
                                 (0.0, 0.0, 0.0) for m in shelf), shelf[:1])
+            # A second subscriber, while the first stays: every body in its first two arrays
+            # too (test_markers UnchangedBodiesAreNotSent checks the resend itself).
+            def body_ids(some):
+                return {m.id for a in some for m in a.markers
+                        if m.ns == 'bodies' and m.action == m.ADD}
+            time.sleep(1.0)
+            second = []
+            sub2 = rospy.Subscriber('/collision_monitor/markers', MarkerArray, second.append)
+            try:
+                self.assertTrue(wait_for(lambda: len(second) >= 2, 5.0))
+                self.assertEqual(body_ids(second[:2]), body_ids(arrays[:2]))
+                self.assertGreaterEqual(len(body_ids(arrays[:2])), 3)
+            finally:
+                sub2.unregister()
         finally:
             sub.unregister()
 

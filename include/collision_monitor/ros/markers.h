@@ -87,6 +87,8 @@ class MarkerBuilder {
 
   /// Forgets what was shown (the next build() starts with a DELETEALL again).
   void reset();
+  /// The next build() sends every body marker, changed or not (a new subscriber).
+  void resendAll() { sent_.clear(); }
 
   /// Colour of a status: green clear, amber warning (ramped from yellow at `warning_distance`
   /// to orange at contact by `distance`, m), red collision, grey unknown/stale. Opaque.

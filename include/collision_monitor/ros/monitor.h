@@ -181,6 +181,7 @@ class Monitor {
   ros::Subscriber bodies_sub_, poses_sub_;
   ros::ServiceServer distance_srv_, check_srv_, list_srv_;
   MarkerBuilder marker_builder_;
+  std::atomic<bool> markers_subscribed_{false};  ///< ~markers got a subscriber since last build
 
   // diagnostics (guarded by stats_mutex_)
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
