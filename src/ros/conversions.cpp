@@ -24,13 +24,6 @@ std::string num(double v) {
   return os.str();
 }
 
-bool finite(const geometry_msgs::Point& p) {
-  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
-}
-bool finite(const geometry_msgs::Vector3& v) {
-  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
-}
-
 /// Expected dimension count per Shape type (index = type); -1 for types without dimensions.
 int dimensionCount(std::uint8_t type) {
   switch (type) {
@@ -113,6 +106,13 @@ Expected<ConvexShape> primitive(const collision_monitor::Shape& msg) {
 }
 
 }  // namespace
+
+bool finite(const geometry_msgs::Point& p) {
+  return std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+}
+bool finite(const geometry_msgs::Vector3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
 
 std::string escapeInput(const std::string& s, std::size_t max_bytes) {
   const std::size_t n = std::min(s.size(), max_bytes);

@@ -34,6 +34,9 @@ const char* const kNormals = "normals";
 /// Body and padding markers live this many times MarkerOptions::lifetime (they are refreshed
 /// between a quarter and a half of it: ten refreshes or more per lifetime).
 constexpr double kBodyLifetimes = 5.0;
+bool isBodyMarker(const std::string& ns) {
+  return ns == kBodies || ns == kPadding;
+}
 
 /// Smallest drawn size (m): zero-thickness shapes (flat boxes, segments, flat hulls) stay visible.
 constexpr double kMinSize = 0.002;
@@ -378,7 +381,7 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
   const ros::Duration lifetime(life), body_lifetime(kBodyLifetimes * life);
   std::map<std::pair<std::string, int>, std::string> shown;
   auto emit = [&](Marker&& m, const std::string& key) {
-    m.lifetime = m.ns == kBodies || m.ns == kPadding ? body_lifetime : lifetime;
+    m.lifetime = isBodyMarker(m.ns) ? body_lifetime : lifetime;
     shown.emplace(std::make_pair(m.ns, m.id), key);
     out.markers.push_back(std::move(m));
   };
@@ -543,8 +546,8 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     if (shown.count(ns_id) != 0) continue;
     // Body markers for as long as they live (a subscriber that misses every DELETE would keep
     // a removed body that long); the others for a lifetime.
-    const bool body = ns_id.first == kBodies || ns_id.first == kPadding;
-    deleting_[ns_id] = now + (body ? kBodyLifetimes : 1.0) * (life > 0.0 ? life : 1.0);
+    deleting_[ns_id] =
+        now + (isBodyMarker(ns_id.first) ? kBodyLifetimes : 1.0) * (life > 0.0 ? life : 1.0);
     ids_.erase({ns_id.first, key});
     sent_.erase(ns_id);
   }

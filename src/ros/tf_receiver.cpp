@@ -3,6 +3,8 @@
 #include <cmath>
 #include <utility>
 
+#include "collision_monitor/ros/conversions.h"
+
 namespace collision_monitor {
 namespace ros_layer {
 
@@ -50,13 +52,10 @@ std::string TfReceiver::whyRefused(const geometry_msgs::TransformStamped& t) {
   const auto strip = [](const std::string& f) {
     return f.empty() || f[0] != '/' ? f : f.substr(1);
   };
-  const auto& p = t.transform.translation;
   const auto& q = t.transform.rotation;
   if (strip(t.child_frame_id).empty() || strip(t.header.frame_id).empty()) return "empty frame id";
   if (strip(t.child_frame_id) == strip(t.header.frame_id)) return "frame is its own parent";
-  if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
-    return "non-finite translation";
-  }
+  if (!finite(t.transform.translation)) return "non-finite translation";
   // tf2's own test (TF_DENORMALIZED_QUATERNION): |q|^2 within 0.01 of 1.
   const double norm2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;
   if (!(std::abs(norm2 - 1.0) < 10e-3)) return "rotation not a unit quaternion";

@@ -67,6 +67,10 @@ std::string quoteInput(const std::string& s, std::size_t max_bytes = kQuoteLengt
 /// the limit of M: '<first bytes>...' (N bytes)").
 std::string checkLength(const std::string& s, std::size_t max_bytes, const std::string& what);
 
+/// Every coordinate finite.
+bool finite(const geometry_msgs::Point& p);
+bool finite(const geometry_msgs::Vector3& v);
+
 /// What a zero quaternion means where a pose enters.
 enum class ZeroQuaternion {
   Identity,  ///< Shape.pose: "zero quaternion means identity"
