@@ -1,6 +1,7 @@
 #include "collision_monitor/ros/tf_receiver.h"
 
 #include <cmath>
+#include <sstream>
 #include <utility>
 
 #include "collision_monitor/ros/conversions.h"
@@ -62,6 +63,22 @@ std::string TfReceiver::whyRefused(const geometry_msgs::TransformStamped& t) {
   return {};
 }
 
+std::string TfReceiver::whyTooFarAhead(const ros::Time& stamp, const ros::Time& now) const {
+  // tf2 drops a transform stamped more than its cache length before the latest one of the same
+  // frame (TF_OLD_DATA). One transform stamped further ahead of ROS time than that would have
+  // every later one of its frame dropped (and logged) until ROS time caught up with it: the
+  // frame stale for hours after one bad stamp. Nearer stamps block nothing. Unknown while ROS
+  // time is 0 (simulated time before the first /clock); static transforms have no time.
+  if (now.isZero()) return {};
+  const double ahead = stamp.toSec() - now.toSec();
+  const double cache = buffer_.getCacheLength().toSec();
+  if (!(ahead > cache)) return {};
+  std::ostringstream os;
+  os << "stamped " << ahead << " s after the current ROS time (more than the TF cache of " << cache
+     << " s: every later transform of the frame would be dropped)";
+  return os.str();
+}
+
 void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& event,
                            bool is_static) {
   const ros::Time now = ros::Time::now();
@@ -82,6 +99,7 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
       // tf2 refuses these itself, but logs each one (about 1,100 lines/s for one bad frame at
       // 200 Hz): refused here, counted, and logged at most once every 5 s.
       std::string why = whyRefused(t);
+      if (why.empty() && !is_static) why = whyTooFarAhead(t.header.stamp, now);
       if (why.empty()) {
         try {
           buffer_.setTransform(t, authority, is_static);

@@ -209,6 +209,17 @@ CYCLE_URDF = """<robot name="cycle"><link name="r"/><link name="a"/><link name="
 <joint name="j3" type="fixed"><parent link="b"/><child link="c"/></joint></robot>"""
 
 
+def tf_transform(child, parent='world', stamp=None, xyz=(0.0, 0.0, 0.0), q=(0, 0, 0, 1)):
+    t = TransformStamped()
+    t.header.stamp = stamp if stamp is not None else rospy.Time.now()
+    t.header.frame_id = parent
+    t.child_frame_id = child
+    t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = xyz
+    (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+     t.transform.rotation.w) = q
+    return t
+
+
 class HostileInput(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -507,30 +518,20 @@ class HostileInput(unittest.TestCase):
         self.m.add(tracked_body('track_tf', 'tf_good', Shape.SPHERE, [0.5]))
         self.assertTrue(self.m.wait_listed('track_tf', timeout=10.0))
 
-        def transform(child, parent='world', stamp=None, xyz=(0.0, 0.0, 0.0), q=(0, 0, 0, 1)):
-            t = TransformStamped()
-            t.header.stamp = stamp if stamp is not None else rospy.Time.now()
-            t.header.frame_id = parent
-            t.child_frame_id = child
-            t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = xyz
-            (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
-             t.transform.rotation.w) = q
-            return t
-
-        bad = [lambda: transform('tf_end_of_time', stamp=rospy.Time(4294967290, 0)),
-               lambda: transform('tf_nan', q=(NAN, 0, 0, 1)),
-               lambda: transform('tf_zero', q=(0, 0, 0, 0)),
-               lambda: transform('tf_long', q=(0, 0, 0, 2)),
-               lambda: transform('tf_inf', xyz=(INF, 0, 0)),
-               lambda: transform('world'),
-               lambda: transform('', parent='world'),
-               lambda: transform('tf_orphan', parent='')]
+        bad = [lambda: tf_transform('tf_end_of_time', stamp=rospy.Time(4294967290, 0)),
+               lambda: tf_transform('tf_nan', q=(NAN, 0, 0, 1)),
+               lambda: tf_transform('tf_zero', q=(0, 0, 0, 0)),
+               lambda: tf_transform('tf_long', q=(0, 0, 0, 2)),
+               lambda: tf_transform('tf_inf', xyz=(INF, 0, 0)),
+               lambda: tf_transform('world'),
+               lambda: tf_transform('', parent='world'),
+               lambda: tf_transform('tf_orphan', parent='')]
         refused0 = int(self.m.diag_value('TF transforms refused (total)') or 0)
         sent = 0
         distances = []
         start = time.monotonic()
         while time.monotonic() - start < 2.0:
-            msg = TFMessage(transforms=[transform('tf_good', xyz=(0.0, -5.0, 0.0))] +
+            msg = TFMessage(transforms=[tf_transform('tf_good', xyz=(0.0, -5.0, 0.0))] +
                             [make() for make in bad])
             pub.publish(msg)
             sent += len(bad)
@@ -555,6 +556,42 @@ class HostileInput(unittest.TestCase):
         self.m.add(Body(id='track_tf', operation=Body.REMOVE))
         self.assertTrue(self.m.wait_listed('track_tf', present=False))
         self.assert_world_intact('after hostile /tf')
+
+    def test_0b_far_future_tf(self):
+        # One /tf transform stamped an hour ahead of ROS time. Bug: tf2 then dropped every later
+        # transform of that frame as older than its 10 s cache (TF_OLD_DATA, a log line each),
+        # so the body stayed unknown until ROS time caught up, an hour later. Now refused on
+        # arrival and counted; the good transforms after it are used.
+        pub = rospy.Publisher('/tf', TFMessage, queue_size=100)
+        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 10.0))
+        self.m.add(tracked_body('track_future', 'tf_future', Shape.SPHERE, [0.5]))
+        self.assertTrue(self.m.wait_listed('track_future', timeout=10.0))
+        refused0 = int(self.m.diag_value('TF transforms refused (total)') or 0)
+        ahead = rospy.Time.now() + rospy.Duration(3600.0)
+        pub.publish(TFMessage(transforms=[tf_transform('tf_future', stamp=ahead, xyz=(0, -5, 0))]))
+        distances = []
+        start = time.monotonic()
+        while time.monotonic() - start < 5.0 and len(distances) < 5:
+            pub.publish(TFMessage(transforms=[tf_transform('tf_future', xyz=(0.0, -7.0, 0.0))]))
+            time.sleep(0.02)
+            d = self._distance('track_a', 'track_future')
+            if d is not None:
+                distances.append(d)
+        self.assertTrue(distances, 'track_future never had a pose after one far-future transform')
+        for d in distances:
+            self.assertAlmostEqual(d, 6.0, delta=1e-9)  # the good transforms, not the future one
+        self.assertTrue(wait_for(lambda: int(self.m.diag_value('TF transforms refused (total)')
+                                             or 0) > refused0, 5.0, 0.1))
+        last = self.m.diag_value('last refused TF transform')
+        m = re.search(r'world -> tf_future from %s: stamped ([0-9.e+]+) s after the current ROS '
+                      r'time' % re.escape(rospy.get_name()), last or '')
+        self.assertTrue(m, last)
+        self.assertTrue(3590.0 < float(m.group(1)) <= 3600.0, last)
+        figure('far-future /tf: first distance after a transform stamped 1 h ahead %.9f m; '
+               'last refused: %s' % (distances[0], last))
+        self.m.add(Body(id='track_future', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('track_future', present=False))
+        self.assert_world_intact('after far-future /tf')
 
     @classmethod
     def tearDownClass(cls):

@@ -43,7 +43,8 @@ class TfReceiver {
   /// Messages inserted so far (/tf and /tf_static).
   std::size_t messages() const;
   /// Transforms refused so far (empty or self-parented frames, non-finite values, rotations that
-  /// are not unit quaternions, anything tf2 throws on), and the last one's description.
+  /// are not unit quaternions, /tf stamped more than the buffer's cache length after the current
+  /// ROS time, anything tf2 throws on), and the last one's description.
   std::pair<std::size_t, std::string> refused() const;
 
   /// Why `t` is refused, or empty: what tf2 refuses itself (logging every one: empty or
@@ -52,6 +53,9 @@ class TfReceiver {
   static std::string whyRefused(const geometry_msgs::TransformStamped& t);
 
  private:
+  /// Why a /tf transform stamped `stamp` is refused at ROS time `now`, or empty: see the
+  /// definition.
+  std::string whyTooFarAhead(const ros::Time& stamp, const ros::Time& now) const;
   void onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& event, bool is_static);
 
   tf2_ros::Buffer& buffer_;
