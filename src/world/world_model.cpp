@@ -738,6 +738,34 @@ WorldModel::WorldModel(const Settings& settings)
 
 WorldModel::~WorldModel() = default;
 
+void WorldModel::setSettings(const Settings& settings) {
+  Impl& m = *impl_;
+  Settings next = settings;
+  next.max_bodies = settings_.max_bodies;
+  next.max_vertices_per_part = settings_.max_vertices_per_part;
+  next.max_parts_per_body = settings_.max_parts_per_body;
+  next.max_unknown_pairs = settings_.max_unknown_pairs;
+  const bool new_reach = clearCutoffAny(next) != clearCutoffAny(settings_);
+  const bool new_backend = next.backend != settings_.backend;
+  settings_ = next;
+  m.settings = next;
+  if (new_backend) {
+    m.narrow = core::makeNarrowPhase(next.backend);
+    for (auto& [key, e] : m.pairs) {
+      e.has_result = false;
+      e.caches.clear();
+    }
+  }
+  if (new_reach || new_backend) {
+    // The pairs kept from the last cycle are those whose bodies did not move: flag every body as
+    // moved, so that check() queries the grid (at its new margin) for each. The far grid's exact
+    // distances are rebuilt too.
+    for (BodyState& b : m.bodies)
+      b.swept_version = b.version + 1;
+    m.far_active = false;
+  }
+}
+
 std::string WorldModel::checkSpec(const BodySpec& spec) const {
   const std::string name =
       spec.id.empty() ? std::string("body with an empty id") : "body '" + spec.id + "'";

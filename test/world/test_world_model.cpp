@@ -211,6 +211,64 @@ TEST(WorldModel, HysteresisSequenceGivesExactEvents) {
   EXPECT_EQ(all, expected);
 }
 
+TEST(WorldModel, SettingsChangedWhileRunning) {
+  // The node's dynamic_reconfigure: thresholds, reach and backend change between checks while
+  // nothing moves. The pair a-b is beyond the broad phase's first reach and kept from cycle to
+  // cycle; without a new sweep it would never be found again.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));  // static poses
+  ASSERT_TRUE(w.setPose("b", at(1.5), 0.0));
+  ASSERT_TRUE(w.setPose("c", at(0, 10), 0.0));
+  CycleResult r = w.check(1.0);
+  EXPECT_TRUE(r.pairs.empty());
+  EXPECT_EQ(r.min_distance, 0.5);
+  EXPECT_EQ(w.check(1.1).num_pairs_checked, 0u);  // nothing moved, nothing new in reach
+
+  Settings s = dyadic();
+  s.warning_distance = 1.0;
+  w.setSettings(s);
+  r = w.check(2.0);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_EQ(r.pairs[0].distance, 0.5);
+  EXPECT_EQ(r.pairs[0].point_b, Vec3(1, 0, 0));
+  EXPECT_EQ(w.settings().warning_distance, 1.0);
+
+  s.contact_distance = 0.5;  // at or below: COLLISION
+  w.setSettings(s);
+  r = w.check(3.0);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningEnd, "a", "b"}, {E::CollisionBegin, "a", "b"}}));
+  EXPECT_TRUE(r.in_collision);
+  EXPECT_EQ(r.num_pairs_checked, 0u);  // the exact result held is reused: only the verdict moved
+
+  // Another backend: every cached result is dropped and the pair is checked again by it.
+  s.backend = core::BackendType::Libccd;
+  w.setSettings(s);
+  r = w.check(4.0);
+  EXPECT_TRUE(r.events.empty());
+  EXPECT_EQ(r.num_pairs_checked, 1u);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_NEAR(r.pairs[0].distance, 0.5, 1e-9);
+
+  // Back to the start: the pair leaves COLLISION, and the END says where it is.
+  w.setSettings(dyadic());
+  r = w.check(5.0);
+  ASSERT_EQ(events(r), (std::vector<Ev>{{E::CollisionEnd, "a", "b"}}));
+  EXPECT_EQ(r.events[0].pair.distance, 0.5);
+  EXPECT_TRUE(r.pairs.empty());
+  EXPECT_EQ(r.min_distance, 0.5);
+
+  // The limits stay as constructed.
+  Settings tight = dyadic();
+  tight.max_bodies = 1;
+  w.setSettings(tight);
+  EXPECT_EQ(w.settings().max_bodies, dyadic().max_bodies);
+  EXPECT_EQ(w.addBody(sphere("d", 0.5)), "");
+}
+
 TEST(WorldModel, EndEventsToClearCarryTheExactDistance) {
   // b leaves WARNING along the diagonal: the boxes still overlap (within the broad phase's reach),
   // the narrow phase stops at the clear cutoff (its bound 0.08 > 0.0703), and the END event gets

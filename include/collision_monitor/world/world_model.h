@@ -162,6 +162,13 @@ class WorldModel {
   WorldModel& operator=(const WorldModel&) = delete;
 
   const Settings& settings() const { return settings_; }
+  /// Changes the settings of a running model (the node's dynamic_reconfigure). The limits
+  /// (max_bodies, max_vertices_per_part, max_parts_per_body, max_unknown_pairs) stay as
+  /// constructed: they bound what is already admitted. Statuses move to the new thresholds at
+  /// the next check(), with the usual hysteresis and events; when the broad phase's reach
+  /// changes, every box is swept again there (a pair now within reach is found although neither
+  /// body moved). A new backend drops every cached result and warm start.
+  void setSettings(const Settings& settings);
 
   /// Adds, or replaces a body with the same id (same origin only). Returns an empty string on
   /// success, else the reason it was refused (nothing changed then).
