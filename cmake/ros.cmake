@@ -12,6 +12,7 @@ set(CM_ROS_SOURCES
   src/ros/mesh_loader.cpp
   src/ros/robot_model.cpp
   src/ros/params.cpp
+  src/ros/tunables.cpp
   src/ros/monitor.cpp
   src/ros/tf_receiver.cpp
   src/ros/nodelet.cpp
@@ -67,7 +68,7 @@ if(CATKIN_ENABLE_TESTING)
   # Plain gtests, no master: conversions, validation, URDF/SRDF, parameters, mesh URIs.
   cm_add_gtest(test_ros_conversions
     SOURCES test/ros/test_conversions.cpp test/ros/test_robot_model.cpp
-      test/ros/test_logger_services.cpp
+      test/ros/test_logger_services.cpp test/ros/test_tunables.cpp
     LIBS collision_monitor_ros)
   if(TARGET test_ros_conversions)
     target_include_directories(test_ros_conversions SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})

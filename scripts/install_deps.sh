@@ -13,6 +13,7 @@ PACKAGES=(
   libtf2-ros-dev libtf2-msgs-dev libtf2-eigen-dev libtf2-geometry-msgs-dev
   libnodeletlib-dev libnodelet-dev pluginlib-dev liblog4cxx-dev
   libdiagnostic-updater-dev libvisualization-msgs-dev
+  libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   ros-robot-state-publisher librobot-state-publisher-dev joint-state-publisher
   # geometry and robot models
   libeigen3-dev libqhull-dev libccd-dev liburdfdom-dev liburdfdom-headers-dev libtinyxml2-dev

@@ -76,6 +76,15 @@ geometry_msgs::Pose identityPose() {
   return pose;
 }
 
+/// Removes every marker of the display (what an earlier run, or this one, showed).
+visualization_msgs::Marker deleteAll(const std_msgs::Header& header) {
+  visualization_msgs::Marker m;
+  m.header = header;
+  m.action = visualization_msgs::Marker::DELETEALL;
+  m.pose = identityPose();
+  return m;
+}
+
 /// Per-face light factors of a TRIANGLE_LIST, in [0.55, 1]: Lambert-like shading by a fixed
 /// light direction in the marker's frame, wrapped so that faces turned away stay visible.
 std::vector<float> shadeFaces(const Marker& m) {
@@ -278,6 +287,15 @@ std::string MarkerBuilder::distanceLabel(double distance) {
   return buf;
 }
 
+visualization_msgs::MarkerArray MarkerBuilder::clear(const std::string& fixed_frame) {
+  std_msgs::Header header;
+  header.frame_id = fixed_frame;
+  visualization_msgs::MarkerArray out;
+  out.markers.push_back(deleteAll(header));
+  reset();
+  return out;
+}
+
 void MarkerBuilder::reset() {
   shown_.clear();
   sent_.clear();
@@ -365,11 +383,7 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
   header.stamp = toRosTime(cycle.stamp);
 
   if (first_) {
-    Marker clear_all;
-    clear_all.header = header;
-    clear_all.action = Marker::DELETEALL;
-    clear_all.pose = identityPose();
-    out.markers.push_back(clear_all);
+    out.markers.push_back(deleteAll(header));
     first_ = false;
   }
 

@@ -11,6 +11,8 @@
 
 #include <collision_monitor/CollisionEvent.h>
 #include <collision_monitor/CollisionState.h>
+#include <collision_monitor/MonitorConfig.h>
+#include <dynamic_reconfigure/server.h>
 #include <tf2/exceptions.h>
 #include <visualization_msgs/MarkerArray.h>
 #include <boost/function.hpp>
@@ -50,6 +52,44 @@ std::string sourceKey(const char* prefix, const std::string& id) {
   return prefix + id.substr(0, kMaxNameLength);
 }
 
+collision_monitor::MonitorConfig toConfig(const Tunables& t) {
+  auto c = collision_monitor::MonitorConfig::__getDefault__();
+  c.rate = t.rate;
+  c.check_on_pose = t.check_on_pose;
+  c.check_on_tf = t.check_on_tf;
+  c.min_check_interval = t.min_check_interval;
+  c.warning_distance = t.warning_distance;
+  c.contact_distance = t.contact_distance;
+  c.hysteresis = t.hysteresis;
+  c.pose_timeout = t.pose_timeout;
+  c.ttc_horizon = t.ttc_horizon;
+  c.exact_min_distance = t.exact_min_distance;
+  c.backend = t.backend;
+  c.publish_markers = t.publish_markers;
+  c.marker_rate = t.marker_rate;
+  c.marker_frame_locked = t.marker_frame_locked;
+  return c;
+}
+
+Tunables fromConfig(const collision_monitor::MonitorConfig& c) {
+  Tunables t;
+  t.rate = c.rate;
+  t.check_on_pose = c.check_on_pose;
+  t.check_on_tf = c.check_on_tf;
+  t.min_check_interval = c.min_check_interval;
+  t.warning_distance = c.warning_distance;
+  t.contact_distance = c.contact_distance;
+  t.hysteresis = c.hysteresis;
+  t.pose_timeout = c.pose_timeout;
+  t.ttc_horizon = c.ttc_horizon;
+  t.exact_min_distance = c.exact_min_distance;
+  t.backend = c.backend;
+  t.publish_markers = c.publish_markers;
+  t.marker_rate = c.marker_rate;
+  t.marker_frame_locked = c.marker_frame_locked;
+  return t;
+}
+
 /// `what` cut to `max_bytes` ("... (N bytes)" appended when cut).
 std::string capped(const std::string& what, std::size_t max_bytes) {
   if (what.size() <= max_bytes) return what;
@@ -62,7 +102,7 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
     : nh_(nh), pnh_(pnh), name_(name) {
   readParameters();
   world_ = std::make_unique<world::WorldModel>(settings_);
-  marker_builder_ = MarkerBuilder(markerOptions());
+  applyTunables(tunables_);
   mesh_cache_ = std::make_unique<MeshCache>(
       [this] {
         std::vector<std::string> roots;
@@ -87,9 +127,10 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   // up to ~40 ms late (soak test: TF-pair event latency p50 21 ms, p99 47 ms; with it 2.2 / 5.9).
   // New TF data is pose input for every TF-attached body (robot links): with check_on_tf, check
   // promptly after each message, coalesced with other triggers by min_check_interval.
-  tf_receiver_ = std::make_unique<TfReceiver>(
-      *tf_buffer_, nh_, ros::TransportHints().tcpNoDelay(),
-      check_on_tf_ ? std::function<void()>([this] { trigger(); }) : std::function<void()>());
+  tf_receiver_ =
+      std::make_unique<TfReceiver>(*tf_buffer_, nh_, ros::TransportHints().tcpNoDelay(), [this] {
+        if (check_on_tf_) trigger();
+      });
 
   loadRobot();
   loadParameterBodies();
@@ -110,11 +151,20 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   check_srv_ = pnh_.advertiseService("check_collision", &Monitor::checkCollision, this);
   list_srv_ = pnh_.advertiseService("list_bodies", &Monitor::listBodies, this);
   setupDiagnostics();
+  // ~set_parameters, ~parameter_descriptions, ~parameter_updates. The server reads the raw
+  // parameters (and writes them back): it is then given the checked values in force, which
+  // also go back to the parameter server, before the callback is set (which calls it once).
+  reconfigure_ =
+      std::make_unique<dynamic_reconfigure::Server<collision_monitor::MonitorConfig>>(pnh_);
+  reconfigure_->updateConfig(toConfig(tunables_));
+  reconfigure_->setCallback([this](collision_monitor::MonitorConfig& config, std::uint32_t level) {
+    onReconfigure(config, level);
+  });
 
   {
     std::lock_guard<std::mutex> lock(world_mutex_);
     ROS_INFO_STREAM(name_ << ": monitoring " << world_->size() << " bodies in frame '"
-                          << fixed_frame_ << "' at " << rate_ << " Hz with backend "
+                          << fixed_frame_ << "' at " << tunables_.rate << " Hz with backend "
                           << core::toString(settings_.backend));
   }
   loop_thread_ = std::thread([this] { loopThread(); });
@@ -122,6 +172,7 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
 }
 
 Monitor::~Monitor() {
+  reconfigure_.reset();  // no change comes in while the rest stops
   {
     std::lock_guard<std::mutex> lock(loop_mutex_);
     stop_ = true;
@@ -155,43 +206,31 @@ T Monitor::typedParam(const std::string& key, T fallback, const char* type) {
 
 void Monitor::readParameters() {
   const world::Settings defaults;
-  auto number = [this](const std::string& key, double fallback, auto valid, const char* rule) {
-    const double v = typedParam(key, fallback, "a number");
-    if (!std::isfinite(v) || !valid(v)) {
-      param_errors_.push_back(key + " = " + std::to_string(v) + " (must be " + rule + "); using " +
-                              std::to_string(fallback));
-      return fallback;
-    }
-    return v;
-  };
-  auto positive = [](double v) { return v > 0.0; };
-  auto non_negative = [](double v) { return v >= 0.0; };
-  auto any = [](double) { return true; };
-
-  rate_ = number("rate", 50.0, positive, "> 0");
-  settings_.warning_distance = number("warning_distance", 0.05, any, "finite");
-  settings_.contact_distance = number("contact_distance", 0.0, any, "finite");
-  if (settings_.warning_distance < settings_.contact_distance) {
-    // The default, unless the contact distance is beyond it.
-    const double w = std::max(defaults.warning_distance, settings_.contact_distance);
-    param_errors_.push_back(
-        "warning_distance = " + std::to_string(settings_.warning_distance) +
-        " (must be >= contact_distance = " + std::to_string(settings_.contact_distance) +
-        "); using " + std::to_string(w));
-    settings_.warning_distance = w;
-  }
-  settings_.hysteresis = number("hysteresis", 0.005, non_negative, ">= 0");
-  settings_.pose_timeout = number("pose_timeout", 0.5, positive, "> 0");
-  settings_.ttc_horizon = number("ttc_horizon", defaults.ttc_horizon, positive, "> 0");
-  robot_padding_ = number("robot_padding", 0.0, non_negative, ">= 0");
-  min_check_interval_ = number("min_check_interval", 0.002, non_negative, ">= 0");
+  // The values that may change later (Tunables): of the right type, then checked by the rules
+  // every change is checked by (validate()); an invalid one is reported and the default used.
+  Tunables& t = tunables_;
+  const Tunables d;
+  t.rate = typedParam("rate", d.rate, "a number");
+  t.warning_distance = typedParam("warning_distance", d.warning_distance, "a number");
+  t.contact_distance = typedParam("contact_distance", d.contact_distance, "a number");
+  t.hysteresis = typedParam("hysteresis", d.hysteresis, "a number");
+  t.pose_timeout = typedParam("pose_timeout", d.pose_timeout, "a number");
+  t.ttc_horizon = typedParam("ttc_horizon", d.ttc_horizon, "a number");
+  t.min_check_interval = typedParam("min_check_interval", d.min_check_interval, "a number");
+  t.marker_rate = typedParam("marker_rate", d.marker_rate, "a number");
   // A value of another type (publish_markers: "no", backend: 7) is an error, not silence.
-  check_on_pose_ = typedParam("check_on_pose", true, "a boolean");
-  check_on_tf_ = typedParam("check_on_tf", true, "a boolean");
-  publish_markers_ = typedParam("publish_markers", true, "a boolean");
-  marker_frame_locked_ = typedParam("marker_frame_locked", true, "a boolean");
-  marker_rate_ = number("marker_rate", MarkerOptions().max_rate, positive, "> 0");
-  settings_.exact_min_distance = typedParam("exact_min_distance", true, "a boolean");
+  t.check_on_pose = typedParam("check_on_pose", d.check_on_pose, "a boolean");
+  t.check_on_tf = typedParam("check_on_tf", d.check_on_tf, "a boolean");
+  t.publish_markers = typedParam("publish_markers", d.publish_markers, "a boolean");
+  t.marker_frame_locked = typedParam("marker_frame_locked", d.marker_frame_locked, "a boolean");
+  t.exact_min_distance = typedParam("exact_min_distance", d.exact_min_distance, "a boolean");
+  t.backend = typedParam<std::string>("backend", d.backend, "a string");
+  validate(&t, d, &param_errors_);
+
+  robot_padding_ = typedParam("robot_padding", 0.0, "a number");
+  checkNumber(
+      "robot_padding", &robot_padding_, 0.0, [](double v) { return v >= 0.0; }, ">= 0",
+      &param_errors_);
   robot_description_param_ =
       typedParam<std::string>("robot_description_param", "robot_description", "a string");
   if (std::string why; !ros::names::validate(robot_description_param_, why) ||
@@ -200,14 +239,6 @@ void Monitor::readParameters() {
     param_errors_.push_back("robot_description_param = '" + robot_description_param_ +
                             "' (must be a ROS name, not private); using robot_description");
     robot_description_param_ = "robot_description";
-  }
-
-  backend_name_ = typedParam<std::string>("backend", "gjk", "a string");
-  if (auto b = core::parseBackend(backend_name_)) {
-    settings_.backend = *b;
-  } else {
-    param_errors_.push_back("backend = '" + backend_name_ + "' (must be gjk or libccd); using gjk");
-    settings_.backend = core::BackendType::Gjk;
   }
 
   // A whole number: an int, or a double without a fraction (10000.0; `<param value="1e4"/>`),
@@ -231,16 +262,41 @@ void Monitor::readParameters() {
   settings_.max_unknown_pairs = count("max_unknown_pairs", kDefaultMaxUnknownPairs);
   limits_.max_vertices_per_part = settings_.max_vertices_per_part;
   limits_.max_parts_per_body = settings_.max_parts_per_body;
+  settings_ = worldSettings(tunables_, settings_);
 }
 
-MarkerOptions Monitor::markerOptions() const {
-  MarkerOptions o;
-  o.max_rate = marker_rate_;
-  // Arrays come at least as often as the slower of the heartbeat and the marker rate; a marker
-  // lives for three such periods, and at least 1 s.
-  o.lifetime = std::max(1.0, 3.0 / std::min(rate_, marker_rate_));
-  o.frame_locked = marker_frame_locked_;
-  return o;
+void Monitor::applyTunables(const Tunables& t) {
+  {
+    std::lock_guard<std::mutex> lock(world_mutex_);
+    settings_ = worldSettings(t, settings_);
+    world_->setSettings(settings_);
+    marker_builder_.setOptions(markerOptions(t));
+    backend_ = settings_.backend;
+  }
+  rate_ = t.rate;
+  min_check_interval_ = t.min_check_interval;
+  check_on_pose_ = t.check_on_pose;
+  check_on_tf_ = t.check_on_tf;
+  publish_markers_ = t.publish_markers;
+  trigger();  // a check at once, by the new values; the next one a period of the new rate later
+}
+
+void Monitor::onReconfigure(collision_monitor::MonitorConfig& config, std::uint32_t) {
+  Tunables t = fromConfig(config);
+  std::vector<std::string> errors;
+  validate(&t, tunables_, &errors);
+  if (!errors.empty()) {
+    std::string all;
+    for (const auto& e : errors)
+      all += (all.empty() ? "" : "; ") + e;
+    reject("~set_parameters", "dynamic_reconfigure refused " + all);
+  }
+  config = toConfig(t);  // what the server publishes and answers with: the values in force
+  const std::string changed = differences(tunables_, t);
+  if (changed.empty()) return;
+  ROS_INFO_STREAM(name_ << ": reconfigured: " << changed);
+  tunables_ = t;
+  applyTunables(t);
 }
 
 std::string Monitor::robotParamKey(const std::string& name, const std::string& fallback) const {
@@ -805,16 +861,18 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
       return true;
     }
     std::vector<world::PairResult> pairs;
+    double contact_distance = 0.0;
     {
       std::lock_guard<std::mutex> lock(world_mutex_);
       pairs = world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now, anonymous);
+      contact_distance = settings_.contact_distance;
     }
     std::stable_sort(pairs.begin(), pairs.end(),
                      [](const auto& x, const auto& y) { return x.distance < y.distance; });
     res.in_collision = false;
     std::size_t unknown = 0;
     for (const auto& p : pairs) {
-      if (p.status == world::PairStatus::Collision || p.distance <= settings_.contact_distance) {
+      if (p.status == world::PairStatus::Collision || p.distance <= contact_distance) {
         res.in_collision = true;
       }
       if (p.status == world::PairStatus::Unknown) ++unknown;
@@ -863,18 +921,19 @@ void Monitor::trigger() {
 
 void Monitor::loopThread() {
   using Clock = std::chrono::steady_clock;
-  const auto period =
-      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / rate_));
-  const auto min_interval = std::chrono::duration_cast<Clock::duration>(
-      std::chrono::duration<double>(min_check_interval_));
+  // rate and min_check_interval may change (dynamic_reconfigure, which triggers a check).
+  const auto seconds = [](double s) {
+    return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+  };
   auto next = Clock::now();
-  auto last_start = Clock::now() - period;
+  auto last_start = Clock::now() - seconds(1.0 / rate_);
   std::unique_lock<std::mutex> lock(loop_mutex_);
   while (!stop_) {
     loop_cv_.wait_until(lock, next, [this] { return stop_ || triggered_; });
     if (stop_) break;
     // A burst of pose messages becomes one check: wait out the minimum interval, during which
     // further triggers merge into this one.
+    const auto min_interval = seconds(min_check_interval_);
     const auto earliest = last_start + min_interval;
     if (Clock::now() < earliest) {
       loop_cv_.wait_until(lock, earliest, [this] { return stop_; });
@@ -891,7 +950,7 @@ void Monitor::loopThread() {
     }
     check_started_ = 0;
     lock.lock();
-    next = last_start + period;
+    next = last_start + seconds(1.0 / rate_);
   }
 }
 
@@ -969,7 +1028,8 @@ void Monitor::runCycle() {
   world::CycleResult cycle;
   std::size_t pose_msgs_applied = 0, checks_with_new_poses = 0;
   visualization_msgs::MarkerArray markers;
-  const bool want_markers = publish_markers_ && markers_pub_.getNumSubscribers() > 0;
+  const bool markers_on = publish_markers_;
+  const bool want_markers = markers_on && markers_pub_.getNumSubscribers() > 0;
   {
     std::lock_guard<std::mutex> lock(world_mutex_);
     for (const auto& [id, frame] : attached) {
@@ -990,13 +1050,18 @@ void Monitor::runCycle() {
     if (want_markers) {
       if (markers_subscribed_.exchange(false)) marker_builder_.resendAll();
       markers = marker_builder_.build(*world_, cycle, fixed_frame_);
+    } else if (!markers_on && markers_published_) {
+      markers = marker_builder_.clear(fixed_frame_);  // publish_markers turned off
     }
   }
 
   for (const auto& e : cycle.events)
     events_pub_.publish(toMsg(e, fixed_frame_, toStamp(stamp_now)));
   state_pub_.publish(toMsg(cycle, fixed_frame_, toStamp(stamp_now)));
-  if (want_markers && !markers.markers.empty()) markers_pub_.publish(markers);
+  if (!markers.markers.empty()) {
+    markers_pub_.publish(markers);
+    markers_published_ = markers_on;
+  }
 
   {
     std::lock_guard<std::mutex> lock(stats_mutex_);
@@ -1065,6 +1130,7 @@ void Monitor::setupDiagnostics() {
     } else {
       s.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
     }
+    const double rate = rate_;
     const std::size_t cycles = now.cycles - before.cycles;
     const double mean_cycle =
         cycles ? (now.cycle_time_sum - before.cycle_time_sum) / static_cast<double>(cycles) : 0.0;
@@ -1077,18 +1143,18 @@ void Monitor::setupDiagnostics() {
             : std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch() -
                                             std::chrono::steady_clock::duration(started))
                   .count();
-    if (running > std::max(1.0, 1.0 / rate_)) {
+    if (running > std::max(1.0, 1.0 / rate)) {
       s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
                       "a check has been running for %.1f s", running);
     }
-    if (mean_cycle > 1.0 / rate_) {
+    if (mean_cycle > 1.0 / rate) {
       // The checks cannot keep up with `rate`: verdicts come later than configured.
       s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
                       "overloaded: a check takes %.3g ms on average, longer than the %.3g ms "
                       "period of rate %.6g Hz (%.3g checks/s)",
-                      1e3 * mean_cycle, 1e3 / rate_, rate_, cycles / dt);
+                      1e3 * mean_cycle, 1e3 / rate, rate, cycles / dt);
     }
-    s.add("backend", core::toString(settings_.backend));
+    s.add("backend", core::toString(backend_.load()));
     s.add("fixed_frame", fixed_frame_);
     s.add("bodies", now.bodies);
     s.add("stale bodies", now.stale);
@@ -1100,7 +1166,7 @@ void Monitor::setupDiagnostics() {
     s.add("rejected inputs (since last report)", rejected);
     s.add("last rejection", now.last_rejection);
     s.addf("check rate (Hz)", "%.1f", cycles / dt);
-    s.addf("target rate (Hz)", "%.1f", rate_);
+    s.addf("target rate (Hz)", "%.1f", rate);
     s.addf("mean cycle time (ms)", "%.3f", 1e3 * mean_cycle);
     s.addf("max cycle time since last report (ms)", "%.3f", 1e3 * now.cycle_time_max);
     s.addf("check in progress for (s)", "%.3f", running);

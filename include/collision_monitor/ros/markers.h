@@ -87,6 +87,13 @@ class MarkerBuilder {
 
   /// Forgets what was shown (the next build() starts with a DELETEALL again).
   void reset();
+  /// An array that removes every marker shown (one DELETEALL in `fixed_frame`), then reset().
+  visualization_msgs::MarkerArray clear(const std::string& fixed_frame);
+  /// New options (dynamic_reconfigure); the next build() sends every body marker by them.
+  void setOptions(const MarkerOptions& options) {
+    options_ = options;
+    resendAll();
+  }
   /// The next build() sends every body marker, changed or not (a new subscriber).
   void resendAll() { sent_.clear(); }
 

@@ -8,12 +8,14 @@
 /// `rate` Hz and promptly after pose input and new TF data (coalescing bursts, at most one check
 /// per `min_check_interval`). One mutex guards the world model; TF lookups, mesh loading and
 /// publishing happen outside it. TF comes in on TfReceiver's own thread, a message at a time;
-/// /diagnostics go out from a thread of their own.
+/// /diagnostics go out from a thread of their own. The Tunables change while it runs through
+/// dynamic_reconfigure (cfg/Monitor.cfg), checked by the rules of start-up.
 #pragma once
 
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -38,10 +40,18 @@
 #include "collision_monitor/ros/markers.h"
 #include "collision_monitor/ros/mesh_loader.h"
 #include "collision_monitor/ros/tf_receiver.h"
+#include "collision_monitor/ros/tunables.h"
 #include "collision_monitor/ros/wire_check.h"
 #include "collision_monitor/world/world_model.h"
 
+namespace dynamic_reconfigure {
+template <class ConfigType>
+class Server;
+}  // namespace dynamic_reconfigure
+
 namespace collision_monitor {
+class MonitorConfig;  // generated from cfg/Monitor.cfg
+
 namespace ros_layer {
 
 /// Default of ~max_unknown_pairs: how many UNKNOWN pairs ~state lists (stale_bodies is complete).
@@ -75,6 +85,12 @@ class Monitor {
   void loadRobot();
   void loadParameterBodies();
   void setupDiagnostics();
+  /// Puts `t` (valid) in force: world settings, marker options, loop rates, check triggers.
+  void applyTunables(const Tunables& t);
+  /// dynamic_reconfigure: a change is checked by the start-up rules; an invalid value is refused
+  /// (logged, counted as a rejected input) and `config` is set to the values in force, which the
+  /// server then publishes and answers with.
+  void onReconfigure(collision_monitor::MonitorConfig& config, std::uint32_t level);
 
   // inputs
   // ~bodies, ~body_poses and ~check_collision deserialize through Checked<M> (wire_check.h): a
@@ -89,8 +105,6 @@ class Monitor {
   /// in its private namespace (as roscpp resolves `~` elsewhere), remappings applied. Throws
   /// ros::Exception on a name roscpp refuses.
   std::string resolvePoseTopic(const std::string& topic) const;
-  /// How ~markers look and how often they go out (marker_rate, lifetime from the rates).
-  MarkerOptions markerOptions() const;
   /// The parameter key of robot parameter `name`: its remapped name when remapped, else
   /// `fallback`, else the key found searching upward from the node's namespace.
   std::string robotParamKey(const std::string& name, const std::string& fallback) const;
@@ -135,19 +149,22 @@ class Monitor {
   std::size_t logged_in_window_ = 0;                      ///< guarded by stats_mutex_
   std::size_t not_logged_ = 0;  ///< rejections over the budget since the last line (stats_mutex_)
   void disablePair(const std::string& a, const std::string& b, const std::string& reason);
-  world::Settings settings_;
+  world::Settings settings_;  ///< guarded by world_mutex_ once the world model exists
   Limits limits_;
   std::string fixed_frame_;
-  double rate_ = 50.0;
-  double marker_rate_ = 15.0;  ///< Hz, at most this many ~markers arrays per second
-  double min_check_interval_ = 0.002;
-  bool check_on_pose_ = true;
-  bool check_on_tf_ = true;
-  bool publish_markers_ = true;
-  bool marker_frame_locked_ = true;  ///< TF-attached bodies' markers in their frames
+  /// The values in force: set at start-up, then only by onReconfigure (serialised by the
+  /// dynamic_reconfigure server). The threads read the copies below.
+  Tunables tunables_;
+  std::unique_ptr<dynamic_reconfigure::Server<collision_monitor::MonitorConfig>> reconfigure_;
+  std::atomic<double> rate_{50.0};
+  std::atomic<double> min_check_interval_{0.002};
+  std::atomic<bool> check_on_pose_{true};
+  std::atomic<bool> check_on_tf_{true};
+  std::atomic<bool> publish_markers_{true};
+  std::atomic<core::BackendType> backend_{core::BackendType::Gjk};  ///< for /diagnostics
+  bool markers_published_ = false;  ///< loop thread: arrays went out since the last clear
   double robot_padding_ = 0.0;
   std::string robot_description_param_ = "robot_description";
-  std::string backend_name_;
   std::vector<std::string> param_errors_;  ///< invalid parameters (fell back to defaults)
 
   ros::NodeHandle nh_;
