@@ -154,8 +154,8 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   // ~set_parameters, ~parameter_descriptions, ~parameter_updates. The server reads the raw
   // parameters (and writes them back): it is then given the checked values in force, which
   // also go back to the parameter server, before the callback is set (which calls it once).
-  reconfigure_ =
-      std::make_unique<dynamic_reconfigure::Server<collision_monitor::MonitorConfig>>(pnh_);
+  reconfigure_ = std::make_unique<dynamic_reconfigure::Server<collision_monitor::MonitorConfig>>(
+      reconfigure_mutex_, pnh_);
   reconfigure_->updateConfig(toConfig(tunables_));
   reconfigure_->setCallback([this](collision_monitor::MonitorConfig& config, std::uint32_t level) {
     onReconfigure(config, level);

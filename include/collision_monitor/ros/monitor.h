@@ -35,6 +35,7 @@
 #include <geometry_msgs/PoseStamped.h>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
+#include <boost/thread/recursive_mutex.hpp>
 
 #include "collision_monitor/ros/conversions.h"
 #include "collision_monitor/ros/markers.h"
@@ -155,6 +156,7 @@ class Monitor {
   /// The values in force: set at start-up, then only by onReconfigure (serialised by the
   /// dynamic_reconfigure server). The threads read the copies below.
   Tunables tunables_;
+  boost::recursive_mutex reconfigure_mutex_;  ///< the server's (updateConfig() warns without)
   std::unique_ptr<dynamic_reconfigure::Server<collision_monitor::MonitorConfig>> reconfigure_;
   std::atomic<double> rate_{50.0};
   std::atomic<double> min_check_interval_{0.002};
