@@ -54,39 +54,17 @@ std::string sourceKey(const char* prefix, const std::string& id) {
 
 collision_monitor::MonitorConfig toConfig(const Tunables& t) {
   auto c = collision_monitor::MonitorConfig::__getDefault__();
-  c.rate = t.rate;
-  c.check_on_pose = t.check_on_pose;
-  c.check_on_tf = t.check_on_tf;
-  c.min_check_interval = t.min_check_interval;
-  c.warning_distance = t.warning_distance;
-  c.contact_distance = t.contact_distance;
-  c.hysteresis = t.hysteresis;
-  c.pose_timeout = t.pose_timeout;
-  c.ttc_horizon = t.ttc_horizon;
-  c.exact_min_distance = t.exact_min_distance;
-  c.backend = t.backend;
-  c.publish_markers = t.publish_markers;
-  c.marker_rate = t.marker_rate;
-  c.marker_frame_locked = t.marker_frame_locked;
+#define CM_TO_CONFIG(field) c.field = t.field;
+  CM_TUNABLES(CM_TO_CONFIG)
+#undef CM_TO_CONFIG
   return c;
 }
 
 Tunables fromConfig(const collision_monitor::MonitorConfig& c) {
   Tunables t;
-  t.rate = c.rate;
-  t.check_on_pose = c.check_on_pose;
-  t.check_on_tf = c.check_on_tf;
-  t.min_check_interval = c.min_check_interval;
-  t.warning_distance = c.warning_distance;
-  t.contact_distance = c.contact_distance;
-  t.hysteresis = c.hysteresis;
-  t.pose_timeout = c.pose_timeout;
-  t.ttc_horizon = c.ttc_horizon;
-  t.exact_min_distance = c.exact_min_distance;
-  t.backend = c.backend;
-  t.publish_markers = c.publish_markers;
-  t.marker_rate = c.marker_rate;
-  t.marker_frame_locked = c.marker_frame_locked;
+#define CM_FROM_CONFIG(field) t.field = c.field;
+  CM_TUNABLES(CM_FROM_CONFIG)
+#undef CM_FROM_CONFIG
   return t;
 }
 

@@ -66,20 +66,9 @@ std::string differences(const Tunables& before, const Tunables& after) {
     if (os.tellp() > 0) os << ", ";
     os << key << " " << a << " -> " << b;
   };
-  diff("rate", before.rate, after.rate);
-  diff("min_check_interval", before.min_check_interval, after.min_check_interval);
-  diff("check_on_pose", before.check_on_pose, after.check_on_pose);
-  diff("check_on_tf", before.check_on_tf, after.check_on_tf);
-  diff("warning_distance", before.warning_distance, after.warning_distance);
-  diff("contact_distance", before.contact_distance, after.contact_distance);
-  diff("hysteresis", before.hysteresis, after.hysteresis);
-  diff("pose_timeout", before.pose_timeout, after.pose_timeout);
-  diff("ttc_horizon", before.ttc_horizon, after.ttc_horizon);
-  diff("exact_min_distance", before.exact_min_distance, after.exact_min_distance);
-  diff("backend", before.backend, after.backend);
-  diff("publish_markers", before.publish_markers, after.publish_markers);
-  diff("marker_rate", before.marker_rate, after.marker_rate);
-  diff("marker_frame_locked", before.marker_frame_locked, after.marker_frame_locked);
+#define CM_DIFF(field) diff(#field, before.field, after.field);
+  CM_TUNABLES(CM_DIFF)
+#undef CM_DIFF
   return os.str();
 }
 

@@ -31,6 +31,16 @@ struct Tunables {
   bool marker_frame_locked = MarkerOptions().frame_locked;
 };
 
+/// Applies X to the name of every Tunables field, in declaration order: for the code that treats
+/// them alike (differences(), the node's conversions to and from cfg/Monitor.cfg's config, whose
+/// names are the same).
+// clang-format off
+#define CM_TUNABLES(X)                                                                    \
+  X(rate) X(min_check_interval) X(check_on_pose) X(check_on_tf)                           \
+  X(warning_distance) X(contact_distance) X(hysteresis) X(pose_timeout) X(ttc_horizon)    \
+  X(exact_min_distance) X(backend) X(publish_markers) X(marker_rate) X(marker_frame_locked)
+// clang-format on
+
 /// Checks `*value` (parameter `key`) by `valid` (`rule` says it in words): a non-finite or
 /// invalid value is replaced by `fallback`, and why is appended to `errors`
 /// ("rate = -5.000000 (must be > 0); using 50.000000").
