@@ -899,9 +899,11 @@ void Monitor::trigger() {
 
 void Monitor::loopThread() {
   using Clock = std::chrono::steady_clock;
-  // rate and min_check_interval may change (dynamic_reconfigure, which triggers a check).
+  // rate and min_check_interval may change (dynamic_reconfigure, which triggers a check). Capped
+  // at a year: the steady clock's nanoseconds overflow past 292 years (rate 1e-12 Hz is valid).
   const auto seconds = [](double s) {
-    return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+    return std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(std::min(s, kMaxLoopPeriod)));
   };
   auto next = Clock::now();
   auto last_start = Clock::now() - seconds(1.0 / rate_);

@@ -52,8 +52,9 @@ MarkerOptions markerOptions(const Tunables& t) {
   MarkerOptions o;
   o.max_rate = t.marker_rate;
   // Arrays come at least as often as the slower of the heartbeat and the marker rate; a marker
-  // lives for three such periods, and at least 1 s.
-  o.lifetime = std::max(1.0, 3.0 / std::min(t.rate, t.marker_rate));
+  // lives for three such periods, at least 1 s and at most kMaxMarkerLifetime (ros::Duration
+  // throws beyond 2^31 s: rate 1e-9 Hz made every check with a marker subscriber fail).
+  o.lifetime = std::clamp(3.0 / std::min(t.rate, t.marker_rate), 1.0, kMaxMarkerLifetime);
   o.frame_locked = t.marker_frame_locked;
   return o;
 }

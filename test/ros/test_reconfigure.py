@@ -162,6 +162,31 @@ class Reconfigure(unittest.TestCase):
         self.update(pose_timeout=0.5)
         self.assertTrue(wait_for(lambda: 'c' in self.m.state.stale_bodies, 3.0))
 
+    def test_08_extreme_valid_rates(self):
+        # rate 1e-12 Hz is valid (> 0): no heartbeat for ages, but pose input is still checked.
+        # Its marker lifetime (3e12 s) made ros::Duration throw in every check with a ~markers
+        # subscriber, and its period overflowed the steady clock's nanoseconds.
+        arrays = []
+        sub = rospy.Subscriber(NS + 'markers', MarkerArray, arrays.append, queue_size=100)
+        try:
+            self.assertTrue(wait_for(lambda: arrays, 10.0))
+            self.update(rate=1e-12, min_check_interval=1e-3)
+            time.sleep(0.5)
+            n0, a0 = self.m.state_count, len(arrays)
+            msg = BodyPoses()
+            msg.header.frame_id = 'world'
+            msg.header.stamp = rospy.Time.now()
+            msg.ids = ['c']
+            msg.poses = [pose(0, 4, 0)]
+            self.m.poses_pub.publish(msg)
+            self.assertTrue(wait_for(lambda: self.m.state_count > n0, 3.0),
+                            'no ~state after pose input at rate 1e-12 Hz')
+            self.assertTrue(wait_for(lambda: len(arrays) > a0, 3.0))
+            self.assertTrue(wait_for(lambda: self.m.diag_value('target rate (Hz)') == '0.0', 3.0))
+        finally:
+            sub.unregister()
+            self.update(rate=2.0, min_check_interval=0.002)
+
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'reconfigure', Reconfigure, sys.argv)

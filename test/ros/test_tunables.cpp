@@ -120,6 +120,8 @@ TEST(Tunables, MarkerLifetimeFollowsTheSlowerRate) {
   EXPECT_EQ(markerOptions(t).lifetime, 6.0);
   t.marker_frame_locked = false;
   EXPECT_FALSE(markerOptions(t).frame_locked);
+  t.rate = 1e-9;  // valid; ros::Duration(3e9 s) would throw
+  EXPECT_EQ(markerOptions(t).lifetime, kMaxMarkerLifetime);
 }
 
 }  // namespace

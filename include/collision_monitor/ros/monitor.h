@@ -235,6 +235,8 @@ class Monitor {
   /// For this long (s, steady clock) after a backward jump, TF from the future (data from before
   /// the jump that arrived after the buffer was cleared) clears the TF buffer again.
   static constexpr int kTfClearWindow = 10;
+  /// s: the longest wait of the check loop (1 / rate, min_check_interval), a year.
+  static constexpr double kMaxLoopPeriod = 365.0 * 86400.0;
   std::chrono::steady_clock::time_point tf_clear_until_;  ///< loop thread
 };
 

@@ -61,8 +61,12 @@ void validate(Tunables* t, const Tunables& fallback, std::vector<std::string>* e
 /// `limits` (max_* and the rest) with the world model's values of `t`. `t` must be valid.
 world::Settings worldSettings(const Tunables& t, world::Settings limits);
 
+/// s: the longest lifetime markerOptions() gives (body markers live five times as long).
+constexpr double kMaxMarkerLifetime = 3600.0;
+
 /// How ~markers look and how often they go out for `t`: at most marker_rate arrays a second; a
-/// marker lives three periods of the slower of rate and marker_rate, and at least 1 s.
+/// marker lives three periods of the slower of rate and marker_rate, at least 1 s and at most
+/// kMaxMarkerLifetime.
 MarkerOptions markerOptions(const Tunables& t);
 
 /// "name old -> new" for every value that differs ("" when none).
