@@ -59,7 +59,12 @@ else
 fi
 
 echo "=== 4/4 build and install inside a catkin workspace (catkin_make install), the demo from the install space, a downstream package against it"
-WS="$CM_BUILD-ws"
+# The workspace links back to this package (src/collision_monitor) and holds an install space with
+# its launch files. roslaunch finds a package's files by walking its whole folder, following links
+# and skipping only folders whose names start with a dot: a workspace named build-ws in the package
+# made `roslaunch collision_monitor demo.launch` fail ("multiple files named", 82 candidates) in
+# every tree that had run this script, scripts/demo.sh included. Hence the dot.
+WS="$(dirname "$CM_BUILD")/.$(basename "$CM_BUILD")-ws"
 mkdir -p "$WS/src"
 ln -sfn "$CM_ROOT" "$WS/src/collision_monitor"
 (cd "$WS" && catkin_make install -DPYTHON_EXECUTABLE="$CM_PYTHON" -DCOLLISION_MONITOR_BENCHMARKS=OFF \
@@ -68,6 +73,12 @@ ln -sfn "$CM_ROOT" "$WS/src/collision_monitor"
 echo "catkin workspace build and install: ok"
 bash "$CM_ROOT/scripts/check_install.sh" "$WS/install"
 bash "$CM_ROOT/scripts/check_consumer.sh" "$WS/install"
+# The package's own launch files still resolve, once each, beside the workspace.
+if ! out="$(roslaunch --files collision_monitor demo.launch 2>&1)"; then
+  echo "test.sh: roslaunch cannot resolve collision_monitor demo.launch beside $WS: $out" | head -c 2000 >&2
+  exit 1
+fi
+echo "roslaunch collision_monitor demo.launch resolves to $out: ok"
 
 # One closing line for CI: every CTest test of both builds.
 echo "all: $PASSED passed, $FAILED failed"

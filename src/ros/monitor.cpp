@@ -52,6 +52,17 @@ std::string sourceKey(const char* prefix, const std::string& id) {
   return prefix + id.substr(0, kMaxNameLength);
 }
 
+/// What typedParam() reports a parameter of this type should have been.
+const char* typeName(double) {
+  return "a number";
+}
+const char* typeName(bool) {
+  return "a boolean";
+}
+const char* typeName(const std::string&) {
+  return "a string";
+}
+
 collision_monitor::MonitorConfig toConfig(const Tunables& t) {
   auto c = collision_monitor::MonitorConfig::__getDefault__();
 #define CM_TO_CONFIG(field) c.field = t.field;
@@ -188,21 +199,10 @@ void Monitor::readParameters() {
   // every change is checked by (validate()); an invalid one is reported and the default used.
   Tunables& t = tunables_;
   const Tunables d;
-  t.rate = typedParam("rate", d.rate, "a number");
-  t.warning_distance = typedParam("warning_distance", d.warning_distance, "a number");
-  t.contact_distance = typedParam("contact_distance", d.contact_distance, "a number");
-  t.hysteresis = typedParam("hysteresis", d.hysteresis, "a number");
-  t.pose_timeout = typedParam("pose_timeout", d.pose_timeout, "a number");
-  t.ttc_horizon = typedParam("ttc_horizon", d.ttc_horizon, "a number");
-  t.min_check_interval = typedParam("min_check_interval", d.min_check_interval, "a number");
-  t.marker_rate = typedParam("marker_rate", d.marker_rate, "a number");
   // A value of another type (publish_markers: "no", backend: 7) is an error, not silence.
-  t.check_on_pose = typedParam("check_on_pose", d.check_on_pose, "a boolean");
-  t.check_on_tf = typedParam("check_on_tf", d.check_on_tf, "a boolean");
-  t.publish_markers = typedParam("publish_markers", d.publish_markers, "a boolean");
-  t.marker_frame_locked = typedParam("marker_frame_locked", d.marker_frame_locked, "a boolean");
-  t.exact_min_distance = typedParam("exact_min_distance", d.exact_min_distance, "a boolean");
-  t.backend = typedParam<std::string>("backend", d.backend, "a string");
+#define CM_READ(field) t.field = typedParam(#field, d.field, typeName(d.field));
+  CM_TUNABLES(CM_READ)
+#undef CM_READ
   validate(&t, d, &param_errors_);
 
   robot_padding_ = typedParam("robot_padding", 0.0, "a number");
@@ -335,12 +335,17 @@ void Monitor::loadRobot() {
     }
   }
   const std::string default_frame = root_link.empty() ? "world" : root_link;
-  fixed_frame_ = typedParam<std::string>("fixed_frame", default_frame, "a string");
+  const std::string given = typedParam<std::string>("fixed_frame", default_frame, "a string");
+  // tf2 frames have no leading '/': dropped, and only then is the name checked ("/" was taken as
+  // the frame '' without a word, and no TF-attached body was ever posed).
+  fixed_frame_ = given.substr(std::min(given.find_first_not_of('/'), given.size()));
   if (fixed_frame_.empty()) {
-    param_errors_.push_back("fixed_frame is empty; using " + default_frame);
+    param_errors_.push_back((given.empty()
+                                 ? "fixed_frame is empty"
+                                 : "fixed_frame '" + given + "' is empty without its leading '/'") +
+                            "; using " + default_frame);
     fixed_frame_ = default_frame;
   }
-  if (!fixed_frame_.empty() && fixed_frame_[0] == '/') fixed_frame_.erase(0, 1);
 
   XmlRpc::XmlRpcValue pairs;
   if (pnh_.getParam("disabled_pairs", pairs)) {
@@ -840,25 +845,30 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
     }
     std::vector<world::PairResult> pairs;
     double contact_distance = 0.0;
+    std::size_t unknown = 0;  // listed or not (max_unknown_pairs)
     {
       std::lock_guard<std::mutex> lock(world_mutex_);
-      pairs = world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now, anonymous);
+      pairs =
+          world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now, anonymous, &unknown);
       contact_distance = settings_.contact_distance;
     }
     std::stable_sort(pairs.begin(), pairs.end(),
                      [](const auto& x, const auto& y) { return x.distance < y.distance; });
     res.in_collision = false;
-    std::size_t unknown = 0;
+    std::size_t listed = 0;
     for (const auto& p : pairs) {
       if (p.status == world::PairStatus::Collision || p.distance <= contact_distance) {
         res.in_collision = true;
       }
-      if (p.status == world::PairStatus::Unknown) ++unknown;
+      if (p.status == world::PairStatus::Unknown) ++listed;
       res.pairs.push_back(toMsg(p));
     }
     if (unknown > 0) {
       res.message = std::to_string(unknown) +
                     " bodies without a fresh pose (or whose check failed): their pairs are UNKNOWN";
+      if (listed < unknown) {
+        res.message += " (" + std::to_string(listed) + " listed, max_unknown_pairs)";
+      }
     }
     res.success = true;
   } catch (const std::exception& e) {

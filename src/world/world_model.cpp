@@ -1298,11 +1298,22 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now,
 }
 
 std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, const Transform3& pose,
-                                                      double margin, Stamp now,
-                                                      bool anonymous) const {
+                                                      double margin, Stamp now, bool anonymous,
+                                                      std::size_t* num_unknown) const {
   const Impl& m = *impl_;
   std::vector<PairResult> out;
+  std::size_t unknown = 0;
+  if (num_unknown) *num_unknown = 0;
   if (!checkSpec(body).empty() || !validTransform(pose)) return out;
+  // "That body, moved": its own group applies too (get_distance and the cycle skip those pairs).
+  std::string tracked_group;
+  if (!anonymous) {
+    const auto it = m.slot_of.find(body.id);
+    if (it != m.slot_of.end()) tracked_group = m.bodies[it->second].spec.group;
+  }
+  const auto sameGroup = [&](const std::string& g) {
+    return !g.empty() && (g == body.group || g == tracked_group);
+  };
   if (std::isnan(margin)) margin = 0.0;
   BodyState H;
   H.spec = body;
@@ -1313,7 +1324,6 @@ std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, cons
   // without a fresh pose (or whose query failed) as UNKNOWN, as in ~state: never left out as if
   // clear. UNKNOWN pairs sort last (distance +inf).
   const double reach = std::max(margin, settings_.contact_distance);
-  std::size_t unknown = 0;
   const auto addUnknown = [&](const BodyState& O) {
     if (unknown++ >= settings_.max_unknown_pairs) return;
     PairResult r;
@@ -1324,7 +1334,7 @@ std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, cons
   for (int o = 0; o < static_cast<int>(m.bodies.size()); ++o) {
     const BodyState& O = m.bodies[o];
     if (!O.used || (!anonymous && O.spec.id == body.id)) continue;
-    if (!body.group.empty() && body.group == O.spec.group) continue;
+    if (sameGroup(O.spec.group)) continue;
     if (!anonymous && m.isDisabled(body.id, O.spec.id)) continue;
     if (!O.isFresh(now, settings_.pose_timeout)) {
       addUnknown(O);
@@ -1351,6 +1361,7 @@ std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, cons
   std::sort(out.begin(), out.end(), [](const PairResult& x, const PairResult& y) {
     return x.distance != y.distance ? x.distance < y.distance : x.body_b < y.body_b;
   });
+  if (num_unknown) *num_unknown = unknown;
   return out;
 }
 

@@ -53,6 +53,13 @@ class Reconfigure(unittest.TestCase):
         self.assertEqual(c['backend'], 'gjk')
         self.assertEqual(rospy.get_param(NS + 'hysteresis'), 0.005)
         self.assertIsNone(self.pair_ab())  # 0.2 m apart: CLEAR
+        # The start-up errors: these two, nothing else.
+        self.assertTrue(wait_for(lambda: self.m.diagnostics is not None, 10.0))
+        errors = [kv.value for kv in self.m.diagnostics.values if kv.key == 'invalid parameter']
+        self.assertEqual(errors, [
+            'hysteresis = -1.000000 (must be >= 0); using 0.005000',
+            "fixed_frame '/' is empty without its leading '/'; using world"])
+        self.assertEqual(self.m.state.header.frame_id, 'world')
 
     def test_02_thresholds_while_nothing_moves(self):
         since = time.monotonic()

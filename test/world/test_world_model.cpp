@@ -1023,6 +1023,32 @@ TEST(WorldModel, CheckHypotheticalSortedAndMarginFiltered) {
   // An invalid body gives nothing (the service reports checkSpec()).
   EXPECT_TRUE(w.checkHypothetical(body("bad", {}), at(0), 10.0, 1.0).empty());
   EXPECT_EQ(w.checkSpec(body("bad", {})), "body 'bad' refused: it has no parts");
+  // A tracked body's own group applies, whatever group the request gives: "same" (group
+  // "probe") moved onto "hit" is not checked against the probe group's members.
+  ASSERT_EQ(w.addBody(sphere("member", 0.5, "probe")), "");
+  ASSERT_TRUE(w.setPose("member", at(0, 3), 0.0));
+  out = w.checkHypothetical(sphere("same", 0.5), at(0, 3), 0.25, 1.0);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].body_b, "stale");
+  out = w.checkHypothetical(sphere("same", 0.5), at(0, 3), 0.25, 1.0, true);  // a label only
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].body_b, "member");
+}
+
+TEST(WorldModel, CheckHypotheticalCountsEveryUnknownBody) {
+  // Bug: with max_unknown_pairs reached, the service said "2 bodies without a fresh pose" of 5:
+  // the others were in neither the list nor the count.
+  Settings s = dyadic();
+  s.max_unknown_pairs = 2;
+  WorldModel w(s);
+  for (int i = 0; i < 5; ++i)
+    ASSERT_EQ(w.addBody(sphere("s" + std::to_string(i), 0.5)), "");  // never posed
+  std::size_t unknown = 99;
+  const auto out = w.checkHypothetical(sphere("probe", 0.5), at(0), 1.0, 1.0, true, &unknown);
+  EXPECT_EQ(out.size(), 2u);
+  EXPECT_EQ(unknown, 5u);
+  EXPECT_TRUE(w.checkHypothetical(body("bad", {}), at(0), 1.0, 1.0, true, &unknown).empty());
+  EXPECT_EQ(unknown, 0u);
 }
 
 // Bug: a narrow phase that could not run (two spheres of radius 1e308: the pair's size overflows,

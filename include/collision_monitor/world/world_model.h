@@ -225,9 +225,13 @@ class WorldModel {
   /// Also every body in COLLISION whatever the margin; a body with the same id as `body` and the
   /// disabled pairs of that id are skipped ("that body, moved to `pose`"), unless `anonymous`
   /// (the id is only a label: nothing is skipped by it). Status from the thresholds without
-  /// hysteresis. Empty when checkSpec(body) refuses it or the pose is not rigid.
+  /// hysteresis. Empty when checkSpec(body) refuses it or the pose is not rigid. A tracked id's
+  /// own group applies as well as `body.group`. Bodies without a fresh pose (or whose query
+  /// failed) are UNKNOWN pairs, at most max_unknown_pairs of them; `num_unknown`, if given, gets
+  /// how many there are in all.
   std::vector<PairResult> checkHypothetical(const BodySpec& body, const Transform3& pose,
-                                            double margin, Stamp now, bool anonymous = false) const;
+                                            double margin, Stamp now, bool anonymous = false,
+                                            std::size_t* num_unknown = nullptr) const;
 
   /// Current pose of a body (fixed frame) if it has one.
   std::optional<Transform3> pose(const std::string& id) const;
