@@ -256,7 +256,14 @@ void Monitor::applyTunables(const Tunables& t) {
   check_on_pose_ = t.check_on_pose;
   check_on_tf_ = t.check_on_tf;
   publish_markers_ = t.publish_markers;
-  trigger();  // a check at once, by the new values; the next one a period of the new rate later
+  {
+    // A check at once, by the new values (the next one a period of the new rate later), and a
+    // wait for the minimum interval in progress starts again from the new one.
+    std::lock_guard<std::mutex> lock(loop_mutex_);
+    triggered_ = true;
+    retimed_ = true;
+  }
+  loop_cv_.notify_one();
 }
 
 void Monitor::onReconfigure(collision_monitor::MonitorConfig& config, std::uint32_t) {
@@ -923,16 +930,20 @@ void Monitor::loopThread() {
     if (stop_) break;
     // A burst of pose messages becomes one check: wait out the minimum interval, during which
     // further triggers merge into this one.
-    const auto min_interval = seconds(min_check_interval_);
-    const auto earliest = last_start + min_interval;
-    if (Clock::now() < earliest) {
-      loop_cv_.wait_until(lock, earliest, [this] { return stop_; });
+    // A new min_check_interval ends the wait and is waited out instead (a typo of 20 s, put
+    // right at once, stopped the checks for the 20 s).
+    for (auto earliest = last_start + seconds(min_check_interval_); Clock::now() < earliest;
+         earliest = last_start + seconds(min_check_interval_)) {
+      retimed_ = false;
+      loop_cv_.wait_until(lock, earliest, [this] { return stop_ || retimed_; });
       if (stop_) break;
     }
+    if (stop_) break;
     triggered_ = false;
     last_start = Clock::now();
     lock.unlock();
     check_started_ = Clock::now().time_since_epoch().count();
+    last_check_started_ = check_started_.load();
     try {
       runCycle();
     } catch (const std::exception& e) {
@@ -1126,16 +1137,24 @@ void Monitor::setupDiagnostics() {
         cycles ? (now.cycle_time_sum - before.cycle_time_sum) / static_cast<double>(cycles) : 0.0;
     // A check still running after a second (or a period of `rate`, if longer): verdicts are
     // that late, and the figures above are those of the checks before it.
-    const auto started = check_started_.load();
-    const double running =
-        started == 0
-            ? 0.0
-            : std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch() -
-                                            std::chrono::steady_clock::duration(started))
-                  .count();
+    const auto since = [](std::chrono::steady_clock::rep ticks) {
+      return ticks == 0 ? 0.0
+                        : std::chrono::duration<double>(
+                              std::chrono::steady_clock::now().time_since_epoch() -
+                              std::chrono::steady_clock::duration(ticks))
+                              .count();
+    };
+    const double running = since(check_started_.load());
+    const double idle = since(last_check_started_.load());
     if (running > std::max(1.0, 1.0 / rate)) {
       s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
                       "a check has been running for %.1f s", running);
+    } else if (idle > std::max(1.0, 2.0 / rate)) {
+      // No check for two periods of `rate` (and at least a second): verdicts older than the
+      // rate promises (a min_check_interval longer than its period).
+      s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                      "no check for %.1f s (rate %.6g Hz, min_check_interval %.6g s)", idle, rate,
+                      min_check_interval_.load());
     }
     if (mean_cycle > 1.0 / rate) {
       // The checks cannot keep up with `rate`: verdicts come later than configured.
@@ -1160,6 +1179,7 @@ void Monitor::setupDiagnostics() {
     s.addf("mean cycle time (ms)", "%.3f", 1e3 * mean_cycle);
     s.addf("max cycle time since last report (ms)", "%.3f", 1e3 * now.cycle_time_max);
     s.addf("check in progress for (s)", "%.3f", running);
+    s.addf("time since the last check started (s)", "%.3f", idle);
     s.add("pairs checked (last cycle)", now.pairs_checked);
     s.addf("pairs checked (mean per check since last report)", "%.1f",
            cycles ? static_cast<double>(now.pairs_checked_sum - before.pairs_checked_sum) /

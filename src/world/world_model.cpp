@@ -1004,7 +1004,9 @@ CycleResult WorldModel::check(Stamp now) {
   m.stale.clear();
   m.moved_list.clear();
   if (m.moved.size() < m.bodies.size()) m.moved.resize(m.bodies.size(), 0);
-  const double reach = clearCutoffAny(s);
+  // Box distances are never negative: a negative cutoff (warning_distance and contact_distance
+  // below 0) would drop every pair, the overlapping ones too (COLLISION_END while nothing moved).
+  const double reach = std::max(0.0, clearCutoffAny(s));
   m.grid.setMargin(reach);
   std::optional<Stamp> oldest;  // of the timed poses
   for (int slot = 0; slot < static_cast<int>(m.bodies.size()); ++slot) {
@@ -1340,7 +1342,7 @@ std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, cons
       addUnknown(O);
       continue;
     }
-    if (H.box.distance(O.box) > reach) continue;
+    if (H.box.distance(O.box) > std::max(0.0, reach)) continue;  // never negative, as in check()
     const Narrow n = m.narrowPhase(H, O, reach, nullptr);
     if (n.exact && std::isnan(n.distance)) {
       addUnknown(O);

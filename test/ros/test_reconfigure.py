@@ -194,6 +194,20 @@ class Reconfigure(unittest.TestCase):
             sub.unregister()
             self.update(rate=2.0, min_check_interval=0.002)
 
+    def test_09_a_long_min_check_interval_put_right(self):
+        # Bug (audit): the wait for min_check_interval ended only at its deadline: 20 s typed for
+        # 20 ms and put right at once still stopped every check for 20 s.
+        self.update(rate=20.0)
+        self.update(min_check_interval=20.0)
+        # No check for more than a second (two periods of rate): /diagnostics says so.
+        self.assertTrue(wait_for(lambda: 'no check for' in self.m.diagnostics.message, 5.0),
+                        self.m.diagnostics.message)
+        self.update(min_check_interval=0.002)
+        n0 = self.m.state_count
+        self.assertTrue(wait_for(lambda: self.m.state_count >= n0 + 5, 2.0),
+                        'checks did not resume after min_check_interval 20 s -> 0.002 s')
+        self.update(rate=2.0)
+
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'reconfigure', Reconfigure, sys.argv)

@@ -269,6 +269,40 @@ TEST(WorldModel, SettingsChangedWhileRunning) {
   EXPECT_EQ(w.addBody(sphere("d", 0.5)), "");
 }
 
+TEST(WorldModel, NegativeThresholdsStillFindOverlappingPairs) {
+  // warning_distance and contact_distance below 0 (allowed: "report only overlaps deeper than
+  // 12.5 cm"). Bug: the broad phase's reach was negative and no box distance is, so every pair
+  // was dropped: overlaps deeper than the contact distance were CLEAR.
+  Settings s = dyadic();
+  s.warning_distance = -0.0625;
+  s.contact_distance = -0.125;
+  WorldModel w(s);
+  // Row k (10 m apart): a<k> at x = 0, its partner at x: overlaps 0.25, 0.1 and 1/32.
+  const std::vector<std::pair<std::string, double>> partners = {
+      {"deep", 0.75}, {"warn", 0.9}, {"shallow", 0.96875}};
+  for (std::size_t k = 0; k < partners.size(); ++k) {
+    const std::string anchor = "a" + std::to_string(k);
+    ASSERT_EQ(w.addBody(sphere(anchor, 0.5)), "");
+    ASSERT_EQ(w.addBody(sphere(partners[k].first, 0.5)), "");
+    ASSERT_TRUE(w.setPose(anchor, at(0, 10.0 * k), 0.0));
+    ASSERT_TRUE(w.setPose(partners[k].first, at(partners[k].second, 10.0 * k), 0.0));
+  }
+  const CycleResult r = w.check(1.0);
+  EXPECT_EQ(statuses(r),
+            (std::map<Key, S>{{{"a0", "deep"}, S::Collision}, {{"a1", "warn"}, S::Warning}}));
+  EXPECT_TRUE(r.in_collision);
+  EXPECT_EQ(r.min_distance, -0.25);
+  // The hypothetical check too, with a margin below every distance: a probe at x = 0.8 of row 0
+  // is 0.2 deep in a0 and 0.95 in deep, both beyond the contact distance.
+  const auto out = w.checkHypothetical(sphere("probe", 0.5), at(0.8), -1.0, 1.0, true);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[0].body_b, "deep");
+  EXPECT_NEAR(out[0].distance, -0.95, 1e-12);
+  EXPECT_EQ(out[1].body_b, "a0");
+  EXPECT_NEAR(out[1].distance, -0.2, 1e-12);
+  EXPECT_EQ(out[1].status, S::Collision);
+}
+
 TEST(WorldModel, EndEventsToClearCarryTheExactDistance) {
   // b leaves WARNING along the diagonal: the boxes still overlap (within the broad phase's reach),
   // the narrow phase stops at the clear cutoff (its bound 0.08 > 0.0703), and the END event gets

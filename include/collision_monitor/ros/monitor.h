@@ -221,12 +221,15 @@ class Monitor {
   std::mutex loop_mutex_;
   std::condition_variable loop_cv_;
   bool triggered_ = false;
-  bool stop_ = false;  ///< both threads stop (loop_mutex_)
+  bool retimed_ = false;  ///< loop_mutex_: rate or min_check_interval changed
+  bool stop_ = false;     ///< both threads stop (loop_mutex_)
   std::thread diagnostics_thread_;
   std::condition_variable diagnostics_cv_;  ///< with loop_mutex_
   bool force_diagnostics_ = false;          ///< loop_mutex_: send a report now (time jump)
   /// Start of the check in progress (steady clock ticks), 0 between checks.
   std::atomic<std::chrono::steady_clock::rep> check_started_{0};
+  /// Start of the last check (steady clock ticks), 0 before the first.
+  std::atomic<std::chrono::steady_clock::rep> last_check_started_{0};
   double last_now_ = 0.0;  ///< ROS time of the previous check (loop thread)
   /// ROS time going back by more than this (s) is a time jump (bag loop, simulation reset): every
   /// pose and the TF buffer are forgotten. Poses stamped more than this after ROS time are
