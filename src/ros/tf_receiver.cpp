@@ -1,5 +1,6 @@
 #include "collision_monitor/ros/tf_receiver.h"
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <utility>
@@ -87,6 +88,25 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
     std::lock_guard<std::mutex> lock(batch_mutex_);
     // As TransformListener: a jump back in ROS time (bag loop, simulation reset) clears the
     // buffer, and data stamped after the new time is dropped while that message goes in.
+    if (now.isZero()) {
+      // Simulated time before the first /clock: nothing can be judged ahead yet. Remember the
+      // latest stamp taken, to judge it when time starts.
+      if (!is_static) {
+        for (const auto& t : event.getConstMessage()->transforms)
+          taken_before_time_ = std::max(taken_before_time_, t.header.stamp);
+      }
+    } else if (!taken_before_time_.isZero()) {
+      // Time has started. A transform taken before, stamped more than the cache after the new
+      // time (a wall-clock stamp, a publisher ahead), would block its frame as whyTooFarAhead()
+      // says: the buffer starts again (static transforms stay: tf2 keeps them through clear()).
+      const std::string why = whyTooFarAhead(taken_before_time_, now);
+      if (!why.empty()) {
+        ROS_WARN_STREAM("TF received before ROS time started is " << why
+                                                                  << ": clearing the TF buffer");
+        buffer_.clear();
+      }
+      taken_before_time_ = ros::Time();
+    }
     const bool time_reset = now < last_update_;
     if (time_reset) {
       ROS_WARN_STREAM("Detected jump back in time of " << (last_update_ - now).toSec()

@@ -145,6 +145,10 @@ class SimTime(unittest.TestCase):
         # 0. ROS time 0: no /clock yet. A pose stamped 100 s (what the clock will say) arrives.
         cls.sim = Simulator(poses_pub)
         cls.sim.publish('posed', 100.0)
+        # And a transform of tf_body's frame stamped by the wall clock (1.8e9 s), as a node not
+        # on simulated time sends it. Bug: once /clock said 100 s, tf2 dropped every later
+        # transform of the frame as older than that one: tf_body never had a pose again.
+        cls.sim.publish('tf_body', time.time())
         time.sleep(1.5)
         cls.zero = {'states': len(cls.states), 'bodies': list_bodies(),
                     'distance': get_distance('fixed', 'tf_body', '')}

@@ -66,9 +66,12 @@ class TfReceiver {
   ros::Subscriber tf_sub_, static_sub_;
   mutable std::mutex batch_mutex_;  ///< held while a message goes in and by snapshot()
   ros::Time last_update_;           ///< receiving thread only
-  std::size_t messages_ = 0;        ///< guarded by batch_mutex_
-  std::size_t refused_ = 0;         ///< guarded by batch_mutex_
-  std::string last_refusal_;        ///< guarded by batch_mutex_
+  /// Latest /tf stamp taken while ROS time was 0 (simulated time before /clock), until time
+  /// starts (receiving thread only).
+  ros::Time taken_before_time_;
+  std::size_t messages_ = 0;  ///< guarded by batch_mutex_
+  std::size_t refused_ = 0;   ///< guarded by batch_mutex_
+  std::string last_refusal_;  ///< guarded by batch_mutex_
 };
 
 }  // namespace ros_layer
