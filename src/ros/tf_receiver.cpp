@@ -86,8 +86,6 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
   const std::string& authority = event.getPublisherName();
   {
     std::lock_guard<std::mutex> lock(batch_mutex_);
-    // As TransformListener: a jump back in ROS time (bag loop, simulation reset) clears the
-    // buffer, and data stamped after the new time is dropped while that message goes in.
     if (now.isZero()) {
       // Simulated time before the first /clock: nothing can be judged ahead yet. Remember the
       // latest stamp taken, to judge it when time starts.
@@ -107,6 +105,8 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
       }
       taken_before_time_ = ros::Time();
     }
+    // As TransformListener: a jump back in ROS time (bag loop, simulation reset) clears the
+    // buffer, and data stamped after the new time is dropped while that message goes in.
     const bool time_reset = now < last_update_;
     if (time_reset) {
       ROS_WARN_STREAM("Detected jump back in time of " << (last_update_ - now).toSec()
