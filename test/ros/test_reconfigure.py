@@ -14,6 +14,7 @@ import unittest
 import rospy
 import rostest
 from collision_monitor.msg import BodyPoses, CollisionEvent, PairState
+from collision_monitor.srv import CheckCollisionRequest
 from dynamic_reconfigure.client import Client
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -80,7 +81,6 @@ class Reconfigure(unittest.TestCase):
         self.assertTrue(wait_for(lambda: self.m.state.in_collision, 3.0))
 
         # A hypothetical body is judged by the contact distance in force too.
-        from collision_monitor.srv import CheckCollisionRequest
         req = CheckCollisionRequest()
         req.body = sphere_body('', 0.5)
         req.body.header.frame_id = 'world'
