@@ -5,6 +5,7 @@ services. Run with backend:=gjk and backend:=libccd (same verdicts)."""
 import io
 import math
 import struct
+import subprocess
 import sys
 import time
 import unittest
@@ -23,6 +24,41 @@ from cm_test_util import (NS, Monitor, PoseStreamer, point_close, pose, shape, s
                           wait_for)
 
 E = CollisionEvent
+
+
+def body_ids(arrays):
+    """The ids of the body markers that `arrays` (MarkerArray messages) add."""
+    return {m.id for a in arrays for m in a.markers if m.ns == 'bodies' and m.action == m.ADD}
+
+
+# Run as its own ROS node: subscribes to argv[1] and prints the body marker ids of the first
+# two MarkerArrays it receives, one per line.
+_MARKERS_PROBE = """
+import sys, time, rospy
+from visualization_msgs.msg import MarkerArray
+rospy.init_node('markers_probe', anonymous=True, disable_signals=True)
+got = []
+sub = rospy.Subscriber(sys.argv[1], MarkerArray, got.append)
+deadline = time.time() + 10.0
+while len(got) < 2 and time.time() < deadline:
+    time.sleep(0.01)
+sub.unregister()
+if len(got) < 2:
+    sys.exit('got %d arrays in 10 s' % len(got))
+for i in sorted({m.id for a in got[:2] for m in a.markers
+                 if m.ns == 'bodies' and m.action == m.ADD}):
+    print(i)
+"""
+
+
+def first_body_marker_ids_in_new_process(topic):
+    """body_ids() of the first two arrays on `topic` that a subscriber in a new process (a new
+    connection to the publisher) receives."""
+    out = subprocess.run([sys.executable, '-c', _MARKERS_PROBE, topic], capture_output=True,
+                         text=True, timeout=30.0)
+    if out.returncode != 0:
+        raise AssertionError('markers probe failed: %s' % out.stderr.strip()[-500:])
+    return {int(line) for line in out.stdout.split()}
 
 
 def raw_request_class(request_class):
@@ -377,19 +413,14 @@ class TopicBodies(unittest.TestCase):
                                 (m.pose.position.x, m.pose.position.y, m.pose.position.z) ==
                                 (0.0, 0.0, 0.0) for m in shelf), shelf[:1])
             # A second subscriber, while the first stays: every body in its first two arrays
-            # too (test_markers UnchangedBodiesAreNotSent checks the resend itself).
-            def body_ids(some):
-                return {m.id for a in some for m in a.markers
-                        if m.ns == 'bodies' and m.action == m.ADD}
+            # too (test_markers UnchangedBodiesAreNotSent checks the resend itself). It must be
+            # another process: rospy shares one connection among a process's subscribers to a
+            # topic, so a second rospy.Subscriber here would open none and the node would
+            # resend nothing (its first arrays held only the bodies whose refresh fell due).
             time.sleep(1.0)
-            second = []
-            sub2 = rospy.Subscriber('/collision_monitor/markers', MarkerArray, second.append)
-            try:
-                self.assertTrue(wait_for(lambda: len(second) >= 2, 5.0))
-                self.assertEqual(body_ids(second[:2]), body_ids(arrays[:2]))
-                self.assertGreaterEqual(len(body_ids(arrays[:2])), 3)
-            finally:
-                sub2.unregister()
+            second = first_body_marker_ids_in_new_process('/collision_monitor/markers')
+            self.assertEqual(second, body_ids(arrays[:2]))
+            self.assertGreaterEqual(len(second), 3)
         finally:
             sub.unregister()
 
