@@ -128,7 +128,9 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
 
   events_pub_ = pnh_.advertise<collision_monitor::CollisionEvent>("events", 100);
   state_pub_ = pnh_.advertise<collision_monitor::CollisionState>("state", 10);
-  // A new subscriber gets every body in the next array, not only as their refreshes come due.
+  // A new subscriber gets every body in the next array, not only as their refreshes come due:
+  // noticed by its callback, or sooner by the count of subscribers (runCycle()); the callback
+  // runs from the callback queue after the new link already receives arrays.
   markers_pub_ = pnh_.advertise<visualization_msgs::MarkerArray>(
       "markers", 1, [this](const ros::SingleSubscriberPublisher&) { markers_subscribed_ = true; });
   const auto hints = ros::TransportHints().tcpNoDelay();
@@ -168,6 +170,7 @@ Monitor::~Monitor() {
   }
   loop_cv_.notify_all();
   diagnostics_cv_.notify_all();
+  world_->abandonChecks();  // a check of seconds (bodies of 1,000 parts) stops now
   if (loop_thread_.joinable()) loop_thread_.join();
   if (diagnostics_thread_.joinable()) diagnostics_thread_.join();
   tf_receiver_.reset();  // after the loop, which reads through it; its trigger()s are harmless
@@ -1030,7 +1033,8 @@ void Monitor::runCycle() {
   std::size_t pose_msgs_applied = 0, checks_with_new_poses = 0;
   visualization_msgs::MarkerArray markers;
   const bool markers_on = publish_markers_;
-  const bool want_markers = markers_on && markers_pub_.getNumSubscribers() > 0;
+  const std::uint32_t marker_subscribers = markers_pub_.getNumSubscribers();
+  const bool want_markers = markers_on && marker_subscribers > 0;
   {
     std::lock_guard<std::mutex> lock(world_mutex_);
     for (const auto& [id, frame] : attached) {
@@ -1044,16 +1048,19 @@ void Monitor::runCycle() {
       }
     }
     cycle = world_->check(toStamp(stamp_now));
+    if (cycle.abandoned) return;  // shutting down: nothing in it is a verdict
     if (new_poses_) ++checks_with_new_poses_;
     new_poses_ = false;
     pose_msgs_applied = pose_msgs_applied_;
     checks_with_new_poses = checks_with_new_poses_;
     if (want_markers) {
-      if (markers_subscribed_.exchange(false)) marker_builder_.resendAll();
+      const bool more = marker_subscribers > marker_subscribers_;
+      if (markers_subscribed_.exchange(false) || more) marker_builder_.resendAll();
       markers = marker_builder_.build(*world_, cycle, fixed_frame_);
     } else if (!markers_on && markers_published_) {
       markers = marker_builder_.clear(fixed_frame_);  // publish_markers turned off
     }
+    marker_subscribers_ = marker_subscribers;
   }
 
   for (const auto& e : cycle.events)

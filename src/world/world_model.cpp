@@ -15,6 +15,7 @@
 #include "collision_monitor/world/world_model.h"
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <iterator>
@@ -326,6 +327,7 @@ struct WorldModel::Impl {
     int j;
   };
   mutable std::vector<PartPair> part_pairs;
+  std::atomic<bool> abandoned{false};  ///< abandonChecks(): from another thread
 
   /// The pairs that may collide (allowed()) with at least one stale body, counted without
   /// visiting them: every pair with a stale body, less those sharing a group, less the disabled
@@ -435,7 +437,13 @@ struct WorldModel::Impl {
     const std::size_t nb = B.spec.parts.size();
     part_pairs.clear();
     double skipped = kInf;  // the smallest lower bound of the part pairs left out
+    const auto abandon = [&] {
+      out.distance = std::numeric_limits<double>::quiet_NaN();  // a failed query
+      out.exact = true;
+      return out;
+    };
     for (std::size_t i = 0; i < na; ++i) {
+      if (abandoned.load(std::memory_order_relaxed)) return abandon();
       for (std::size_t j = 0; j < nb; ++j) {
         const double gap = A.part_boxes[i].distance(B.part_boxes[j]);
         const double sphere =
@@ -454,6 +462,7 @@ struct WorldModel::Impl {
     }
     for (const PartPair& pp : part_pairs) {
       if (out.exact && pp.lower_bound >= out.distance) break;
+      if (abandoned.load(std::memory_order_relaxed)) return abandon();
       core::PairCache* cache = caches ? &caches[pp.i * nb + pp.j] : nullptr;
       const core::ContactResult r =
           narrow->signedDistance(A.spec.parts[pp.i].shape, A.part_poses[pp.i],
@@ -625,6 +634,7 @@ struct WorldModel::Impl {
           const double gap =
               (b_at.centres[j] - a_at.centres[i]).norm() - A.part_radii[i] - B.part_radii[j];
           if (!(bound > 0.0) || (gap - c) / bound >= step) continue;
+          if (abandoned.load(std::memory_order_relaxed)) return kInf;
           const core::ContactResult x = narrow->signedDistance(
               A.spec.parts[i].shape, a_at.poses[i], B.spec.parts[j].shape, b_at.poses[j], nullptr);
           if (!std::isfinite(x.distance)) return t;  // the bound so far
@@ -737,6 +747,10 @@ WorldModel::WorldModel(const Settings& settings)
 }
 
 WorldModel::~WorldModel() = default;
+
+void WorldModel::abandonChecks() {
+  impl_->abandoned.store(true, std::memory_order_relaxed);
+}
 
 void WorldModel::setSettings(const Settings& settings) {
   Impl& m = *impl_;
@@ -1213,6 +1227,7 @@ CycleResult WorldModel::check(Stamp now) {
   }
   std::sort(res.stale_bodies.begin(), res.stale_bodies.end());
 
+  res.abandoned = m.abandoned.load(std::memory_order_relaxed);
   res.compute_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return res;
 }

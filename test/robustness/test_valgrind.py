@@ -169,7 +169,15 @@ class Valgrind(unittest.TestCase):
         sub.unregister()
         # Services: valid and invalid requests.
         self.assertTrue(m.get_distance('panda_hand', 'table', 'panda_hand').success)
-        self.assertTrue(m.get_distance('gripper_mesh', '', '').success)
+        # The nearest body to the mesh: its pose must be fresh (pose_timeout 2 s), and the waits
+        # above can take longer than that under valgrind.
+        def mesh_posed_and_answered():
+            msg = BodyPoses(ids=['gripper_mesh'], poses=[pose(x=-1.0)])
+            msg.header.frame_id = 'panda_link0'
+            msg.header.stamp = rospy.Time.now()
+            m.poses_pub.publish(msg)
+            return m.get_distance('gripper_mesh', '', '').success
+        self.assertTrue(wait_for(mesh_posed_and_answered, 20.0, 0.2))
         self.assertFalse(m.get_distance('nobody', 'table', '').success)
         self.assertFalse(m.get_distance('panda_link0', 'panda_link1', '').success)  # adjacent
         self.assertFalse(m.get_distance('panda_hand', 'table', 'no_such_frame').success)

@@ -115,10 +115,12 @@ class Monitor:
     def wait_listed(self, body_id, present=True, timeout=5.0):
         return wait_for(lambda: (body_id in self.list_bodies().ids) == present, timeout, 0.02)
 
-    def diag_value(self, key):
-        if self.diagnostics is None:
+    def diag_value(self, key, status=None):
+        """The value of `key` in `status`, by default the latest report."""
+        status = self.diagnostics if status is None else status
+        if status is None:
             return None
-        for kv in self.diagnostics.values:
+        for kv in status.values:
             if kv.key == key:
                 return kv.value
         return None
@@ -134,6 +136,7 @@ class PoseStreamer:
         self.paused = set()
         self.lock = threading.Lock()
         self.period = 1.0 / rate
+        self.sent = {}  # id -> stamps of the messages that carried it, in order
         self.thread = threading.Thread(target=self._run, daemon=True)
         self.thread.start()
 
@@ -154,7 +157,15 @@ class PoseStreamer:
                     msg.poses.append(v)
         if msg.ids:
             self.pub.publish(msg)
+            with self.lock:
+                for k in msg.ids:
+                    self.sent.setdefault(k, []).append(msg.header.stamp)
         return msg.header.stamp
+
+    def stamps(self, body_id):
+        """The stamps of the messages published so far that carried `body_id`."""
+        with self.lock:
+            return list(self.sent.get(body_id, ()))
 
     def _run(self):
         while not rospy.is_shutdown():

@@ -71,12 +71,15 @@ class BadParams(unittest.TestCase):
         self.poses.set('b', pose(1.5, 0, 0))
         self.assertTrue(wait_for(lambda: abs(self.m.state.min_distance - 0.5) < 1e-9, 3.0),
                         self.m.state.min_distance)
-        # rate: the 50 Hz default (about 50 states a second; -5 would be refused).
+        # rate: the 50 Hz default (-5 would be refused), as /diagnostics reports it; and states
+        # come (about 50 a second; counted here, in a process a loaded machine may slow down).
+        self.assertTrue(wait_for(lambda: self.m.diag_value('target rate (Hz)') == '50.0', 5.0),
+                        self.m.diag_value('target rate (Hz)'))
         n0 = self.m.state_count
         t0 = time.monotonic()
         time.sleep(1.0)
         rate = (self.m.state_count - n0) / (time.monotonic() - t0)
-        self.assertGreater(rate, 25.0)
+        self.assertGreater(rate, 10.0)
 
     def test_03_whole_number_given_as_double(self):
         # max_unknown_pairs = 1.0: one UNKNOWN pair listed although 'c' (no pose) makes two.

@@ -14,6 +14,7 @@
 #include <random>
 #include <set>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -209,6 +210,51 @@ TEST(WorldModel, HysteresisSequenceGivesExactEvents) {
                                     {E::WarningBegin, "a", "b"},   {E::WarningEnd, "a", "b"},
                                     {E::CollisionBegin, "a", "b"}, {E::CollisionEnd, "a", "b"}};
   EXPECT_EQ(all, expected);
+}
+
+/// Bodies of `n` unit boxes each, all overlapping (centres within 1 cm): every part pair of the
+/// two runs GJK and EPA.
+BodySpec pile(const std::string& id, int n) {
+  std::vector<Part> parts;
+  for (int i = 0; i < n; ++i) {
+    parts.push_back(Part{ConvexShape::box(Vec3(1, 1, 1)), at(0.001 * (i % 10), 0.001 * (i / 10))});
+  }
+  return body(id, std::move(parts));
+}
+
+TEST(WorldModel, AbandonedChecksStopAtOnce) {
+  // Shutdown while a check of bodies of many parts runs: it must not run to its end (seconds
+  // with 1,000 parts a body; a process asked to stop is killed 15 s later by roslaunch).
+  const int n = 300;
+  WorldModel full;
+  ASSERT_EQ(full.addBody(pile("a", n)), "");
+  ASSERT_EQ(full.addBody(pile("b", n)), "");
+  ASSERT_TRUE(full.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(full.setPose("b", at(0.5), 0.0));
+  const CycleResult whole = full.check(1.0);
+  EXPECT_FALSE(whole.abandoned);
+  ASSERT_EQ(whole.num_part_checks, static_cast<std::size_t>(n * n));
+  EXPECT_TRUE(whole.in_collision);
+
+  WorldModel w;
+  ASSERT_EQ(w.addBody(pile("a", n)), "");
+  ASSERT_EQ(w.addBody(pile("b", n)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(0.5), 0.0));
+  CycleResult cut;
+  std::thread checker([&] { cut = w.check(1.0); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  w.abandonChecks();
+  checker.join();
+  EXPECT_TRUE(cut.abandoned);
+  EXPECT_LT(cut.num_part_checks, whole.num_part_checks);
+  std::printf("abandoned after %zu of %zu part checks (%.1f of %.1f ms)\n", cut.num_part_checks,
+              whole.num_part_checks, 1e3 * cut.compute_time, 1e3 * whole.compute_time);
+
+  // Every later check too, at once: no part pair is queried.
+  const CycleResult next = w.check(2.0);
+  EXPECT_TRUE(next.abandoned);
+  EXPECT_EQ(next.num_part_checks, 0u);
 }
 
 TEST(WorldModel, SettingsChangedWhileRunning) {

@@ -201,6 +201,7 @@ class Monitor {
   ros::ServiceServer distance_srv_, check_srv_, list_srv_;
   MarkerBuilder marker_builder_;
   std::atomic<bool> markers_subscribed_{false};  ///< ~markers got a subscriber since last build
+  std::uint32_t marker_subscribers_ = 0;         ///< ~markers' subscribers at the last check (loop)
 
   // diagnostics (guarded by stats_mutex_)
   std::unique_ptr<diagnostic_updater::Updater> diagnostics_;

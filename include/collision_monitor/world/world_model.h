@@ -139,6 +139,8 @@ struct CycleResult {
   std::size_t num_pairs_cached = 0;
   std::size_t num_unknown_pairs = 0;  ///< every UNKNOWN pair, listed or not
   std::size_t num_part_checks = 0;    ///< convex part-pair GJK runs (<= parts_a * parts_b per pair)
+  /// WorldModel::abandonChecks() cut this check short: nothing in it is a verdict.
+  bool abandoned = false;
 };
 
 struct BodyInfo {
@@ -213,6 +215,13 @@ class WorldModel {
   /// body_b), with body_a < body_b; a pair's END comes before its BEGIN. Event stamps: the older
   /// timed pose stamp of the pair, or `now` when both are static or for UNKNOWN and removal.
   CycleResult check(Stamp now);
+
+  /// For shutdown: the check running in another thread, and every later one, stops within one
+  /// part pair's query and returns with CycleResult::abandoned set; queries return failures.
+  /// A check of bodies of a thousand parts each runs for seconds, which a process that is asked
+  /// to stop should not wait for. The model is for destruction only afterwards. The one call
+  /// that may come from another thread while a check runs.
+  void abandonChecks();
 
   /// Signed distance between two bodies at their current poses. nullopt with `why` set when an
   /// id is unknown or a pose is stale/unresolved at `now`.
