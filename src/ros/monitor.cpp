@@ -153,9 +153,11 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   });
 
   {
+    // rate_, not tunables_.rate: ~set_parameters is served from here on, and onReconfigure()
+    // writes tunables_ under reconfigure_mutex_ only.
     std::lock_guard<std::mutex> lock(world_mutex_);
     ROS_INFO_STREAM(name_ << ": monitoring " << world_->size() << " bodies in frame '"
-                          << fixed_frame_ << "' at " << tunables_.rate << " Hz with backend "
+                          << fixed_frame_ << "' at " << rate_.load() << " Hz with backend "
                           << core::toString(settings_.backend));
   }
   loop_thread_ = std::thread([this] { loopThread(); });
