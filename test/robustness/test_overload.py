@@ -127,13 +127,14 @@ class Overload(unittest.TestCase):
 
     def test_3_sigint_during_a_long_check(self):
         """SIGINT while such a check runs: the node stops it and exits at once. It used to finish
-        the check first (up to 13.6 s), and roslaunch turns SIGINT into SIGTERM after 15 s.
+        the check first (13.9 s on a loaded machine), and roslaunch turns SIGINT into SIGTERM
+        after 15 s.
         Last: the node is gone afterwards (overload.test: not required)."""
         pid = node_pid()
         self.assertTrue(alive(pid))
         self.add_piles(10.0)
         # A check has run for at least a second (/diagnostics says so only then); such a check
-        # takes several seconds (test_2; SIGINT waited up to 13.6 s for one, before).
+        # takes several seconds (test_2).
         d = self.report(DiagnosticStatus.WARN, 'a check has been running for', timeout=60.0)
         self.assertIsNotNone(d, self.m.diagnostics)
         t0 = time.monotonic()
