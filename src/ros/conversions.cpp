@@ -222,8 +222,10 @@ std::string shapeTypeName(std::uint8_t type) {
   }
 }
 
-Expected<ConvexShape> shapeFromMsg(const collision_monitor::Shape& msg, const Limits& limits,
-                                   const MeshLoader& load_mesh) {
+Expected<std::vector<ConvexShape>> shapesFromMsg(const collision_monitor::Shape& msg,
+                                                 const Limits& limits,
+                                                 const MeshLoader& load_mesh) {
+  using Shapes = std::vector<ConvexShape>;
   try {
     const std::uint8_t type = msg.type;
     if (type < collision_monitor::Shape::SPHERE || type > collision_monitor::Shape::MESH) {
@@ -246,7 +248,9 @@ Expected<ConvexShape> shapeFromMsg(const collision_monitor::Shape& msg, const Li
       }
       if (!msg.vertices.empty()) return Error{shapeTypeName(type) + " takes no vertices"};
       if (!msg.resource.empty()) return Error{shapeTypeName(type) + " takes no resource"};
-      return primitive(msg);
+      auto shape = primitive(msg);
+      if (!shape) return Error{shape.error()};
+      return Shapes{std::move(shape).value()};
     }
 
     if (type == collision_monitor::Shape::CONVEX) {
@@ -268,7 +272,7 @@ Expected<ConvexShape> shapeFromMsg(const collision_monitor::Shape& msg, const Li
       for (const Vec3& p : points)
         spread = std::max(spread, (p - points.front()).norm());
       if (!(spread > 0.0)) return Error{"degenerate convex part: every vertex coincides"};
-      return ConvexShape::convexHull(points);
+      return Shapes{ConvexShape::convexHull(points)};
     }
 
     // MESH
@@ -277,23 +281,27 @@ Expected<ConvexShape> shapeFromMsg(const collision_monitor::Shape& msg, const Li
     const std::string too_long = checkLength(msg.resource, kMaxResourceLength, "mesh resource");
     if (!too_long.empty()) return Error{too_long};
     if (!load_mesh) return Error{"mesh parts are not supported here"};
-    auto shape = load_mesh(msg.resource, *scale);
-    if (!shape) return Error{"mesh " + quoteInput(msg.resource) + ": " + shape.error()};
-    return shape;
+    auto shapes = load_mesh(msg.resource, *scale);
+    if (!shapes) return Error{"mesh " + quoteInput(msg.resource) + ": " + shapes.error()};
+    if (shapes->empty()) return Error{"mesh " + quoteInput(msg.resource) + " gave no parts"};
+    return shapes;
   } catch (const std::exception& e) {
     return Error{shapeTypeName(msg.type) + ": " + e.what()};
   }
 }
 
-Expected<world::Part> partFromMsg(const collision_monitor::Shape& msg, double padding,
-                                  const Limits& limits, const MeshLoader& load_mesh) {
+Expected<std::vector<world::Part>> partsFromMsg(const collision_monitor::Shape& msg, double padding,
+                                                const Limits& limits, const MeshLoader& load_mesh) {
   auto pose = toTransform(msg.pose, ZeroQuaternion::Identity);
   if (!pose) return Error{"pose: " + pose.error()};
-  auto shape = shapeFromMsg(msg, limits, load_mesh);
-  if (!shape) return Error{shape.error()};
+  auto shapes = shapesFromMsg(msg, limits, load_mesh);
+  if (!shapes) return Error{shapes.error()};
   try {
-    world::Part part{padding > 0.0 ? shape->padded(padding) : *shape, *pose};
-    return part;
+    std::vector<world::Part> parts;
+    parts.reserve(shapes->size());
+    for (const ConvexShape& shape : *shapes)
+      parts.push_back(world::Part{padding > 0.0 ? shape.padded(padding) : shape, *pose});
+    return parts;
   } catch (const std::exception& e) {
     return Error{std::string("padding: ") + e.what()};
   }
@@ -341,12 +349,18 @@ Expected<world::BodySpec> bodyFromMsg(const collision_monitor::Body& msg, world:
   spec.origin = origin;
   spec.parts.reserve(msg.parts.size());
   for (std::size_t i = 0; i < msg.parts.size(); ++i) {
-    auto part = partFromMsg(msg.parts[i], msg.padding, limits, load_mesh);
-    if (!part) {
+    auto parts = partsFromMsg(msg.parts[i], msg.padding, limits, load_mesh);
+    if (!parts) {
       return Error{"part " + std::to_string(i) + " (" + shapeTypeName(msg.parts[i].type) +
-                   "): " + part.error()};
+                   "): " + parts.error()};
     }
-    spec.parts.push_back(std::move(part).value());
+    for (world::Part& part : *parts)
+      spec.parts.push_back(std::move(part));
+    if (spec.parts.size() > limits.max_parts_per_body) {
+      return Error{"with its mesh pieces the body has " + std::to_string(spec.parts.size()) +
+                   " parts by part " + std::to_string(i) + ", more than max_parts_per_body " +
+                   std::to_string(limits.max_parts_per_body)};
+    }
   }
   return spec;
 }

@@ -3,15 +3,19 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <climits>
+#include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
 #include <memory>
+#include <numeric>
 
 #include <geometric_shapes/mesh_operations.h>
 #include <geometric_shapes/shapes.h>
+#include <ros/console.h>
 #include <ros/package.h>
 
 #include "collision_monitor/core/shapes.h"
@@ -104,8 +108,104 @@ Expected<std::string> resolveMeshUri(const std::string& uri,
   return real;
 }
 
-Expected<core::ConvexShape> loadMeshHull(const std::string& path, const core::Vec3& scale,
-                                         std::size_t max_vertices) {
+std::optional<MeshDecomposition> parseMeshDecomposition(const std::string& name) {
+  if (name == "hull") return MeshDecomposition::Hull;
+  if (name == "pieces") return MeshDecomposition::Pieces;
+  return std::nullopt;
+}
+
+const char* toString(MeshDecomposition mode) {
+  return mode == MeshDecomposition::Pieces ? "pieces" : "hull";
+}
+
+MeshPieces meshPieces(const std::vector<core::Vec3>& vertices,
+                      const std::vector<std::array<std::size_t, 3>>& triangles) {
+  MeshPieces out;
+  const std::size_t n = vertices.size();
+  // Weld: one id per distinct position, by sorting.
+  const auto less = [&vertices](std::size_t i, std::size_t j) {
+    const core::Vec3& a = vertices[i];
+    const core::Vec3& b = vertices[j];
+    return a.x() != b.x() ? a.x() < b.x() : (a.y() != b.y() ? a.y() < b.y() : a.z() < b.z());
+  };
+  std::vector<std::size_t> order(n);
+  std::iota(order.begin(), order.end(), std::size_t{0});
+  std::sort(order.begin(), order.end(), less);
+  std::vector<std::size_t> weld(n);
+  std::size_t distinct = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (k > 0 && less(order[k - 1], order[k])) ++distinct;
+    weld[order[k]] = distinct;
+  }
+  if (n > 0) ++distinct;
+
+  std::vector<std::size_t> parent(distinct);
+  std::iota(parent.begin(), parent.end(), std::size_t{0});
+  const auto root = [&parent](std::size_t v) {
+    while (parent[v] != v)
+      v = parent[v] = parent[parent[v]];
+    return v;
+  };
+  std::vector<bool> used(distinct, false);
+  std::vector<std::pair<std::size_t, std::size_t>> edges;
+  edges.reserve(3 * triangles.size());
+  for (std::size_t t = 0; t < triangles.size(); ++t) {
+    std::array<std::size_t, 3> w{};
+    for (int k = 0; k < 3; ++k) {
+      if (triangles[t][k] >= n) {
+        out.open = "triangle " + std::to_string(t) + " has a vertex index out of range";
+        return out;
+      }
+      w[k] = weld[triangles[t][k]];
+      used[w[k]] = true;
+    }
+    parent[root(w[1])] = root(w[0]);
+    parent[root(w[2])] = root(w[0]);
+    for (int k = 0; k < 3; ++k) {
+      const std::size_t u = w[k], v = w[(k + 1) % 3];
+      if (u != v) edges.emplace_back(std::min(u, v), std::max(u, v));
+    }
+  }
+
+  // Pieces numbered by their first triangle.
+  std::vector<std::size_t> piece_of(distinct, SIZE_MAX);
+  for (const auto& tri : triangles) {
+    const std::size_t r = root(weld[tri[0]]);
+    if (piece_of[r] == SIZE_MAX) {
+      piece_of[r] = out.pieces.size();
+      out.pieces.emplace_back();
+    }
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    const std::size_t v = weld[order[k]];
+    if (k > 0 && v == weld[order[k - 1]]) continue;  // a repeated position
+    if (!used[v]) {
+      out.open = "vertex " + std::to_string(order[k]) + " is on no triangle";
+    } else {
+      out.pieces[piece_of[root(v)]].push_back(vertices[order[k]]);
+    }
+  }
+  if (!out.open.empty()) return out;
+
+  // Closed: every edge on an even number of triangles (no boundary).
+  std::sort(edges.begin(), edges.end());
+  for (std::size_t i = 0; i < edges.size();) {
+    std::size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i])
+      ++j;
+    if ((j - i) % 2 != 0) {
+      out.open = "piece " + std::to_string(piece_of[root(edges[i].first)] + 1) + " of " +
+                 std::to_string(out.pieces.size()) + " is not closed (an edge on " +
+                 std::to_string(j - i) + (j - i == 1 ? " triangle)" : " triangles)");
+      return out;
+    }
+    i = j;
+  }
+  return out;
+}
+
+Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& scale,
+                                  std::size_t max_vertices, MeshDecomposition mode) {
   try {
     std::unique_ptr<shapes::Mesh> mesh(shapes::createMeshFromResource(
         "file://" + path, Eigen::Vector3d(scale.x(), scale.y(), scale.z())));
@@ -128,26 +228,50 @@ Expected<core::ConvexShape> loadMeshHull(const std::string& path, const core::Ve
     for (const core::Vec3& p : points)
       spread = std::max(spread, (p - points.front()).norm());
     if (!(spread > 0.0)) return Error{"degenerate mesh " + path + ": every vertex coincides"};
-    core::ConvexShape hull = core::ConvexShape::convexHull(points);
-    if (const auto* poly = std::get_if<std::shared_ptr<const core::Polytope<3>>>(&hull.core())) {
-      if (*poly && static_cast<std::size_t>((*poly)->size()) > max_vertices) {
-        return Error{"convex hull of " + path + " has " + std::to_string((*poly)->size()) +
-                     " vertices, more than max_vertices_per_part " + std::to_string(max_vertices)};
+
+    MeshParts out;
+    std::vector<std::vector<core::Vec3>> pieces;
+    if (mode == MeshDecomposition::Pieces) {
+      std::vector<std::array<std::size_t, 3>> triangles(mesh->triangle_count);
+      for (unsigned t = 0; t < mesh->triangle_count; ++t) {
+        for (int k = 0; k < 3; ++k)
+          triangles[t][k] = mesh->triangles[3 * t + k];
+      }
+      MeshPieces split = meshPieces(points, triangles);
+      // One piece is its hull either way, closed or not (many collision meshes are open).
+      if (split.pieces.size() != 1 && !split.open.empty()) {
+        out.note = "not split into pieces: " + split.open + "; one convex hull";
+      } else if (split.pieces.size() > 1) {
+        pieces = std::move(split.pieces);
       }
     }
-    return hull;
+    if (pieces.empty()) pieces.push_back(std::move(points));
+    for (std::size_t i = 0; i < pieces.size(); ++i) {
+      core::ConvexShape hull = core::ConvexShape::convexHull(pieces[i]);
+      const auto* poly = std::get_if<std::shared_ptr<const core::Polytope<3>>>(&hull.core());
+      if (poly && *poly && static_cast<std::size_t>((*poly)->size()) > max_vertices) {
+        return Error{"convex hull of " + path +
+                     (pieces.size() > 1 ? " (piece " + std::to_string(i + 1) + ")" : "") + " has " +
+                     std::to_string((*poly)->size()) +
+                     " vertices, more than max_vertices_per_part " + std::to_string(max_vertices)};
+      }
+      out.parts.push_back(std::move(hull));
+    }
+    return out;
   } catch (const std::exception& e) {
     return Error{"cannot load " + path + ": " + e.what()};
   }
 }
 
 MeshCache::MeshCache(std::vector<std::string> mesh_roots, std::size_t max_vertices,
-                     PackageResolver resolve_package)
+                     PackageResolver resolve_package, MeshDecomposition mode)
     : mesh_roots_(std::move(mesh_roots)),
       max_vertices_(max_vertices),
-      resolve_package_(std::move(resolve_package)) {}
+      resolve_package_(std::move(resolve_package)),
+      mode_(mode) {}
 
-Expected<core::ConvexShape> MeshCache::load(const std::string& uri, const core::Vec3& scale) {
+Expected<std::vector<core::ConvexShape>> MeshCache::load(const std::string& uri,
+                                                         const core::Vec3& scale) {
   auto path = resolveMeshUri(uri, mesh_roots_, resolve_package_);
   if (!path) return Error{path.error()};
   const auto key = std::make_tuple(*path, scale.x(), scale.y(), scale.z());
@@ -156,12 +280,13 @@ Expected<core::ConvexShape> MeshCache::load(const std::string& uri, const core::
     auto it = cache_.find(key);
     if (it != cache_.end()) return it->second;
   }
-  auto hull = loadMeshHull(*path, scale, max_vertices_);
-  if (!hull) return hull;
+  auto loaded = loadMeshParts(*path, scale, max_vertices_, mode_);
+  if (!loaded) return Error{loaded.error()};
+  if (!loaded->note.empty()) ROS_WARN_STREAM("mesh " << *path << ": " << loaded->note);
   std::lock_guard<std::mutex> lock(mutex_);
   if (cache_.size() >= kMaxEntries) cache_.clear();
-  cache_.emplace(key, *hull);
-  return hull;
+  cache_.emplace(key, loaded->parts);
+  return std::move(loaded->parts);
 }
 
 std::size_t MeshCache::size() const {

@@ -106,7 +106,7 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
         }
         return roots;
       }(),
-      limits_.max_vertices_per_part);
+      limits_.max_vertices_per_part, rosPackagePath, mesh_decomposition_);
   mesh_loader_ = [cache = mesh_cache_.get()](const std::string& uri, const core::Vec3& scale) {
     return cache->load(uri, scale);
   };
@@ -222,6 +222,14 @@ void Monitor::readParameters() {
     param_errors_.push_back("robot_description_param = '" + robot_description_param_ +
                             "' (must be a ROS name, not private); using robot_description");
     robot_description_param_ = "robot_description";
+  }
+  const std::string decomposition =
+      typedParam<std::string>("mesh_decomposition", toString(mesh_decomposition_), "a string");
+  if (const auto mode = parseMeshDecomposition(decomposition)) {
+    mesh_decomposition_ = *mode;
+  } else {
+    param_errors_.push_back("mesh_decomposition = " + quoteInput(decomposition) +
+                            " (must be hull or pieces); using hull");
   }
 
   // A whole number: an int, or a double without a fraction (10000.0; `<param value="1e4"/>`),
@@ -1173,6 +1181,7 @@ void Monitor::setupDiagnostics() {
                       1e3 * mean_cycle, 1e3 / rate, rate, cycles / dt);
     }
     s.add("backend", core::toString(backend_.load()));
+    s.add("mesh decomposition", toString(mesh_decomposition_));
     s.add("fixed_frame", fixed_frame_);
     s.add("bodies", now.bodies);
     s.add("stale bodies", now.stale);

@@ -50,16 +50,18 @@ def wait_for(predicate, timeout, period=0.01):
 
 
 class Monitor:
-    """Publishers, subscribers and service proxies of one monitor under NS."""
+    """Publishers, subscribers and service proxies of one monitor, the node `ns` names (by
+    default /collision_monitor); its diagnostics are told apart by their hardware_id."""
 
-    def __init__(self):
+    def __init__(self, ns=NS):
+        self.node = ns.rstrip('/')
         for s in ('get_distance', 'check_collision', 'list_bodies'):
-            rospy.wait_for_service(NS + s, timeout=30.0)
-        self.get_distance = rospy.ServiceProxy(NS + 'get_distance', GetDistance)
-        self.check_collision = rospy.ServiceProxy(NS + 'check_collision', CheckCollision)
-        self.list_bodies = rospy.ServiceProxy(NS + 'list_bodies', ListBodies)
-        self.bodies_pub = rospy.Publisher(NS + 'bodies', Body, queue_size=100)
-        self.poses_pub = rospy.Publisher(NS + 'body_poses', BodyPoses, queue_size=100,
+            rospy.wait_for_service(ns + s, timeout=30.0)
+        self.get_distance = rospy.ServiceProxy(ns + 'get_distance', GetDistance)
+        self.check_collision = rospy.ServiceProxy(ns + 'check_collision', CheckCollision)
+        self.list_bodies = rospy.ServiceProxy(ns + 'list_bodies', ListBodies)
+        self.bodies_pub = rospy.Publisher(ns + 'bodies', Body, queue_size=100)
+        self.poses_pub = rospy.Publisher(ns + 'body_poses', BodyPoses, queue_size=100,
                                          tcp_nodelay=True)
         self.lock = threading.Lock()
         self.events = []        # (receive wall time, CollisionEvent)
@@ -67,9 +69,9 @@ class Monitor:
         self.states = collections.deque(maxlen=200)  # the latest ~state messages
         self.state_count = 0
         self.diagnostics = None
-        rospy.Subscriber(NS + 'events', CollisionEvent, self._on_event, queue_size=1000,
+        rospy.Subscriber(ns + 'events', CollisionEvent, self._on_event, queue_size=1000,
                          tcp_nodelay=True)
-        rospy.Subscriber(NS + 'state', CollisionState, self._on_state, queue_size=10)
+        rospy.Subscriber(ns + 'state', CollisionState, self._on_state, queue_size=10)
         rospy.Subscriber('/diagnostics', DiagnosticArray, self._on_diag, queue_size=10)
         assert wait_for(lambda: self.bodies_pub.get_num_connections() > 0
                         and self.poses_pub.get_num_connections() > 0, 10.0), \
@@ -87,7 +89,7 @@ class Monitor:
 
     def _on_diag(self, msg):
         for st in msg.status:
-            if 'collision_monitor' in st.name:
+            if st.hardware_id == self.node:
                 self.diagnostics = st
 
     def wait_event(self, etype, a, b, timeout=5.0, since=0.0):

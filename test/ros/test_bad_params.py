@@ -38,9 +38,9 @@ class BadParams(unittest.TestCase):
                     'ttc_horizon', 'marker_rate', 'publish_markers', 'marker_frame_locked',
                     'check_on_pose', 'exact_min_distance', 'backend',
                     'max_bodies', 'max_vertices_per_part', 'max_parts_per_body',
-                    'robot_description_param'):
+                    'robot_description_param', 'mesh_decomposition'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
-        self.assertEqual(len(errors), 16, errors)  # max_unknown_pairs = 1.0 is valid
+        self.assertEqual(len(errors), 17, errors)  # max_unknown_pairs = 1.0 is valid
         # roscpp threw on it: the node exited 1 with only "cannot load ...Nodelet".
         self.assertIn("robot_description_param = 'robot-description' (must be a ROS name, not "
                       "private); using robot_description", errors)
@@ -50,6 +50,8 @@ class BadParams(unittest.TestCase):
         # Not rounded to 3 (roscpp's getParam(int) would): refused, the default (1000) used.
         self.assertIn('max_parts_per_body = 2.5 (must be a whole number > 0); using 1000', errors)
         self.assertIn('ttc_horizon = 0.000000 (must be > 0); using 10.000000', errors)
+        self.assertIn("mesh_decomposition = 'convex' (must be hull or pieces); using hull", errors)
+        self.assertEqual(self.m.diag_value('mesh decomposition', d), 'hull')
         self.assertEqual(self.m.state.header.frame_id, 'world')  # fixed_frame's default
 
     def test_02_defaults_in_effect(self):

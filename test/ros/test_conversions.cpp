@@ -54,10 +54,28 @@ geometry_msgs::Pose pose(double x, double y, double z, double qx = 0, double qy 
 
 /// A mesh loader that must not be called.
 const MeshLoader kNoMeshes = [](const std::string&,
-                                const core::Vec3&) -> Expected<core::ConvexShape> {
+                                const core::Vec3&) -> Expected<std::vector<core::ConvexShape>> {
   ADD_FAILURE() << "mesh loader called";
   return Error{"no meshes"};
 };
+
+/// shapesFromMsg for a part that gives one shape.
+Expected<core::ConvexShape> shapeFromMsg(const collision_monitor::Shape& s, const Limits& limits,
+                                         const MeshLoader& load_mesh) {
+  auto r = shapesFromMsg(s, limits, load_mesh);
+  if (!r) return Error{r.error()};
+  EXPECT_EQ(r->size(), 1u);
+  return r->front();
+}
+
+/// partsFromMsg for a part that gives one world part.
+Expected<world::Part> partFromMsg(const collision_monitor::Shape& s, double padding,
+                                  const Limits& limits, const MeshLoader& load_mesh) {
+  auto r = partsFromMsg(s, padding, limits, load_mesh);
+  if (!r) return Error{r.error()};
+  EXPECT_EQ(r->size(), 1u);
+  return r->front();
+}
 
 bool contains(const std::string& s, const std::string& part) {
   return s.find(part) != std::string::npos;
@@ -185,12 +203,13 @@ TEST(Shape, MeshGoesThroughTheLoader) {
   MeshLoader loader = [&](const std::string& uri, const core::Vec3& scale) {
     seen = uri;
     seen_scale = scale;
-    return Expected<core::ConvexShape>(core::ConvexShape::box(core::Vec3(1, 1, 1)));
+    return Expected<std::vector<core::ConvexShape>>({core::ConvexShape::box(core::Vec3(1, 1, 1))});
   };
   EXPECT_TRUE(shapeFromMsg(s, Limits(), loader));
   EXPECT_EQ(seen, "package://p/m.stl");
   EXPECT_EQ(seen_scale, core::Vec3(1, 1, 1));  // 0,0,0 means 1,1,1
-  MeshLoader failing = [](const std::string&, const core::Vec3&) -> Expected<core::ConvexShape> {
+  MeshLoader failing = [](const std::string&,
+                          const core::Vec3&) -> Expected<std::vector<core::ConvexShape>> {
     return Error{"outside mesh_roots"};
   };
   EXPECT_TRUE(contains(shapeFromMsg(s, Limits(), failing).error(), "outside mesh_roots"));
@@ -525,8 +544,9 @@ TEST_F(MeshUris, CacheIsBounded) {
     const double k = 1.0 + 0.125 * i;  // exact in binary
     auto r = cache.load(uri, core::Vec3(k, 2.0 * k, 4.0 * k));
     ASSERT_TRUE(r) << r.error();
-    EXPECT_EQ(r->support(core::Vec3(1, 0.1, 0.1)), core::Vec3(k, 0, 0));
-    EXPECT_EQ(r->support(core::Vec3(0.1, 0.1, 1)), core::Vec3(0, 0, 4.0 * k));
+    ASSERT_EQ(r->size(), 1u);
+    EXPECT_EQ(r->front().support(core::Vec3(1, 0.1, 0.1)), core::Vec3(k, 0, 0));
+    EXPECT_EQ(r->front().support(core::Vec3(0.1, 0.1, 1)), core::Vec3(0, 0, 4.0 * k));
     ASSERT_LE(cache.size(), MeshCache::kMaxEntries);
   }
   EXPECT_EQ(cache.size(), 300 - MeshCache::kMaxEntries);

@@ -1,17 +1,24 @@
-// Plain gtests (no master) of URDF -> bodies and SRDF parsing on the real Panda and PR2
-// descriptions of example-robot-data (CM_ROBOT_DATA, default ../shared/data).
+// Plain gtests (no master) of URDF -> bodies, SRDF parsing and meshes split into pieces on the
+// real Panda and PR2 descriptions of example-robot-data (CM_ROBOT_DATA, default ../shared/data).
 #include <pthread.h>
 
 #include <algorithm>
+#include <array>
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <set>
 #include <sstream>
 #include <string>
+#include <tuple>
+#include <vector>
 
+#include <geometric_shapes/mesh_operations.h>
+#include <geometric_shapes/shapes.h>
 #include <gtest/gtest.h>
 
+#include "collision_monitor/core/query.h"
 #include "collision_monitor/ros/mesh_loader.h"
 #include "collision_monitor/ros/robot_model.h"
 
@@ -143,6 +150,207 @@ TEST(Urdf, Pr2MeshesLoadAsHulls) {
   EXPECT_TRUE(robot->errors.empty()) << robot->errors.front();
   EXPECT_EQ(robot->bodies.size(), 32u);
   EXPECT_EQ(robot->root_link, "base_footprint");
+}
+
+namespace {
+
+using Tri = std::array<std::size_t, 3>;
+
+/// A tetrahedron as an STL stores it: every triangle with its own copies of its corners (so
+/// pieces join by position, not by index). The first `faces` of its 4 faces.
+void addTetrahedron(const std::array<core::Vec3, 4>& c, int faces, std::vector<core::Vec3>* v,
+                    std::vector<Tri>* t) {
+  const int f[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+  for (int k = 0; k < faces; ++k) {
+    t->push_back({v->size(), v->size() + 1, v->size() + 2});
+    for (int j = 0; j < 3; ++j)
+      v->push_back(c[f[k][j]]);
+  }
+}
+
+/// The corner tetrahedron at `o` with edges `size` along the axes.
+std::array<core::Vec3, 4> corner(const core::Vec3& o, double size) {
+  return {o, o + size * core::Vec3::UnitX(), o + size * core::Vec3::UnitY(),
+          o + size * core::Vec3::UnitZ()};
+}
+
+std::set<std::tuple<double, double, double>> asSet(const std::vector<core::Vec3>& points) {
+  std::set<std::tuple<double, double, double>> out;
+  for (const auto& p : points)
+    out.emplace(p.x(), p.y(), p.z());
+  return out;
+}
+
+std::string pr2Mesh(const std::string& name) {
+  return robotData() + "/robots/pr2_description/meshes/" + name;
+}
+
+double signedDistance(const core::ConvexShape& a, const core::ConvexShape& b) {
+  const auto id = core::Transform3::Identity();
+  return core::signedDistance(a, id, b, id).distance;
+}
+
+}  // namespace
+
+TEST(MeshPieces, ClosedPiecesJoinByPosition) {
+  using V = core::Vec3;
+  std::vector<V> v;
+  std::vector<Tri> t;
+  addTetrahedron(corner(V(0, 0, 0), 1.0), 4, &v, &t);
+  addTetrahedron(corner(V(5, 0, 0), 2.0), 4, &v, &t);
+  MeshPieces split = meshPieces(v, t);
+  EXPECT_EQ(split.open, "");
+  ASSERT_EQ(split.pieces.size(), 2u);
+  // Each piece's distinct corners, once.
+  EXPECT_EQ(split.pieces[0].size(), 4u);
+  EXPECT_EQ(asSet(split.pieces[0]), asSet({V(0, 0, 0), V(1, 0, 0), V(0, 1, 0), V(0, 0, 1)}));
+  EXPECT_EQ(asSet(split.pieces[1]), asSet({V(5, 0, 0), V(7, 0, 0), V(5, 2, 0), V(5, 0, 2)}));
+  // A tetrahedron sharing one corner with the first joins it.
+  addTetrahedron(corner(V(1, 0, 0), 1.0), 4, &v, &t);
+  split = meshPieces(v, t);
+  EXPECT_EQ(split.open, "");
+  ASSERT_EQ(split.pieces.size(), 2u);
+  EXPECT_EQ(split.pieces[0].size(), 7u);
+  // One sharing an edge (then on four triangles: closed, not manifold) joins too.
+  addTetrahedron({V(5, 0, 0), V(7, 0, 0), V(5, -1, 0), V(5, 0, -1)}, 4, &v, &t);
+  split = meshPieces(v, t);
+  EXPECT_EQ(split.open, "");
+  ASSERT_EQ(split.pieces.size(), 2u);
+  EXPECT_EQ(split.pieces[1].size(), 6u);
+}
+
+TEST(MeshPieces, OpenPiecesStrayVerticesAndBadIndicesAreNamed) {
+  using V = core::Vec3;
+  std::vector<V> v;
+  std::vector<Tri> t;
+  addTetrahedron(corner(V(0, 0, 0), 1.0), 4, &v, &t);
+  addTetrahedron(corner(V(5, 0, 0), 1.0), 3, &v, &t);  // one face missing
+  EXPECT_EQ(meshPieces(v, t).open, "piece 2 of 2 is not closed (an edge on 1 triangle)");
+  std::vector<V> v2;
+  std::vector<Tri> t2;
+  addTetrahedron(corner(V(0, 0, 0), 1.0), 4, &v2, &t2);
+  v2.emplace_back(9, 9, 9);
+  EXPECT_EQ(meshPieces(v2, t2).open, "vertex 12 is on no triangle");
+  t2.push_back({0, 1, 13});
+  EXPECT_EQ(meshPieces(v2, t2).open, "triangle 4 has a vertex index out of range");
+  EXPECT_EQ(meshPieces({}, {}).pieces.size(), 0u);
+  EXPECT_EQ(meshPieces({}, {}).open, "");
+}
+
+TEST(MeshPieces, Pr2UpperArmRollIsThreeClosedPiecesTighterThanItsHull) {
+  const std::string path = pr2Mesh("shoulder_v0/upper_arm_roll_L.stl");
+  auto hull = loadMeshParts(path, core::Vec3(1, 1, 1), 100000, MeshDecomposition::Hull);
+  auto pieces = loadMeshParts(path, core::Vec3(1, 1, 1), 100000, MeshDecomposition::Pieces);
+  ASSERT_TRUE(hull) << hull.error();
+  ASSERT_TRUE(pieces) << pieces.error();
+  ASSERT_EQ(hull->parts.size(), 1u);
+  ASSERT_EQ(pieces->parts.size(), 3u);  // a disc and two blocks (STL: 100 triangles)
+  EXPECT_EQ(pieces->note, "");
+  // Conservative: every vertex of the mesh lies in a piece.
+  std::unique_ptr<shapes::Mesh> mesh(shapes::createMeshFromResource("file://" + path));
+  ASSERT_TRUE(mesh);
+  for (unsigned i = 0; i < mesh->vertex_count; ++i) {
+    const auto p = core::ConvexShape::point(
+        core::Vec3(mesh->vertices[3 * i], mesh->vertices[3 * i + 1], mesh->vertices[3 * i + 2]));
+    double best = 1e9;
+    for (const auto& part : pieces->parts)
+      best = std::min(best, signedDistance(part, p));
+    EXPECT_LE(best, 1e-12) << "vertex " << i;
+  }
+  // Tighter: a point between the two blocks, beyond the disc's face (x = its largest x), is
+  // inside the one hull and that far from the pieces.
+  const auto probe = core::ConvexShape::point(core::Vec3(0.135, 0.0, 0.0));
+  EXPECT_LT(signedDistance(hull->parts[0], probe), -0.005);
+  double disc_face = -1e9;  // the disc is the piece reaching lowest in x
+  double nearest = 1e9;
+  for (const auto& part : pieces->parts) {
+    if (part.support(-core::Vec3::UnitX()).x() < 0.12)
+      disc_face = part.support(core::Vec3::UnitX()).x();
+    nearest = std::min(nearest, signedDistance(part, probe));
+  }
+  EXPECT_NEAR(disc_face, 0.1214, 5e-5);
+  EXPECT_NEAR(nearest, 0.135 - disc_face, 1e-12);
+}
+
+TEST(MeshPieces, AnOpenPieceKeepsTheWholeHull) {
+  // PR2's full-detail head_tilt.stl (not its collision mesh): 9 pieces, two of them open.
+  const std::string path = pr2Mesh("head_v0/head_tilt.stl");
+  auto pieces = loadMeshParts(path, core::Vec3(1, 1, 1), 100000, MeshDecomposition::Pieces);
+  ASSERT_TRUE(pieces) << pieces.error();
+  EXPECT_EQ(pieces->parts.size(), 1u);
+  EXPECT_EQ(pieces->note,
+            "not split into pieces: piece 3 of 9 is not closed (an edge on 1 triangle); one "
+            "convex hull");
+  auto hull = loadMeshParts(path, core::Vec3(1, 1, 1), 100000, MeshDecomposition::Hull);
+  ASSERT_TRUE(hull);
+  EXPECT_EQ(hull->note, "");
+  const auto far = core::ConvexShape::point(core::Vec3(1, 2, 3));
+  EXPECT_EQ(signedDistance(pieces->parts[0], far), signedDistance(hull->parts[0], far));
+  // One piece is its hull, closed or not, without a note (torso_lift_L.stl has a boundary).
+  pieces = loadMeshParts(pr2Mesh("torso_v0/torso_lift_L.stl"), core::Vec3(1, 1, 1), 100000,
+                         MeshDecomposition::Pieces);
+  ASSERT_TRUE(pieces) << pieces.error();
+  EXPECT_EQ(pieces->parts.size(), 1u);
+  EXPECT_EQ(pieces->note, "");
+}
+
+TEST(MeshPieces, Pr2InPiecesHasFiveMorePartsAndTheLimitCountsThem) {
+  const std::string xml = readFile(robotData() + "/robots/pr2_description/urdf/pr2.urdf");
+  ASSERT_FALSE(xml.empty());
+  std::map<std::string, std::size_t> parts[2];
+  for (int mode = 0; mode < 2; ++mode) {
+    MeshCache cache({}, 100000, resolver(),
+                    mode == 0 ? MeshDecomposition::Hull : MeshDecomposition::Pieces);
+    MeshLoader loader = [&](const std::string& uri, const core::Vec3& s) {
+      return cache.load(uri, s);
+    };
+    auto robot = bodiesFromUrdf(xml, 0.0, Limits(), loader);
+    ASSERT_TRUE(robot) << robot.error();
+    EXPECT_TRUE(robot->errors.empty()) << robot->errors.front();
+    for (const auto& b : robot->bodies)
+      parts[mode][b.id] = b.parts.size();
+  }
+  ASSERT_EQ(parts[0].size(), 32u);
+  ASSERT_EQ(parts[1].size(), 32u);
+  // upper_arm_roll_L.stl (both arms) is 3 pieces, tilting_hokuyo_L.stl 2; the rest one each.
+  std::size_t more = 0;
+  for (const auto& [id, n] : parts[0])
+    more += parts[1].at(id) - n;
+  EXPECT_EQ(more, 5u);
+  EXPECT_EQ(parts[1].at("r_upper_arm_roll_link"), parts[0].at("r_upper_arm_roll_link") + 2);
+  EXPECT_EQ(parts[1].at("l_upper_arm_roll_link"), parts[0].at("l_upper_arm_roll_link") + 2);
+
+  // max_parts_per_body counts the pieces: a body of that one mesh part is refused at 2.
+  MeshCache cache({}, 100000, resolver(), MeshDecomposition::Pieces);
+  MeshLoader loader = [&](const std::string& uri, const core::Vec3& s) {
+    return cache.load(uri, s);
+  };
+  collision_monitor::Body msg;
+  msg.id = "arm";
+  msg.header.frame_id = "world";
+  msg.parts.resize(1);
+  msg.parts[0].type = collision_monitor::Shape::MESH;
+  msg.parts[0].resource =
+      "package://example-robot-data/robots/pr2_description/meshes/shoulder_v0/upper_arm_roll_L.stl";
+  Limits limits;
+  limits.max_parts_per_body = 3;
+  auto ok = bodyFromMsg(msg, world::BodyOrigin::Topic, limits, loader);
+  ASSERT_TRUE(ok) << ok.error();
+  EXPECT_EQ(ok->parts.size(), 3u);
+  limits.max_parts_per_body = 2;
+  auto refused = bodyFromMsg(msg, world::BodyOrigin::Topic, limits, loader);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error(),
+            "with its mesh pieces the body has 3 parts by part 0, more than max_parts_per_body 2");
+}
+
+TEST(MeshPieces, ModeNames) {
+  EXPECT_EQ(parseMeshDecomposition("hull"), MeshDecomposition::Hull);
+  EXPECT_EQ(parseMeshDecomposition("pieces"), MeshDecomposition::Pieces);
+  EXPECT_FALSE(parseMeshDecomposition("Pieces"));
+  EXPECT_FALSE(parseMeshDecomposition(""));
+  EXPECT_STREQ(toString(MeshDecomposition::Pieces), "pieces");
+  EXPECT_STREQ(toString(MeshDecomposition::Hull), "hull");
 }
 
 TEST(Srdf, PandaDisabledPairs) {

@@ -400,14 +400,14 @@ TEST(InputStrings, BodyNamesAreLimited) {
 TEST(InputStrings, MeshResourceIsLimitedAndNotEchoed) {
   Limits limits;
   int calls = 0;
-  const MeshLoader refuse = [&calls](const std::string&,
-                                     const core::Vec3&) -> Expected<core::ConvexShape> {
+  const MeshLoader refuse =
+      [&calls](const std::string&, const core::Vec3&) -> Expected<std::vector<core::ConvexShape>> {
     ++calls;
     return Error{"outside mesh_roots"};
   };
   collision_monitor::Shape s = shape(collision_monitor::Shape::MESH, {});
   s.resource = "file:///" + std::string(100 << 20, '.');
-  auto r = shapeFromMsg(s, limits, refuse);
+  auto r = shapesFromMsg(s, limits, refuse);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(calls, 0);  // refused before the loader runs
   EXPECT_TRUE(
@@ -415,7 +415,7 @@ TEST(InputStrings, MeshResourceIsLimitedAndNotEchoed) {
       << r.error().substr(0, 300);
   EXPECT_LT(r.error().size(), 400u);
   s.resource = "file:///" + std::string(kMaxResourceLength - 8, 'a');
-  r = shapeFromMsg(s, limits, refuse);
+  r = shapesFromMsg(s, limits, refuse);
   ASSERT_FALSE(r.ok());
   EXPECT_EQ(calls, 1);
   EXPECT_LT(r.error().size(), 400u) << r.error();
@@ -444,9 +444,9 @@ TEST(InputStrings, BodyPosesNamesAreLimited) {
 
 TEST(InputStrings, MeshVertexCountIsCheckedBeforeHulling) {
   const std::string path = std::string(CM_SOURCE_DIR) + "/meshes/gripper.stl";
-  auto hull = loadMeshHull(path, core::Vec3(1, 1, 1), 100000);
+  auto hull = loadMeshParts(path, core::Vec3(1, 1, 1), 100000);
   ASSERT_TRUE(hull.ok()) << hull.error();
-  auto r = loadMeshHull(path, core::Vec3(1, 1, 1), 3);
+  auto r = loadMeshParts(path, core::Vec3(1, 1, 1), 3);
   ASSERT_FALSE(r.ok());
   // The mesh's own count, not its hull's: refused before hulling.
   EXPECT_TRUE(contains(r.error(), "vertices, more than max_vertices_per_part 3")) << r.error();

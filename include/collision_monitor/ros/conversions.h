@@ -83,11 +83,12 @@ struct Limits {
   std::size_t max_parts_per_body = 1000;
 };
 
-/// Loads a MESH part: `uri` (package:// or file://) scaled by `scale` -> its convex hull, or the
-/// reason it cannot be (outside mesh_roots, unreadable, too many vertices, ...). The node passes
-/// a caching loader confined to mesh_roots (mesh_loader.h); tests pass fakes.
-using MeshLoader =
-    std::function<Expected<core::ConvexShape>(const std::string& uri, const core::Vec3& scale)>;
+/// Loads a MESH part: `uri` (package:// or file://) scaled by `scale` -> its convex hull (or one
+/// per piece, parameter `mesh_decomposition`), or the reason it cannot be (outside mesh_roots,
+/// unreadable, too many vertices, ...). The node passes a caching loader confined to mesh_roots
+/// (mesh_loader.h); tests pass fakes.
+using MeshLoader = std::function<Expected<std::vector<core::ConvexShape>>(const std::string& uri,
+                                                                          const core::Vec3& scale)>;
 
 /// A geometry_msgs/Pose as a rigid transform. Refuses non-finite values and quaternions whose
 /// norm is off by more than kQuaternionTolerance (a zero quaternion per `zero`).
@@ -99,16 +100,18 @@ std::optional<std::uint8_t> shapeTypeFromString(const std::string& name);
 /// Shape type constant -> lower-case name ("sphere"); "type N" when unknown.
 std::string shapeTypeName(std::uint8_t type);
 
-/// One Shape message -> its convex shape (unpadded, in the part frame).
-Expected<core::ConvexShape> shapeFromMsg(const collision_monitor::Shape& msg, const Limits& limits,
-                                         const MeshLoader& load_mesh);
+/// One Shape message -> its convex shapes (unpadded, in the part frame): one, or a mesh's pieces.
+Expected<std::vector<core::ConvexShape>> shapesFromMsg(const collision_monitor::Shape& msg,
+                                                       const Limits& limits,
+                                                       const MeshLoader& load_mesh);
 
-/// One Shape message -> a world part (shape padded by `padding`, placed by msg.pose).
-Expected<world::Part> partFromMsg(const collision_monitor::Shape& msg, double padding,
-                                  const Limits& limits, const MeshLoader& load_mesh);
+/// One Shape message -> world parts (shapes padded by `padding`, placed by msg.pose).
+Expected<std::vector<world::Part>> partsFromMsg(const collision_monitor::Shape& msg, double padding,
+                                                const Limits& limits, const MeshLoader& load_mesh);
 
 /// A Body message with operation ADD -> the world's body spec. Errors name the part
-/// ("part 1 (sphere): negative radius -1").
+/// ("part 1 (sphere): negative radius -1"). max_parts_per_body counts the message's parts, and
+/// again the world parts they became (a mesh split into pieces is several).
 Expected<world::BodySpec> bodyFromMsg(const collision_monitor::Body& msg, world::BodyOrigin origin,
                                       const Limits& limits, const MeshLoader& load_mesh);
 

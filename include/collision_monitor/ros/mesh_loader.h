@@ -1,5 +1,5 @@
 /// \file
-/// Mesh parts: where a mesh URI may point, and loading it as a convex hull.
+/// Mesh parts: where a mesh URI may point, and loading it as a convex hull (or one per piece).
 ///
 /// A MESH resource is resolved to a canonical path (realpath: symlinks and `..` resolved) before
 /// anything is read, and refused unless that path is a regular file inside
@@ -10,9 +10,11 @@
 /// URI), so what is loaded is what was checked.
 #pragma once
 
+#include <array>
 #include <functional>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -35,21 +37,52 @@ Expected<std::string> resolveMeshUri(const std::string& uri,
                                      const std::vector<std::string>& mesh_roots,
                                      const PackageResolver& resolve_package);
 
-/// Loads the mesh file at `path` (STL/DAE/OBJ via geometric_shapes/assimp), scaled, and returns
-/// its convex hull; refused when the mesh has more than `max_vertices` (distinct) vertices,
-/// checked right after loading and before hulling, or when it has no vertices.
-Expected<core::ConvexShape> loadMeshHull(const std::string& path, const core::Vec3& scale,
-                                         std::size_t max_vertices);
+/// How a MESH part becomes convex parts (parameter `mesh_decomposition`).
+enum class MeshDecomposition {
+  Hull,    ///< "hull": the convex hull of all its vertices (the default)
+  Pieces,  ///< "pieces": one hull per closed connected piece (meshPieces()); else the whole hull
+};
+/// "hull" / "pieces" -> the mode; nullopt for anything else.
+std::optional<MeshDecomposition> parseMeshDecomposition(const std::string& name);
+const char* toString(MeshDecomposition mode);
 
-/// resolveMeshUri + loadMeshHull with a cache of hulls by (canonical path, scale): the PR2 uses the
-/// same wheel mesh eight times. Thread-safe.
+/// A triangle mesh's connected pieces: triangles that share a vertex position (compared exactly,
+/// so an STL's repeated corners join) are one piece. `open` is empty when every piece is closed
+/// (each of its edges is shared by an even number of its triangles, so it bounds a volume that
+/// its hull contains) and every vertex is on a triangle; otherwise it says why not: the union of
+/// the pieces' hulls would then not cover the body (a box of six unjoined faces is hollow).
+struct MeshPieces {
+  std::vector<std::vector<core::Vec3>> pieces;  ///< vertex positions, pieces by first triangle
+  std::string open;
+};
+MeshPieces meshPieces(const std::vector<core::Vec3>& vertices,
+                      const std::vector<std::array<std::size_t, 3>>& triangles);
+
+/// A mesh file's convex parts.
+struct MeshParts {
+  std::vector<core::ConvexShape> parts;
+  std::string note;  ///< why `Pieces` fell back to one hull (an open piece); empty otherwise
+};
+
+/// Loads the mesh file at `path` (STL/DAE/OBJ via geometric_shapes/assimp), scaled, and returns
+/// its convex hull, or with `Pieces` one hull per piece; refused when the mesh has more than
+/// `max_vertices` (distinct) vertices, checked right after loading and before hulling, when a
+/// hull has more, or when it has no vertices.
+Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& scale,
+                                  std::size_t max_vertices,
+                                  MeshDecomposition mode = MeshDecomposition::Hull);
+
+/// resolveMeshUri + loadMeshParts with a cache of parts by (canonical path, scale): the PR2 uses
+/// the same wheel mesh eight times. A fallback's note is logged once, when the mesh loads.
+/// Thread-safe.
 class MeshCache {
  public:
   MeshCache(std::vector<std::string> mesh_roots, std::size_t max_vertices,
-            PackageResolver resolve_package = rosPackagePath);
-  Expected<core::ConvexShape> load(const std::string& uri, const core::Vec3& scale);
+            PackageResolver resolve_package = rosPackagePath,
+            MeshDecomposition mode = MeshDecomposition::Hull);
+  Expected<std::vector<core::ConvexShape>> load(const std::string& uri, const core::Vec3& scale);
   const std::vector<std::string>& meshRoots() const { return mesh_roots_; }
-  /// Hulls kept (path, scale). Past kMaxEntries the cache starts again empty: a stream of bodies
+  /// Meshes kept (path, scale). Past kMaxEntries the cache starts again empty: a stream of bodies
   /// with ever new scales cannot grow it without bound (bodies keep their own hulls).
   std::size_t size() const;
   static constexpr std::size_t kMaxEntries = 256;
@@ -58,8 +91,9 @@ class MeshCache {
   std::vector<std::string> mesh_roots_;
   std::size_t max_vertices_;
   PackageResolver resolve_package_;
+  MeshDecomposition mode_;
   mutable std::mutex mutex_;
-  std::map<std::tuple<std::string, double, double, double>, core::ConvexShape> cache_;
+  std::map<std::tuple<std::string, double, double, double>, std::vector<core::ConvexShape>> cache_;
 };
 
 }  // namespace ros_layer

@@ -167,6 +167,7 @@ class Monitor {
   bool markers_published_ = false;  ///< loop thread: arrays went out since the last clear
   double robot_padding_ = 0.0;
   std::string robot_description_param_ = "robot_description";
+  MeshDecomposition mesh_decomposition_ = MeshDecomposition::Hull;  ///< start-up only
   std::vector<std::string> param_errors_;  ///< invalid parameters (fell back to defaults)
 
   ros::NodeHandle nh_;
