@@ -205,7 +205,8 @@ MeshPieces meshPieces(const std::vector<core::Vec3>& vertices,
 }
 
 Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& scale,
-                                  std::size_t max_vertices, MeshDecomposition mode) {
+                                  std::size_t max_vertices, MeshDecomposition mode,
+                                  std::size_t max_parts) {
   try {
     std::unique_ptr<shapes::Mesh> mesh(shapes::createMeshFromResource(
         "file://" + path, Eigen::Vector3d(scale.x(), scale.y(), scale.z())));
@@ -241,6 +242,9 @@ Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& sca
       // One piece is its hull either way, closed or not (many collision meshes are open).
       if (split.pieces.size() != 1 && !split.open.empty()) {
         out.note = "not split into pieces: " + split.open + "; one convex hull";
+      } else if (split.pieces.size() > max_parts) {
+        return Error{path + " has " + std::to_string(split.pieces.size()) +
+                     " pieces, more than max_parts_per_body " + std::to_string(max_parts)};
       } else if (split.pieces.size() > 1) {
         pieces = std::move(split.pieces);
       }
@@ -264,11 +268,12 @@ Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& sca
 }
 
 MeshCache::MeshCache(std::vector<std::string> mesh_roots, std::size_t max_vertices,
-                     PackageResolver resolve_package, MeshDecomposition mode)
+                     PackageResolver resolve_package, MeshDecomposition mode, std::size_t max_parts)
     : mesh_roots_(std::move(mesh_roots)),
       max_vertices_(max_vertices),
       resolve_package_(std::move(resolve_package)),
-      mode_(mode) {}
+      mode_(mode),
+      max_parts_(max_parts) {}
 
 Expected<std::vector<core::ConvexShape>> MeshCache::load(const std::string& uri,
                                                          const core::Vec3& scale) {
@@ -280,7 +285,7 @@ Expected<std::vector<core::ConvexShape>> MeshCache::load(const std::string& uri,
     auto it = cache_.find(key);
     if (it != cache_.end()) return it->second;
   }
-  auto loaded = loadMeshParts(*path, scale, max_vertices_, mode_);
+  auto loaded = loadMeshParts(*path, scale, max_vertices_, mode_, max_parts_);
   if (!loaded) return Error{loaded.error()};
   if (!loaded->note.empty()) ROS_WARN_STREAM("mesh " << *path << ": " << loaded->note);
   std::lock_guard<std::mutex> lock(mutex_);

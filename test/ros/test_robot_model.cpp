@@ -342,6 +342,13 @@ TEST(MeshPieces, Pr2InPiecesHasFiveMorePartsAndTheLimitCountsThem) {
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error(),
             "with its mesh pieces the body has 3 parts by part 0, more than max_parts_per_body 2");
+  // The node's loader knows the limit too: a mesh of more pieces is refused before they are
+  // hulled (a file of 25,000 closed tetrahedra would otherwise make 25,000 hulls first).
+  const std::string path = pr2Mesh("shoulder_v0/upper_arm_roll_L.stl");
+  auto too_many = loadMeshParts(path, core::Vec3(1, 1, 1), 100000, MeshDecomposition::Pieces, 2);
+  ASSERT_FALSE(too_many);
+  EXPECT_EQ(too_many.error(), path + " has 3 pieces, more than max_parts_per_body 2");
+  EXPECT_TRUE(loadMeshParts(path, core::Vec3(1, 1, 1), 100000, MeshDecomposition::Pieces, 3));
 }
 
 TEST(MeshPieces, ModeNames) {

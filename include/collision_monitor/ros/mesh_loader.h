@@ -11,6 +11,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <functional>
 #include <map>
 #include <mutex>
@@ -67,10 +68,12 @@ struct MeshParts {
 /// Loads the mesh file at `path` (STL/DAE/OBJ via geometric_shapes/assimp), scaled, and returns
 /// its convex hull, or with `Pieces` one hull per piece; refused when the mesh has more than
 /// `max_vertices` (distinct) vertices, checked right after loading and before hulling, when a
-/// hull has more, or when it has no vertices.
+/// hull has more, when it has no vertices, or when it has more than `max_parts` pieces to split
+/// into (checked before hulling them).
 Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& scale,
                                   std::size_t max_vertices,
-                                  MeshDecomposition mode = MeshDecomposition::Hull);
+                                  MeshDecomposition mode = MeshDecomposition::Hull,
+                                  std::size_t max_parts = SIZE_MAX);
 
 /// resolveMeshUri + loadMeshParts with a cache of parts by (canonical path, scale): the PR2 uses
 /// the same wheel mesh eight times. A fallback's note is logged once, when the mesh loads.
@@ -79,7 +82,7 @@ class MeshCache {
  public:
   MeshCache(std::vector<std::string> mesh_roots, std::size_t max_vertices,
             PackageResolver resolve_package = rosPackagePath,
-            MeshDecomposition mode = MeshDecomposition::Hull);
+            MeshDecomposition mode = MeshDecomposition::Hull, std::size_t max_parts = SIZE_MAX);
   Expected<std::vector<core::ConvexShape>> load(const std::string& uri, const core::Vec3& scale);
   const std::vector<std::string>& meshRoots() const { return mesh_roots_; }
   /// Meshes kept (path, scale). Past kMaxEntries the cache starts again empty: a stream of bodies
@@ -92,6 +95,7 @@ class MeshCache {
   std::size_t max_vertices_;
   PackageResolver resolve_package_;
   MeshDecomposition mode_;
+  std::size_t max_parts_;
   mutable std::mutex mutex_;
   std::map<std::tuple<std::string, double, double, double>, std::vector<core::ConvexShape>> cache_;
 };
