@@ -51,6 +51,41 @@ bool inside(const std::string& path, const std::string& dir) {
   return startsWith(path, dir) && (path.size() == dir.size() || path[dir.size()] == '/');
 }
 
+/// The pieces of `mesh` (vertices `points`) for MeshDecomposition::Pieces; empty, for one hull,
+/// when it is one piece or is not split (`note` then says why).
+std::vector<std::vector<core::Vec3>> splitMesh(const shapes::Mesh& mesh,
+                                               const std::vector<core::Vec3>& points,
+                                               std::size_t max_vertices, std::size_t max_parts,
+                                               std::string* note) {
+  if (mesh.triangle_count > kMaxTrianglesPerVertex * max_vertices) {
+    // A closed mesh has about two triangles per vertex; this bounds the edge list and its sort.
+    *note = "not split into pieces: " + std::to_string(mesh.triangle_count) +
+            " triangles, more than " + std::to_string(kMaxTrianglesPerVertex) +
+            " x max_vertices_per_part; one convex hull";
+    return {};
+  }
+  std::vector<std::array<std::size_t, 3>> triangles(mesh.triangle_count);
+  for (unsigned t = 0; t < mesh.triangle_count; ++t) {
+    for (int k = 0; k < 3; ++k)
+      triangles[t][k] = mesh.triangles[3 * t + k];
+  }
+  MeshPieces split = meshPieces(points, triangles);
+  // One piece is its hull either way, closed or not (many collision meshes are open).
+  if (split.pieces.size() == 1) return {};
+  if (!split.open.empty()) {
+    *note = "not split into pieces: " + split.open + "; one convex hull";
+    return {};
+  }
+  if (split.pieces.size() > max_parts) {
+    // Decided before hulling them; the body keeps the geometry `hull` would give it.
+    *note = "not split into pieces: " + std::to_string(split.pieces.size()) +
+            " pieces, more than max_parts_per_body " + std::to_string(max_parts) +
+            "; one convex hull";
+    return {};
+  }
+  return std::move(split.pieces);
+}
+
 }  // namespace
 
 std::string rosPackagePath(const std::string& package) {
@@ -180,7 +215,7 @@ MeshPieces meshPieces(const std::vector<core::Vec3>& vertices,
     const std::size_t v = weld[order[k]];
     if (k > 0 && v == weld[order[k - 1]]) continue;  // a repeated position
     if (!used[v]) {
-      out.open = "vertex " + std::to_string(order[k]) + " is on no triangle";
+      if (out.open.empty()) out.open = "vertex " + std::to_string(order[k]) + " is on no triangle";
     } else {
       out.pieces[piece_of[root(v)]].push_back(vertices[order[k]]);
     }
@@ -232,23 +267,8 @@ Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& sca
 
     MeshParts out;
     std::vector<std::vector<core::Vec3>> pieces;
-    if (mode == MeshDecomposition::Pieces) {
-      std::vector<std::array<std::size_t, 3>> triangles(mesh->triangle_count);
-      for (unsigned t = 0; t < mesh->triangle_count; ++t) {
-        for (int k = 0; k < 3; ++k)
-          triangles[t][k] = mesh->triangles[3 * t + k];
-      }
-      MeshPieces split = meshPieces(points, triangles);
-      // One piece is its hull either way, closed or not (many collision meshes are open).
-      if (split.pieces.size() != 1 && !split.open.empty()) {
-        out.note = "not split into pieces: " + split.open + "; one convex hull";
-      } else if (split.pieces.size() > max_parts) {
-        return Error{path + " has " + std::to_string(split.pieces.size()) +
-                     " pieces, more than max_parts_per_body " + std::to_string(max_parts)};
-      } else if (split.pieces.size() > 1) {
-        pieces = std::move(split.pieces);
-      }
-    }
+    if (mode == MeshDecomposition::Pieces)
+      pieces = splitMesh(*mesh, points, max_vertices, max_parts, &out.note);
     if (pieces.empty()) pieces.push_back(std::move(points));
     for (std::size_t i = 0; i < pieces.size(); ++i) {
       core::ConvexShape hull = core::ConvexShape::convexHull(pieces[i]);

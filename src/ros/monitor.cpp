@@ -127,7 +127,11 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   for (const auto& e : param_errors_)
     ROS_ERROR_STREAM(name_ << ": invalid parameter " << e);
 
-  events_pub_ = pnh_.advertise<collision_monitor::CollisionEvent>("events", 100);
+  // One check may send a transition per pair at once (a pile landing on a robot, TF stopping:
+  // every pair UNKNOWN), back to back; roscpp drops the oldest beyond the queue of a subscriber
+  // link, so it holds 10,000 (60 touching spheres: 1,158 BEGINs in one check, of which a
+  // queue of 100 delivered 101 to 202).
+  events_pub_ = pnh_.advertise<collision_monitor::CollisionEvent>("events", kEventsQueue);
   state_pub_ = pnh_.advertise<collision_monitor::CollisionState>("state", 10);
   // A new subscriber gets every body in the next array, not only as their refreshes come due:
   // noticed by its callback, or sooner by the count of subscribers (runCycle()); the callback
@@ -159,7 +163,8 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
     std::lock_guard<std::mutex> lock(world_mutex_);
     ROS_INFO_STREAM(name_ << ": monitoring " << world_->size() << " bodies in frame '"
                           << fixed_frame_ << "' at " << rate_.load() << " Hz with backend "
-                          << core::toString(settings_.backend));
+                          << core::toString(settings_.backend) << ", meshes as "
+                          << toString(mesh_decomposition_));
   }
   loop_thread_ = std::thread([this] { loopThread(); });
   diagnostics_thread_ = std::thread([this] { diagnosticsThread(); });
@@ -503,8 +508,9 @@ bool Monitor::removeBody(const std::string& id, std::string* why) {
     std::lock_guard<std::mutex> lock(world_mutex_);
     auto it = tracked_.find(id);
     if (it == tracked_.end()) {
-      *why = "unknown body";
-      return false;
+      // Nothing to do: a second REMOVE, or a latched one replayed to a restarted monitor.
+      ROS_DEBUG_STREAM(name_ << ": ~bodies: REMOVE of " << quoteInput(id) << ": no such body");
+      return true;
     }
     if (it->second.origin != world::BodyOrigin::Topic) {
       *why = std::string("declared by the ") + world::toString(it->second.origin) +

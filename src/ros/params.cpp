@@ -101,7 +101,7 @@ collision_monitor::Shape shape(const XmlRpcValue& v, const std::string& field) {
   if (t.getType() == XmlRpcValue::TypeInt) {
     const int n = static_cast<const int&>(t);
     if (n < 0 || n > 255) fail(field + ".type", "unknown shape type " + std::to_string(n));
-    s.type = static_cast<std::uint8_t>(n);  // range checked by shapeFromMsg
+    s.type = static_cast<std::uint8_t>(n);  // range checked by shapesFromMsg
   } else {
     const std::string name = string(t, field + ".type");
     auto type = shapeTypeFromString(name);

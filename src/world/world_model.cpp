@@ -830,7 +830,12 @@ std::string WorldModel::addBody(BodySpec spec) {
       return "body '" + spec.id + "' refused: the id is already declared by the " +
              toString(b.spec.origin) + " and cannot be replaced from the " + toString(spec.origin);
     }
-    const bool same_source = b.spec.frame == spec.frame && b.spec.pose_source == spec.pose_source;
+    // The held pose stays while it still comes from the same place: a TF body's frame, a topic
+    // body's pose_topic (empty: ~body_poses). A topic body's frame poses nothing.
+    const bool same_source =
+        b.spec.pose_source == spec.pose_source &&
+        (spec.pose_source == PoseSource::Topic ? b.spec.pose_topic == spec.pose_topic
+                                               : b.spec.frame == spec.frame);
     b.spec = std::move(spec);
     b.group = m.groupId(b.spec.group);
     ++b.version;

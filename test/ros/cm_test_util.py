@@ -69,7 +69,7 @@ class Monitor:
         self.states = collections.deque(maxlen=200)  # the latest ~state messages
         self.state_count = 0
         self.diagnostics = None
-        rospy.Subscriber(ns + 'events', CollisionEvent, self._on_event, queue_size=1000,
+        rospy.Subscriber(ns + 'events', CollisionEvent, self._on_event, queue_size=100000,
                          tcp_nodelay=True)
         rospy.Subscriber(ns + 'state', CollisionState, self._on_state, queue_size=10)
         rospy.Subscriber('/diagnostics', DiagnosticArray, self._on_diag, queue_size=10)

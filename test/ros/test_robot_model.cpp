@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -342,13 +343,50 @@ TEST(MeshPieces, Pr2InPiecesHasFiveMorePartsAndTheLimitCountsThem) {
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error(),
             "with its mesh pieces the body has 3 parts by part 0, more than max_parts_per_body 2");
-  // The node's loader knows the limit too: a mesh of more pieces is refused before they are
-  // hulled (a file of 25,000 closed tetrahedra would otherwise make 25,000 hulls first).
+  // The node's loader knows the limit too: a mesh of more pieces keeps its one hull, as `hull`
+  // would give it (a link is not lost to the option), decided before hulling the pieces.
   const std::string path = pr2Mesh("shoulder_v0/upper_arm_roll_L.stl");
   auto too_many = loadMeshParts(path, core::Vec3(1, 1, 1), 100000, MeshDecomposition::Pieces, 2);
-  ASSERT_FALSE(too_many);
-  EXPECT_EQ(too_many.error(), path + " has 3 pieces, more than max_parts_per_body 2");
-  EXPECT_TRUE(loadMeshParts(path, core::Vec3(1, 1, 1), 100000, MeshDecomposition::Pieces, 3));
+  ASSERT_TRUE(too_many) << too_many.error();
+  EXPECT_EQ(too_many->parts.size(), 1u);
+  EXPECT_EQ(too_many->note,
+            "not split into pieces: 3 pieces, more than max_parts_per_body 2; one convex hull");
+  auto three = loadMeshParts(path, core::Vec3(1, 1, 1), 100000, MeshDecomposition::Pieces, 3);
+  ASSERT_TRUE(three);
+  EXPECT_EQ(three->parts.size(), 3u);
+}
+
+TEST(MeshPieces, ManyTrianglesOnFewVerticesAreNotSplit) {
+  // Two tetrahedra (8 vertices), each face written 10 times: 80 triangles, closed (even counts).
+  const std::string path = testing::TempDir() + "/cm_dense_tetrahedra.stl";
+  {
+    std::ofstream f(path);
+    f << "solid t\n";
+    for (double x : {0.0, 5.0}) {
+      const double c[4][3] = {{x, 0, 0}, {x + 1, 0, 0}, {x, 1, 0}, {x, 0, 1}};
+      const int faces[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+      for (int rep = 0; rep < 10; ++rep) {
+        for (const auto& face : faces) {
+          f << "facet normal 0 0 0\nouter loop\n";
+          for (int k : face)
+            f << "vertex " << c[k][0] << " " << c[k][1] << " " << c[k][2] << "\n";
+          f << "endloop\nendfacet\n";
+        }
+      }
+    }
+    f << "endsolid t\n";
+  }
+  auto split = loadMeshParts(path, core::Vec3(1, 1, 1), 10, MeshDecomposition::Pieces);
+  ASSERT_TRUE(split) << split.error();
+  EXPECT_EQ(split->parts.size(), 2u);  // 80 triangles <= 8 x 10
+  EXPECT_EQ(split->note, "");
+  auto dense = loadMeshParts(path, core::Vec3(1, 1, 1), 8, MeshDecomposition::Pieces);
+  ASSERT_TRUE(dense) << dense.error();
+  EXPECT_EQ(dense->parts.size(), 1u);  // 80 > 8 x 8
+  EXPECT_EQ(dense->note,
+            "not split into pieces: 80 triangles, more than 8 x max_vertices_per_part; one convex "
+            "hull");
+  std::remove(path.c_str());
 }
 
 TEST(MeshPieces, ModeNames) {

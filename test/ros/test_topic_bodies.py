@@ -324,6 +324,20 @@ class TopicBodies(unittest.TestCase):
         self.assertTrue(ok, 'rejections not counted: %s' % self.m.diag_value(
             'rejected inputs (total)'))
         self.assertTrue(self.m.diag_value('last rejection'))
+        # REMOVE of an id the monitor does not track: nothing to do, not a rejection (a second
+        # REMOVE, a latched one replayed). REMOVE of the YAML shelf is one; it comes after, on
+        # the same connection, so once it is counted the first one has been handled.
+        counted = int(self.m.diag_value('rejected inputs (total)'))
+        self.m.add(Body(id='never_added', operation=Body.REMOVE))
+        self.m.add(Body(id='shelf', operation=Body.REMOVE))
+        d = wait_for(lambda: (lambda d: d if d is not None and "cannot remove 'shelf'" in
+                              (self.m.diag_value('last rejection', d) or '') else None)(
+                                  self.m.diagnostics), 5.0, 0.05)
+        self.assertIsNotNone(d, self.m.diag_value('last rejection'))
+        self.assertIn("cannot remove 'shelf': declared by the parameter",
+                      self.m.diag_value('last rejection', d))
+        self.assertEqual(int(self.m.diag_value('rejected inputs (total)', d)), counted + 1)
+        self.assertIn('shelf', self.m.ids())
 
     def test_08_check_collision(self):
         self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))

@@ -897,6 +897,25 @@ TEST(WorldModel, ReplaceKeepsStatusAndPoseRemoveEndsEvents) {
   r = w.check(1.3);
   EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownBegin, "a", "b"}, {E::UnknownBegin, "b", "c"}}));
 
+  // A topic-posed body: its frame poses nothing, so a new frame keeps the pose; a new pose_topic
+  // (another tracker, which may never publish) drops it.
+  BodySpec tracked = sphere("t", 0.1);
+  tracked.pose_source = PoseSource::Topic;
+  tracked.pose_topic = "/tracker_a";
+  ASSERT_EQ(w.addBody(tracked), "");
+  ASSERT_TRUE(w.setPose("t", at(5), 0.0));
+  tracked.frame = "world";
+  ASSERT_EQ(w.addBody(tracked), "");
+  EXPECT_TRUE(w.pose("t"));
+  tracked.pose_topic = "/tracker_b";
+  ASSERT_EQ(w.addBody(tracked), "");
+  EXPECT_FALSE(w.pose("t"));
+  ASSERT_TRUE(w.setPose("t", at(5), 0.0));
+  tracked.pose_topic.clear();  // from ~body_poses now
+  ASSERT_EQ(w.addBody(tracked), "");
+  EXPECT_FALSE(w.pose("t"));
+  ASSERT_TRUE(w.removeBody("t"));
+
   // Removing c ends its WARNING with a's in the next check; b's UNKNOWN pair with c too.
   EXPECT_TRUE(w.removeBody("c"));
   EXPECT_FALSE(w.removeBody("c"));

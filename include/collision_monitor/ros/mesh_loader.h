@@ -52,6 +52,8 @@ const char* toString(MeshDecomposition mode);
 /// (each of its edges is shared by an even number of its triangles, so it bounds a volume that
 /// its hull contains) and every vertex is on a triangle; otherwise it says why not: the union of
 /// the pieces' hulls would then not cover the body (a box of six unjoined faces is hollow).
+/// Space that closed pieces only enclose between them (a box of six separate closed plates)
+/// stays free: it is not inside any piece.
 struct MeshPieces {
   std::vector<std::vector<core::Vec3>> pieces;  ///< vertex positions, pieces by first triangle
   std::string open;
@@ -59,25 +61,29 @@ struct MeshPieces {
 MeshPieces meshPieces(const std::vector<core::Vec3>& vertices,
                       const std::vector<std::array<std::size_t, 3>>& triangles);
 
+/// Triangles per allowed vertex beyond which a mesh is not split (a closed mesh has about 2).
+constexpr std::size_t kMaxTrianglesPerVertex = 8;
+
 /// A mesh file's convex parts.
 struct MeshParts {
   std::vector<core::ConvexShape> parts;
-  std::string note;  ///< why `Pieces` fell back to one hull (an open piece); empty otherwise
+  std::string note;  ///< why `Pieces` fell back to one hull; empty otherwise
 };
 
 /// Loads the mesh file at `path` (STL/DAE/OBJ via geometric_shapes/assimp), scaled, and returns
 /// its convex hull, or with `Pieces` one hull per piece; refused when the mesh has more than
 /// `max_vertices` (distinct) vertices, checked right after loading and before hulling, when a
-/// hull has more, when it has no vertices, or when it has more than `max_parts` pieces to split
-/// into (checked before hulling them).
+/// hull has more, or when it has no vertices. `Pieces` keeps the one hull, with a note, when a
+/// piece is open, when there are more than `max_parts` pieces (checked before hulling them), or
+/// more than kMaxTrianglesPerVertex x `max_vertices` triangles (checked before splitting).
 Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& scale,
                                   std::size_t max_vertices,
                                   MeshDecomposition mode = MeshDecomposition::Hull,
                                   std::size_t max_parts = SIZE_MAX);
 
 /// resolveMeshUri + loadMeshParts with a cache of parts by (canonical path, scale): the PR2 uses
-/// the same wheel mesh eight times. A fallback's note is logged once, when the mesh loads.
-/// Thread-safe.
+/// the same wheel mesh eight times. A fallback's note is logged (WARN) when the mesh loads, not
+/// when it comes from the cache. Thread-safe (two threads loading one mesh at once both load it).
 class MeshCache {
  public:
   MeshCache(std::vector<std::string> mesh_roots, std::size_t max_vertices,

@@ -101,6 +101,8 @@ class Monitor {
   void onPoseStamped(const std::string& id, const geometry_msgs::PoseStamped::ConstPtr& msg);
   /// Adds (or replaces) a validated body and (re)subscribes its pose topic. Empty on success.
   std::string addBody(world::BodySpec spec);
+  /// Removes a body added on ~bodies: true when it is gone (an unknown id is: nothing to do);
+  /// false with `why` for a body declared by the URDF or the parameters.
   bool removeBody(const std::string& id, std::string* why);
   /// The absolute name of a body's pose_topic: a relative name in the node's namespace, `~name`
   /// in its private namespace (as roscpp resolves `~` elsewhere), remappings applied. Throws
@@ -145,6 +147,7 @@ class Monitor {
   static constexpr std::size_t kRejectLogBudget =
       20;  ///< rejection log lines per second, all sources
   static constexpr std::size_t kMaxRejectionText = 1024;  ///< bytes of a rejection message
+  static constexpr std::uint32_t kEventsQueue = 10000;    ///< ~events messages per subscriber
   std::map<std::string, ros::WallTime> last_logged_;      ///< guarded by stats_mutex_
   ros::WallTime log_window_start_;                        ///< guarded by stats_mutex_
   std::size_t logged_in_window_ = 0;                      ///< guarded by stats_mutex_
