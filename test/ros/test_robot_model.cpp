@@ -46,6 +46,11 @@ PackageResolver resolver() {
   };
 }
 
+/// The node's loader over `cache`.
+MeshLoader loaderOf(MeshCache& cache) {
+  return [&cache](const std::string& uri, const core::Vec3& s) { return cache.load(uri, s); };
+}
+
 bool hasPair(const std::vector<IdPair>& pairs, const std::string& a, const std::string& b) {
   return std::find(pairs.begin(), pairs.end(), IdPair{a, b}) != pairs.end() ||
          std::find(pairs.begin(), pairs.end(), IdPair{b, a}) != pairs.end();
@@ -123,9 +128,7 @@ TEST(Urdf, BadLinkIsLeftOutOthersLoad) {
     <joint name="j" type="fixed"><parent link="good"/><child link="bad"/></joint>
   </robot>)";
   MeshCache cache({}, 1000, resolver());
-  MeshLoader loader = [&](const std::string& uri, const core::Vec3& s) {
-    return cache.load(uri, s);
-  };
+  const MeshLoader loader = loaderOf(cache);
   auto robot = bodiesFromUrdf(xml, 0.0, Limits(), loader);
   ASSERT_TRUE(robot) << robot.error();
   ASSERT_EQ(robot->bodies.size(), 1u);
@@ -143,9 +146,7 @@ TEST(Urdf, Pr2MeshesLoadAsHulls) {
   const std::string xml = readFile(robotData() + "/robots/pr2_description/urdf/pr2.urdf");
   ASSERT_FALSE(xml.empty());
   MeshCache cache({}, 100000, resolver());
-  MeshLoader loader = [&](const std::string& uri, const core::Vec3& s) {
-    return cache.load(uri, s);
-  };
+  const MeshLoader loader = loaderOf(cache);
   auto robot = bodiesFromUrdf(xml, 0.0, Limits(), loader);
   ASSERT_TRUE(robot) << robot.error();
   EXPECT_TRUE(robot->errors.empty()) << robot->errors.front();
@@ -302,9 +303,7 @@ TEST(MeshPieces, Pr2InPiecesHasFiveMorePartsAndTheLimitCountsThem) {
   for (int mode = 0; mode < 2; ++mode) {
     MeshCache cache({}, 100000, resolver(),
                     mode == 0 ? MeshDecomposition::Hull : MeshDecomposition::Pieces);
-    MeshLoader loader = [&](const std::string& uri, const core::Vec3& s) {
-      return cache.load(uri, s);
-    };
+    const MeshLoader loader = loaderOf(cache);
     auto robot = bodiesFromUrdf(xml, 0.0, Limits(), loader);
     ASSERT_TRUE(robot) << robot.error();
     EXPECT_TRUE(robot->errors.empty()) << robot->errors.front();
@@ -323,9 +322,7 @@ TEST(MeshPieces, Pr2InPiecesHasFiveMorePartsAndTheLimitCountsThem) {
 
   // max_parts_per_body counts the pieces: a body of that one mesh part is refused at 2.
   MeshCache cache({}, 100000, resolver(), MeshDecomposition::Pieces);
-  MeshLoader loader = [&](const std::string& uri, const core::Vec3& s) {
-    return cache.load(uri, s);
-  };
+  const MeshLoader loader = loaderOf(cache);
   collision_monitor::Body msg;
   msg.id = "arm";
   msg.header.frame_id = "world";
