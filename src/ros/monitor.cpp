@@ -782,13 +782,14 @@ bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
       return true;
     }
     std::optional<world::PairResult> result;
+    world::Stamp stamp;  // the poses' time (zero: both static)
     std::string why;
     {
       std::lock_guard<std::mutex> lock(world_mutex_);
       if (!world_->hasBody(req.body_a)) {
         why = "unknown body " + quoteInput(req.body_a);
       } else if (req.body_b.empty()) {
-        result = world_->nearest(req.body_a, now, &why);
+        result = world_->nearest(req.body_a, now, &why, &stamp);
       } else if (!world_->hasBody(req.body_b)) {
         why = "unknown body " + quoteInput(req.body_b);
       } else if (req.body_a == req.body_b) {
@@ -799,7 +800,7 @@ bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
           why = quoteInput(req.body_a) + " and " + quoteInput(req.body_b) +
                 " are never checked: " + never;
         } else {
-          result = world_->distance(req.body_a, req.body_b, now, &why);
+          result = world_->distance(req.body_a, req.body_b, now, &why, &stamp);
         }
       }
     }
@@ -808,13 +809,25 @@ bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
       return true;
     }
     Transform3 to_frame = Transform3::Identity();
+    std::string note;
     if (!req.frame_id.empty() && req.frame_id != fixed_frame_ &&
         req.frame_id != "/" + fixed_frame_) {
       std::string frame = req.frame_id;
       if (frame[0] == '/') frame.erase(0, 1);
+      // The frame where it was when the poses were taken: a frame moving at 1 m/s puts the latest
+      // TF 0.1 m from the points of poses 0.1 s old. The latest TF when the frame has none for
+      // that time (its publisher lags the bodies' poses), said in the message.
+      const ros::Time at = stamp.isStatic() ? ros::Time(0) : toRosTime(stamp);
       try {
-        to_frame =
-            toTransform3(tf_buffer_->lookupTransform(frame, fixed_frame_, ros::Time(0)).transform);
+        try {
+          to_frame = toTransform3(tf_buffer_->lookupTransform(frame, fixed_frame_, at).transform);
+        } catch (const tf2::ExtrapolationException& e) {
+          if (at.isZero()) throw;
+          to_frame = toTransform3(
+              tf_buffer_->lookupTransform(frame, fixed_frame_, ros::Time(0)).transform);
+          note = "expressed with the latest transform of " + quoteInput(req.frame_id) +
+                 ", none at the poses' time: " + capped(e.what(), 512);
+        }
       } catch (const tf2::TransformException& e) {
         res.message = "cannot express the result in frame " + quoteInput(req.frame_id) + ": " +
                       capped(e.what(), 512);
@@ -824,6 +837,7 @@ bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
     res.result = toMsg(*result, to_frame);
     res.success = true;
     res.message = req.body_b.empty() ? "nearest body: " + result->body_b : "";
+    if (!note.empty()) res.message += (res.message.empty() ? "" : "; ") + note;
   } catch (const std::exception& e) {
     res.success = false;
     res.message = std::string("internal error: ") + e.what();

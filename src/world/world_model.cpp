@@ -1238,7 +1238,7 @@ CycleResult WorldModel::check(Stamp now) {
 }
 
 std::optional<PairResult> WorldModel::distance(const std::string& a, const std::string& b,
-                                               Stamp now, std::string* why) const {
+                                               Stamp now, std::string* why, Stamp* stamp) const {
   const Impl& m = *impl_;
   auto fail = [&](std::string msg) -> std::optional<PairResult> {
     if (why) *why = std::move(msg);
@@ -1261,11 +1261,12 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
       m.makeResult(ia->second, ib->second, nextStatus(tracked, n.distance, settings_), n);
   // Keep the caller's order.
   if (r.body_a != a) flipPair(&r);
+  if (stamp) *stamp = m.pairStamp(ia->second, ib->second, Stamp());
   return r;
 }
 
-std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now,
-                                              std::string* why) const {
+std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, std::string* why,
+                                              Stamp* stamp) const {
   const Impl& m = *impl_;
   auto fail = [&](std::string msg) -> std::optional<PairResult> {
     if (why) *why = std::move(msg);
@@ -1316,6 +1317,7 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now,
   if (it != m.pairs.end()) tracked = it->second.status;
   PairResult r = m.makeResult(sa, best_slot, nextStatus(tracked, best.distance, settings_), best);
   if (r.body_a != a) flipPair(&r);
+  if (stamp) *stamp = m.pairStamp(sa, best_slot, Stamp());
   return r;
 }
 

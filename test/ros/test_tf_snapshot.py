@@ -44,6 +44,11 @@ class TfSnapshot(unittest.TestCase):
             cls.monitor.add(sphere_body(body_id(i), RADIUS, frame='f%02d' % i,
                                         pose_from_topic=False))
         assert wait_for(lambda: len(cls.monitor.ids()) == N, 10.0), 'bodies not added'
+        cls.lagging = Monitor(ns='/collision_monitor_lagging/')
+        for i in range(2):
+            cls.lagging.add(sphere_body(body_id(i), RADIUS, frame='f%02d' % i,
+                                        pose_from_topic=False))
+        assert wait_for(lambda: len(cls.lagging.ids()) == 2, 10.0), 'bodies not added (lagging)'
 
     def tick_message(self, k, stamp):
         msg = TFMessage()
@@ -114,6 +119,67 @@ class TfSnapshot(unittest.TestCase):
         self.assertEqual(wrong[:5], [], 'pairs other than the 39 neighbours in WARNING')
         self.assertEqual(mixed[:5], [], 'states posing frames at two ticks (tick, a, b, distance, '
                          'offset of point_a from the tick\'s position)')
+
+    def test_get_distance_in_a_moving_frame(self):
+        """Points asked for in f00, b00's own frame, are where b00's surface is in that frame
+        whatever the frames do: (RADIUS, 0, 0) and (RADIUS + GAP, 0, 0), exactly, because they
+        are expressed with f00 as it was at the poses' time. With f00's latest TF instead they
+        were off by the motion since the last check: up to 0.5 s x 0.25 m/s on the monitor that
+        checks at 2 Hz. A frame without TF at the poses' time falls back to its latest TF and the
+        message says so."""
+        stop = threading.Event()
+        k0 = [0]
+
+        def publish():
+            while not stop.is_set() and not rospy.is_shutdown():
+                self.tf_pub.publish(self.tick_message(k0[0], rospy.Time.now()))
+                k0[0] += 1
+                time.sleep(1.0 / RATE)
+
+        thread = threading.Thread(target=publish)
+        thread.start()
+        try:
+            time.sleep(1.2)  # the lagging monitor has posed both bodies by now
+            answers = {'fast': [], 'lagging': []}
+            start = time.monotonic()
+            while time.monotonic() - start < 3.0:
+                for name, m in (('fast', self.monitor), ('lagging', self.lagging)):
+                    answers[name].append(m.get_distance(body_id(0), body_id(1), 'f00'))
+                time.sleep(0.02)
+        finally:
+            stop.set()
+            thread.join()
+        for name, got in answers.items():
+            bad = [(r.success, r.message, r.result.point_a.x, r.result.point_b.x) for r in got
+                   if not r.success or r.message != '' or
+                   abs(r.result.distance - GAP) > 1e-9 or
+                   abs(r.result.point_a.x - RADIUS) > 1e-9 or
+                   abs(r.result.point_b.x - (RADIUS + GAP)) > 1e-9 or
+                   abs(r.result.point_a.y) > 1e-9 or abs(r.result.point_b.y) > 1e-9 or
+                   abs(r.result.normal.x - 1.0) > 1e-9]
+            print('get_distance in f00 (%s monitor): %d answers, %d off' % (name, len(got),
+                                                                          len(bad)), flush=True)
+            self.assertGreater(len(got), 50)
+            self.assertEqual(bad[:5], [], name + ': (success, message, point_a.x, point_b.x)')
+
+        # 'late' gets its first and only transform now, after every pose the lagging monitor has.
+        late = TransformStamped()
+        late.header.stamp = rospy.Time.now()
+        late.header.frame_id = 'world'
+        late.child_frame_id = 'late'
+        late.transform.translation.y = 1.0
+        late.transform.rotation.w = 1.0
+        self.tf_pub.publish(TFMessage(transforms=[late]))
+        r = None
+        for _ in range(100):
+            r = self.lagging.get_distance(body_id(0), body_id(1), 'late')
+            if r.success:
+                break
+            time.sleep(0.02)
+        self.assertTrue(r.success, r.message)
+        self.assertIn("expressed with the latest transform of 'late'", r.message)
+        self.assertAlmostEqual(r.result.point_a.y, -1.0, delta=1e-9)
+        self.assertAlmostEqual(r.result.point_b.x - r.result.point_a.x, GAP, delta=1e-9)
 
 
 if __name__ == '__main__':

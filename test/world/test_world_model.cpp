@@ -171,6 +171,33 @@ TEST(WorldModel, PairFilterGroupsDisabledPairsAndSelf) {
   EXPECT_NEAR(n->distance, -0.98, 1e-12);
 }
 
+// distance() and nearest() say the time their answer holds for, as an event's stamp: the older
+// pose of a moving body; zero when both are static (the ROS layer then expresses the points with
+// the latest TF).
+TEST(WorldModel, DistanceAndNearestReportThePosesTime) {
+  WorldModel w(Settings{});
+  for (const char* id : {"fixed", "fixed2", "b", "c"})
+    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
+  ASSERT_TRUE(w.setPose("fixed", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("fixed2", at(5), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(2), 2.5));
+  ASSERT_TRUE(w.setPose("c", at(3.25), 2.75));
+  std::string why;
+  Stamp stamp = 7.0;
+  ASSERT_TRUE(w.distance("fixed", "fixed2", 2.8, &why, &stamp)) << why;
+  EXPECT_EQ(stamp, Stamp());
+  ASSERT_TRUE(w.distance("fixed", "b", 2.8, &why, &stamp)) << why;
+  EXPECT_EQ(stamp, Stamp(2.5));
+  ASSERT_TRUE(w.distance("c", "b", 2.8, &why, &stamp)) << why;
+  EXPECT_EQ(stamp, Stamp(2.5));
+  ASSERT_TRUE(w.distance("c", "fixed2", 2.8, &why, &stamp)) << why;
+  EXPECT_EQ(stamp, Stamp(2.75));
+  const auto n = w.nearest("fixed2", 2.8, &why, &stamp);  // c: 1.25 m apart, b 2 m, fixed 4 m
+  ASSERT_TRUE(n) << why;
+  EXPECT_EQ(n->body_b, "c");
+  EXPECT_EQ(stamp, Stamp(2.75));
+}
+
 TEST(WorldModel, HysteresisSequenceGivesExactEvents) {
   WorldModel w(dyadic());
   ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");

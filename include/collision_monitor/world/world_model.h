@@ -224,11 +224,15 @@ class WorldModel {
   void abandonChecks();
 
   /// Signed distance between two bodies at their current poses. nullopt with `why` set when an
-  /// id is unknown or a pose is stale/unresolved at `now`.
+  /// id is unknown or a pose is stale/unresolved at `now`. `stamp` (optional): the time the
+  /// answer holds for, as an event's (the older pose stamp of a moving body; a zero Stamp when
+  /// both bodies are static).
   std::optional<PairResult> distance(const std::string& a, const std::string& b, Stamp now,
-                                     std::string* why) const;
+                                     std::string* why, Stamp* stamp = nullptr) const;
   /// Nearest body to `a` among those it may collide with (respects groups and disabled pairs).
-  std::optional<PairResult> nearest(const std::string& a, Stamp now, std::string* why) const;
+  /// `stamp`: as distance()'s.
+  std::optional<PairResult> nearest(const std::string& a, Stamp now, std::string* why,
+                                    Stamp* stamp = nullptr) const;
   /// A hypothetical body at `pose` (body frame -> fixed frame) against every body with a fresh
   /// pose (respecting its group); returns all within `margin`, sorted by distance.
   /// Also every body in COLLISION whatever the margin; a body with the same id as `body` and the
