@@ -17,7 +17,7 @@ import unittest
 import rospy
 import rostest
 
-from collision_monitor.msg import CollisionEvent, CollisionState, PairState
+from collision_monitor.msg import CollisionEvent, CollisionState
 from visualization_msgs.msg import Marker, MarkerArray
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..",

@@ -27,10 +27,10 @@ import rostest
 import tf2_ros
 from collision_monitor.msg import Body, CollisionEvent, CollisionState, PairState, Shape
 from collision_monitor.srv import GetDistance
-from geometry_msgs.msg import PoseStamped, TransformStamped
+from geometry_msgs.msg import PoseStamped
 
 from robust_util import alive, node_pid, save_figures
-from cm_test_util import Monitor, PoseStreamer, pose, shape, wait_for
+from cm_test_util import Monitor, PoseStreamer, pose, shape, tf_transform, wait_for
 
 E = CollisionEvent
 FIGURES = []
@@ -60,12 +60,7 @@ class TfStreamer:
     def _run(self):
         while not rospy.is_shutdown():
             if not self.paused:
-                t = TransformStamped()
-                t.header.stamp = rospy.Time.now()
-                t.header.frame_id = 'world'
-                t.child_frame_id = 'moving_frame'
-                t.transform.translation.x = self.x
-                t.transform.rotation.w = 1.0
+                t = tf_transform('moving_frame', xyz=(self.x, 0.0, 0.0))
                 try:
                     self.br.sendTransform(t)
                 except rospy.ROSException:
@@ -105,11 +100,7 @@ class Faults(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('test_faults')
         cls.static_tf = tf2_ros.StaticTransformBroadcaster()
-        t = TransformStamped()
-        t.header.frame_id = 'world'
-        t.child_frame_id = 'fixed_frame_a'
-        t.transform.rotation.w = 1.0
-        cls.static_tf.sendTransform([t])
+        cls.static_tf.sendTransform([tf_transform('fixed_frame_a', stamp=rospy.Time())])
         cls.tf = TfStreamer()
         cls.m = Monitor()
         cls.rate = rospy.get_param('/collision_monitor/rate')

@@ -28,12 +28,12 @@ import rostest
 import tf2_ros
 from collision_monitor.msg import Body, BodyPoses, Shape
 from collision_monitor.srv import GetDistance, ListBodies
-from geometry_msgs.msg import Pose, Twist, TransformStamped
+from geometry_msgs.msg import Twist
 from tf2_msgs.msg import TFMessage
 
 from robust_util import (alive, body_bytes, node_pid, proc_status_kb, raw_class, save_figures,
                          shape_bytes)
-from cm_test_util import Monitor, pose, shape, wait_for  # test/ros (path set by robust_util)
+from cm_test_util import Monitor, pose, shape, tf_transform, wait_for  # test/ros (path set by robust_util)
 
 NAN, INF = float('nan'), float('inf')
 FIGURES = []
@@ -209,17 +209,6 @@ CYCLE_URDF = """<robot name="cycle"><link name="r"/><link name="a"/><link name="
 <joint name="j3" type="fixed"><parent link="b"/><child link="c"/></joint></robot>"""
 
 
-def tf_transform(child, parent='world', stamp=None, xyz=(0.0, 0.0, 0.0), q=(0, 0, 0, 1)):
-    t = TransformStamped()
-    t.header.stamp = stamp if stamp is not None else rospy.Time.now()
-    t.header.frame_id = parent
-    t.child_frame_id = child
-    t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = xyz
-    (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
-     t.transform.rotation.w) = q
-    return t
-
-
 class HostileInput(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -227,13 +216,8 @@ class HostileInput(unittest.TestCase):
         cls.static_tf = tf2_ros.StaticTransformBroadcaster()
         frames = []
         for name, x in (('frame_a', 0.0), ('frame_b', 2.0), ('frame_c', 0.0)):
-            t = TransformStamped()
-            t.header.frame_id = 'world'
-            t.child_frame_id = name
-            t.transform.translation.x = x
-            t.transform.translation.y = 3.0 if name == 'frame_c' else 0.0
-            t.transform.rotation.w = 1.0
-            frames.append(t)
+            frames.append(tf_transform(name, stamp=rospy.Time(),
+                                       xyz=(x, 3.0 if name == 'frame_c' else 0.0, 0.0)))
         cls.static_tf.sendTransform(frames)
         cls.m = Monitor()
         cls.pid = node_pid()
@@ -344,6 +328,7 @@ class HostileInput(unittest.TestCase):
         figure('10,000,000-vertex Body (%d MB serialized): refused in %.1f s (%s); node RSS %d -> '
                '%d kB, peak %d kB' % (len(payload) >> 20, dt, last[:120], rss0, rss1, hwm))
         self.assertTrue(ok, 'no rejection counted for the 10M-vertex body')
+        self.assertEqual(self.rejected() - rej0, 1, 'rejections counted for one bad body')
         self.assertIn('max_vertices_per_part', last)
         self.assertNotIn('huge_convex', self.m.list_bodies().ids)
         self.assert_world_intact('after the 10M-vertex body')
@@ -365,6 +350,7 @@ class HostileInput(unittest.TestCase):
         figure('%d MB mesh path: refused in %.1f s (%s); node RSS %d kB, peak %d kB'
                % (size >> 20, dt, (self.m.diag_value('last rejection') or '')[:100], rss1, hwm))
         self.assertTrue(ok, 'no rejection counted for the long path')
+        self.assertEqual(self.rejected() - rej0, 1, 'rejections counted for one bad body')
         self.assertNotIn('long_path', self.m.list_bodies().ids)
         # Bug (ROS layer): the rejection text echoes the whole resource string into the log line
         # and into /diagnostics 'last rejection' (republished every second): a 100 MB path left

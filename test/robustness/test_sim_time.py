@@ -28,11 +28,11 @@ import rostest
 import tf2_ros
 from collision_monitor.msg import BodyPoses, CollisionEvent, CollisionState, PairState
 from collision_monitor.srv import GetDistance, ListBodies
-from geometry_msgs.msg import PoseStamped, TransformStamped
+from geometry_msgs.msg import PoseStamped
 from rosgraph_msgs.msg import Clock
 
 from robust_util import save_figures  # also puts test/ros on the path
-from cm_test_util import NS, Monitor, pose, wait_for
+from cm_test_util import NS, Monitor, pose, tf_transform, wait_for
 
 E = CollisionEvent
 FIGURES = []
@@ -88,13 +88,7 @@ class Simulator:
         st = rospy.Time.from_sec(stamp)
         self.sent[stream] = st.to_sec()
         if stream == 'tf_body':
-            t = TransformStamped()
-            t.header.stamp = st
-            t.header.frame_id = 'world'
-            t.child_frame_id = 'moving_frame'
-            t.transform.translation.x = 1.0
-            t.transform.rotation.w = 1.0
-            self.tf.sendTransform(t)
+            self.tf.sendTransform(tf_transform('moving_frame', stamp=st, xyz=(1.0, 0.0, 0.0)))
         elif stream == 'posed':
             m = BodyPoses(ids=['posed'], poses=[pose(y=1.0)])
             m.header.stamp = st
@@ -130,11 +124,7 @@ class SimTime(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('test_sim_time')
         cls.static_tf = tf2_ros.StaticTransformBroadcaster()
-        t = TransformStamped()
-        t.header.frame_id = 'world'
-        t.child_frame_id = 'fixed_frame'
-        t.transform.rotation.w = 1.0
-        cls.static_tf.sendTransform([t])
+        cls.static_tf.sendTransform([tf_transform('fixed_frame', stamp=rospy.Time())])
         cls.states = []  # (wall time, CollisionState)
         rospy.Subscriber(NS + 'state', CollisionState,
                          lambda m: cls.states.append((time.monotonic(), m)), queue_size=100)

@@ -8,7 +8,7 @@ import rospy
 from collision_monitor.msg import (Body, BodyPoses, CollisionEvent, CollisionState, Shape)
 from collision_monitor.srv import CheckCollision, GetDistance, ListBodies
 from diagnostic_msgs.msg import DiagnosticArray
-from geometry_msgs.msg import Point, Pose
+from geometry_msgs.msg import Pose, TransformStamped
 
 NS = '/collision_monitor/'
 EVENT_NAMES = {v: k for k, v in vars(CollisionEvent).items()
@@ -36,6 +36,18 @@ def sphere_body(body_id, radius, frame='', pose_from_topic=True, group='', pose_
     b.header.frame_id = frame
     b.parts = [shape(Shape.SPHERE, [radius])]
     return b
+
+
+def tf_transform(child, parent='world', stamp=None, xyz=(0.0, 0.0, 0.0), q=(0, 0, 0, 1)):
+    """A TransformStamped of `child` in `parent`; stamp None: now."""
+    t = TransformStamped()
+    t.header.stamp = stamp if stamp is not None else rospy.Time.now()
+    t.header.frame_id = parent
+    t.child_frame_id = child
+    t.transform.translation.x, t.transform.translation.y, t.transform.translation.z = xyz
+    (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
+     t.transform.rotation.w) = q
+    return t
 
 
 def wait_for(predicate, timeout, period=0.01):

@@ -18,10 +18,9 @@ import tf2_ros
 from collision_monitor.msg import CollisionEvent
 from collision_monitor.srv import GetDistance, ListBodies
 from roscpp.srv import GetLoggers
-from geometry_msgs.msg import TransformStamped
 from sensor_msgs.msg import JointState
 
-from cm_test_util import Monitor, PoseStreamer, pose, sphere_body, wait_for
+from cm_test_util import Monitor, PoseStreamer, pose, sphere_body, tf_transform, wait_for
 
 E = CollisionEvent
 LINKS = ['panda_hand', 'panda_leftfinger', 'panda_link0', 'panda_link1', 'panda_link2',
@@ -171,15 +170,8 @@ class Panda(unittest.TestCase):
         where = {'z': hand.z + 1.0}
 
         def send():
-            t = TransformStamped()
-            t.header.stamp = rospy.Time.now()
-            t.header.frame_id = 'panda_link0'
-            t.child_frame_id = 'probe_frame'
-            t.transform.translation.x = hand.x
-            t.transform.translation.y = hand.y
-            t.transform.translation.z = where['z']
-            t.transform.rotation.w = 1.0
-            broadcaster.sendTransform(t)
+            broadcaster.sendTransform(tf_transform('probe_frame', parent='panda_link0',
+                                                   xyz=(hand.x, hand.y, where['z'])))
         stop = threading.Event()
 
         def run():

@@ -15,10 +15,9 @@ import unittest
 import rospy
 import rostest
 from collision_monitor.msg import CollisionState, PairState
-from geometry_msgs.msg import TransformStamped
 from tf2_msgs.msg import TFMessage
 
-from cm_test_util import NS, Monitor, sphere_body, wait_for
+from cm_test_util import NS, Monitor, sphere_body, tf_transform, wait_for
 
 N = 40
 SPACING = 0.3
@@ -51,16 +50,9 @@ class TfSnapshot(unittest.TestCase):
         assert wait_for(lambda: len(cls.lagging.ids()) == 2, 10.0), 'bodies not added (lagging)'
 
     def tick_message(self, k, stamp):
-        msg = TFMessage()
-        for i in range(N):
-            t = TransformStamped()
-            t.header.stamp = stamp
-            t.header.frame_id = 'world'
-            t.child_frame_id = 'f%02d' % i
-            t.transform.translation.x = SPACING * i + STEP * k
-            t.transform.rotation.w = 1.0
-            msg.transforms.append(t)
-        return msg
+        return TFMessage(transforms=[
+            tf_transform('f%02d' % i, stamp=stamp, xyz=(SPACING * i + STEP * k, 0.0, 0.0))
+            for i in range(N)])
 
     def test_every_state_holds_one_tick(self):
         ticks = {}  # stamp (ns) -> tick
@@ -163,13 +155,7 @@ class TfSnapshot(unittest.TestCase):
             self.assertEqual(bad[:5], [], name + ': (success, message, point_a.x, point_b.x)')
 
         # 'late' gets its first and only transform now, after every pose the lagging monitor has.
-        late = TransformStamped()
-        late.header.stamp = rospy.Time.now()
-        late.header.frame_id = 'world'
-        late.child_frame_id = 'late'
-        late.transform.translation.y = 1.0
-        late.transform.rotation.w = 1.0
-        self.tf_pub.publish(TFMessage(transforms=[late]))
+        self.tf_pub.publish(TFMessage(transforms=[tf_transform('late', xyz=(0.0, 1.0, 0.0))]))
         r = None
         for _ in range(100):
             r = self.lagging.get_distance(body_id(0), body_id(1), 'late')

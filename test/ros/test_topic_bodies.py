@@ -16,12 +16,12 @@ import rostest
 import tf2_ros
 from collision_monitor.msg import Body, BodyPoses, CollisionEvent, PairState, Shape
 from collision_monitor.srv import CheckCollision, CheckCollisionRequest, CheckCollisionResponse
-from geometry_msgs.msg import Point, PoseStamped, TransformStamped, Twist
+from geometry_msgs.msg import Point, PoseStamped, Twist
 from roscpp.srv import GetLoggers, SetLoggerLevel
 from visualization_msgs.msg import MarkerArray
 
 from cm_test_util import (NS, Monitor, PoseStreamer, point_close, pose, shape, sphere_body,
-                          wait_for)
+                          tf_transform, wait_for)
 
 E = CollisionEvent
 
@@ -88,17 +88,11 @@ class TopicBodies(unittest.TestCase):
         cls.backend = rospy.get_param('~backend', 'gjk')
         # shelf_frame: 5 m along y in world, static (stamp 0 chain: never stale).
         cls.static_tf = tf2_ros.StaticTransformBroadcaster()
-        t = TransformStamped()
-        t.header.frame_id = 'world'
-        t.child_frame_id = 'shelf_frame'
-        t.transform.translation.y = 5.0
-        t.transform.rotation.w = 1.0
         # turned_frame: world turned +90 degrees about x (its y is world z, its z is world -y).
-        turned = TransformStamped()
-        turned.header.frame_id = 'world'
-        turned.child_frame_id = 'turned_frame'
-        turned.transform.rotation.x = turned.transform.rotation.w = math.sqrt(0.5)
-        cls.static_tf.sendTransform([t, turned])
+        cls.static_tf.sendTransform([
+            tf_transform('shelf_frame', stamp=rospy.Time(), xyz=(0.0, 5.0, 0.0)),
+            tf_transform('turned_frame', stamp=rospy.Time(),
+                         q=(math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)))])
         cls.m = Monitor()
         cls.poses = PoseStreamer(cls.m.poses_pub, 'world', rate=20.0)
         # Two unit spheres 3 m apart.
@@ -668,13 +662,7 @@ class TopicBodies(unittest.TestCase):
         br = tf2_ros.TransformBroadcaster()
 
         def send_tf():
-            t = TransformStamped()
-            t.header.stamp = rospy.Time.now()
-            t.header.frame_id = 'world'
-            t.child_frame_id = 'stopped_frame'
-            t.transform.translation.x = 10.0
-            t.transform.rotation.w = 1.0
-            br.sendTransform(t)
+            br.sendTransform(tf_transform('stopped_frame', xyz=(10.0, 0.0, 0.0)))
         self.m.add(sphere_body('in_stopped', 0.5))
         self.assertTrue(self.m.wait_listed('in_stopped'))
         msg = BodyPoses(ids=['in_stopped'], poses=[pose(0, 0, 0)])
