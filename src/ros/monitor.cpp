@@ -117,10 +117,12 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   // up to ~40 ms late (soak test: TF-pair event latency p50 21 ms, p99 47 ms; with it 2.2 / 5.9).
   // New TF data is pose input for every TF-attached body (robot links): with check_on_tf, check
   // promptly after each message, coalesced with other triggers by min_check_interval.
-  tf_receiver_ =
-      std::make_unique<TfReceiver>(*tf_buffer_, nh_, ros::TransportHints().tcpNoDelay(), [this] {
+  tf_receiver_ = std::make_unique<TfReceiver>(
+      *tf_buffer_, nh_, ros::TransportHints().tcpNoDelay(),
+      [this] {
         if (check_on_tf_) trigger();
-      });
+      },
+      name_);
 
   loadRobot();
   loadParameterBodies();
@@ -981,7 +983,7 @@ void Monitor::loopThread() {
     try {
       runCycle();
     } catch (const std::exception& e) {
-      ROS_ERROR_STREAM_THROTTLE(1.0, name_ << ": check cycle failed: " << e.what());
+      if (cycle_error_log_.ready()) ROS_ERROR_STREAM(name_ << ": check cycle failed: " << e.what());
     }
     check_started_ = 0;
     lock.lock();
@@ -1053,10 +1055,12 @@ void Monitor::runCycle() {
   tf_snapshot.unlock();
   if (!future_frames.empty()) {
     const bool clear = steady_now < tf_clear_until_;
-    ROS_WARN_STREAM_THROTTLE(
-        1.0, name_ << ": TF stamped more than " << kTimeJumpTolerance
-                   << " s after the current ROS time, frames unresolved: " << joined(future_frames)
-                   << (clear ? "; cleared the TF buffer (time jumped back)" : ""));
+    if (future_tf_log_.ready()) {
+      ROS_WARN_STREAM(name_ << ": TF stamped more than " << kTimeJumpTolerance
+                            << " s after the current ROS time, frames unresolved: "
+                            << joined(future_frames)
+                            << (clear ? "; cleared the TF buffer (time jumped back)" : ""));
+    }
     if (clear) tf_buffer_->clear();
   }
 

@@ -11,8 +11,9 @@ namespace collision_monitor {
 namespace ros_layer {
 
 TfReceiver::TfReceiver(tf2_ros::Buffer& buffer, const ros::NodeHandle& nh,
-                       const ros::TransportHints& hints, std::function<void()> on_message)
-    : buffer_(buffer), on_message_(std::move(on_message)), nh_(nh) {
+                       const ros::TransportHints& hints, std::function<void()> on_message,
+                       std::string name)
+    : buffer_(buffer), on_message_(std::move(on_message)), name_(std::move(name)), nh_(nh) {
   // As tf2_ros::TransformListener: queues of 100 messages, /tf_static latched by its publishers.
   // The callback takes the whole MessageEvent, which names the publisher (tf2's authority):
   // SubscribeOptions::create (as TransformListener uses it) passes the message alone, and every
@@ -134,8 +135,10 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
         ++refused_;
         last_refusal_ = "transform " + t.header.frame_id + " -> " + t.child_frame_id + " from " +
                         authority + ": " + why;
-        ROS_WARN_STREAM_THROTTLE(
-            5.0, "TF: refused " << last_refusal_ << " (" << refused_ << " refused so far)");
+        if (refusal_log_.ready()) {
+          ROS_WARN_STREAM(name_ << ": TF: refused " << last_refusal_ << " (" << refused_
+                                << " refused so far)");
+        }
       }
     }
     ++messages_;

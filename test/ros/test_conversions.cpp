@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "collision_monitor/ros/conversions.h"
+#include "collision_monitor/ros/log_throttle.h"
 #include "collision_monitor/ros/mesh_loader.h"
 #include "collision_monitor/ros/params.h"
 
@@ -103,6 +104,20 @@ TEST(Transform, RefusesNonFiniteAndNonUnit) {
   auto id = toTransform(pose(1, 0, 0, 0, 0, 0, 0), ZeroQuaternion::Identity);
   ASSERT_TRUE(id) << id.error();
   EXPECT_EQ(id->R, core::Mat3::Identity());
+}
+
+// Per object, unlike ROS_*_THROTTLE's one static per call site: two monitors in one process each
+// log their first line.
+TEST(LogThrottle, OncePerPeriodPerObject) {
+  ros::Time::init();
+  LogThrottle a(0.2), b(0.2);
+  EXPECT_TRUE(a.ready());
+  EXPECT_FALSE(a.ready());
+  EXPECT_TRUE(b.ready());
+  EXPECT_FALSE(b.ready());
+  ros::WallDuration(0.25).sleep();
+  EXPECT_TRUE(a.ready());
+  EXPECT_FALSE(a.ready());
 }
 
 TEST(ShapeType, Names) {

@@ -17,8 +17,10 @@ import rostest
 import tf2_ros
 from collision_monitor.msg import CollisionEvent
 from collision_monitor.srv import GetDistance, ListBodies
+from rosgraph_msgs.msg import Log
 from roscpp.srv import GetLoggers
 from sensor_msgs.msg import JointState
+from tf2_msgs.msg import TFMessage
 
 from cm_test_util import Monitor, PoseStreamer, pose, sphere_body, tf_transform, wait_for
 
@@ -243,6 +245,26 @@ class Panda(unittest.TestCase):
         adj = other('panda_link3', 'panda_link4', '')
         self.assertFalse(adj.success)
         self.assertIn('adjacent links', adj.message)
+
+    def test_10_each_monitor_logs_its_own_tf_refusal(self):
+        # Bug: the refusal's log line was throttled by ROS_WARN_STREAM_THROTTLE, whose last time
+        # is one static for the whole process: of two monitors in this manager, the first to
+        # refuse a transform silenced the other for 5 s (and their TF threads raced on the static,
+        # ThreadSanitizer). Each monitor logs its own refusal now, its name first.
+        lines = []
+        sub = rospy.Subscriber('/rosout', Log, lambda m: lines.append(m.msg), queue_size=1000)
+        time.sleep(0.5)
+        pub = rospy.Publisher('/tf', TFMessage, queue_size=10)
+        self.assertTrue(wait_for(lambda: pub.get_num_connections() >= 2, 10.0))
+        pub.publish(TFMessage(transforms=[tf_transform('refused_by_both',
+                                                       xyz=(float('nan'), 0.0, 0.0))]))
+
+        def names():
+            return sorted({m.split(': TF: refused')[0] for m in list(lines)
+                           if ': TF: refused' in m and 'refused_by_both' in m})
+        wait_for(lambda: len(names()) == 2, 5.0)
+        sub.unregister()
+        self.assertEqual(names(), ['/collision_monitor', '/robot2/arm/arm_monitor'])
 
 
 if __name__ == '__main__':

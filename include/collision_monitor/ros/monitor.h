@@ -235,7 +235,9 @@ class Monitor {
   std::atomic<std::chrono::steady_clock::rep> check_started_{0};
   /// Start of the last check (steady clock ticks), 0 before the first.
   std::atomic<std::chrono::steady_clock::rep> last_check_started_{0};
-  double last_now_ = 0.0;  ///< ROS time of the previous check (loop thread)
+  double last_now_ = 0.0;             ///< ROS time of the previous check (loop thread)
+  LogThrottle cycle_error_log_{1.0};  ///< "check cycle failed" (loop thread)
+  LogThrottle future_tf_log_{1.0};    ///< "TF stamped more than ... after the current ROS time"
   /// ROS time going back by more than this (s) is a time jump (bag loop, simulation reset): every
   /// pose and the TF buffer are forgotten. Poses stamped more than this after ROS time are
   /// refused, and TF that far ahead leaves its frame unresolved.

@@ -23,6 +23,8 @@
 #include <tf2_msgs/TFMessage.h>
 #include <tf2_ros/buffer.h>
 
+#include "collision_monitor/ros/log_throttle.h"
+
 namespace collision_monitor {
 namespace ros_layer {
 
@@ -30,8 +32,9 @@ class TfReceiver {
  public:
   /// Subscribes to /tf (with `hints`) and /tf_static through `nh` and starts the receiving
   /// thread. `on_message`, if set, runs after each message is in the buffer (outside the lock).
+  /// `name` starts its log lines (the monitor's name).
   TfReceiver(tf2_ros::Buffer& buffer, const ros::NodeHandle& nh, const ros::TransportHints& hints,
-             std::function<void()> on_message = {});
+             std::function<void()> on_message = {}, std::string name = "tf_receiver");
   ~TfReceiver();
   TfReceiver(const TfReceiver&) = delete;
   TfReceiver& operator=(const TfReceiver&) = delete;
@@ -60,6 +63,7 @@ class TfReceiver {
 
   tf2_ros::Buffer& buffer_;
   std::function<void()> on_message_;
+  std::string name_;
   ros::NodeHandle nh_;
   ros::CallbackQueue queue_;
   std::unique_ptr<ros::AsyncSpinner> spinner_;
@@ -72,6 +76,7 @@ class TfReceiver {
   std::size_t messages_ = 0;  ///< guarded by batch_mutex_
   std::size_t refused_ = 0;   ///< guarded by batch_mutex_
   std::string last_refusal_;  ///< guarded by batch_mutex_
+  LogThrottle refusal_log_{5.0};
 };
 
 }  // namespace ros_layer
