@@ -117,12 +117,10 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   // up to ~40 ms late (soak test: TF-pair event latency p50 21 ms, p99 47 ms; with it 2.2 / 5.9).
   // New TF data is pose input for every TF-attached body (robot links): with check_on_tf, check
   // promptly after each message, coalesced with other triggers by min_check_interval.
-  tf_receiver_ = std::make_unique<TfReceiver>(
-      *tf_buffer_, nh_, ros::TransportHints().tcpNoDelay(),
-      [this] {
-        if (check_on_tf_) trigger();
-      },
-      name_);
+  tf_receiver_ = std::make_unique<TfReceiver>(*tf_buffer_, nh_, ros::TransportHints().tcpNoDelay(),
+                                              name_, [this] {
+                                                if (check_on_tf_) trigger();
+                                              });
 
   loadRobot();
   loadParameterBodies();

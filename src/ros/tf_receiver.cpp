@@ -11,8 +11,8 @@ namespace collision_monitor {
 namespace ros_layer {
 
 TfReceiver::TfReceiver(tf2_ros::Buffer& buffer, const ros::NodeHandle& nh,
-                       const ros::TransportHints& hints, std::function<void()> on_message,
-                       std::string name)
+                       const ros::TransportHints& hints, std::string name,
+                       std::function<void()> on_message)
     : buffer_(buffer), on_message_(std::move(on_message)), name_(std::move(name)), nh_(nh) {
   // As tf2_ros::TransformListener: queues of 100 messages, /tf_static latched by its publishers.
   // The callback takes the whole MessageEvent, which names the publisher (tf2's authority):
@@ -100,8 +100,8 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
       // says: the buffer starts again (static transforms stay: tf2 keeps them through clear()).
       const std::string why = whyTooFarAhead(taken_before_time_, now);
       if (!why.empty()) {
-        ROS_WARN_STREAM("TF received before ROS time started is " << why
-                                                                  << ": clearing the TF buffer");
+        ROS_WARN_STREAM(name_ << ": TF received before ROS time started is " << why
+                              << ": clearing the TF buffer");
         buffer_.clear();
       }
       taken_before_time_ = ros::Time();
@@ -110,8 +110,8 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
     // buffer, and data stamped after the new time is dropped while that message goes in.
     const bool time_reset = now < last_update_;
     if (time_reset) {
-      ROS_WARN_STREAM("Detected jump back in time of " << (last_update_ - now).toSec()
-                                                       << "s. Clearing TF buffer.");
+      ROS_WARN_STREAM(name_ << ": detected jump back in time of " << (last_update_ - now).toSec()
+                            << " s, clearing the TF buffer");
       buffer_.clear();
     }
     last_update_ = now;

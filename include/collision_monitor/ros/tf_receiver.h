@@ -31,10 +31,10 @@ namespace ros_layer {
 class TfReceiver {
  public:
   /// Subscribes to /tf (with `hints`) and /tf_static through `nh` and starts the receiving
-  /// thread. `on_message`, if set, runs after each message is in the buffer (outside the lock).
-  /// `name` starts its log lines (the monitor's name).
+  /// thread. `name` starts its log lines (the monitor's name). `on_message`, if set, runs after
+  /// each message is in the buffer (outside the lock).
   TfReceiver(tf2_ros::Buffer& buffer, const ros::NodeHandle& nh, const ros::TransportHints& hints,
-             std::function<void()> on_message = {}, std::string name = "tf_receiver");
+             std::string name, std::function<void()> on_message = {});
   ~TfReceiver();
   TfReceiver(const TfReceiver&) = delete;
   TfReceiver& operator=(const TfReceiver&) = delete;
