@@ -1123,10 +1123,18 @@ void Monitor::diagnosticsThread() {
   // diagnostic_updater sends a report once its period (ROS time) has passed since the last:
   // asked every 0.1 s, a report is at most that late.
   std::unique_lock<std::mutex> lock(loop_mutex_);
+  bool abandoned = false;
   while (!stop_) {
     diagnostics_cv_.wait_for(lock, std::chrono::milliseconds(100),
                              [this] { return stop_ || force_diagnostics_; });
     if (stop_) break;
+    // The process is shutting down (SIGINT): stop a check in progress now, not in ~Monitor. A
+    // callback waiting for the world mutex meanwhile (a pose, a service call) holds the nodelet,
+    // so ~Monitor came only after the check had ended (seconds with bodies of 1,000 parts).
+    if (!abandoned && ros::isShuttingDown()) {
+      world_->abandonChecks();
+      abandoned = true;
+    }
     const bool force = std::exchange(force_diagnostics_, false);
     lock.unlock();
     if (force) {

@@ -49,6 +49,8 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 /// Tracked pairs not reported by the broad phase for this many cycles are forgotten (their
 /// warm-start caches go with them). A pair hovering at the broad-phase margin keeps its cache.
 constexpr std::uint64_t kForgetAfterCycles = 64;
+/// Why a query fails after abandonChecks(): its part queries were cut short.
+constexpr const char* kAbandoned = "checks abandoned: the monitor is shutting down";
 
 std::uint64_t pairKey(int lo, int hi) {
   return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(lo)) << 32) |
@@ -1254,6 +1256,7 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
   if (!A.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ia->second, now));
   if (!B.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ib->second, now));
   const Narrow n = m.narrowPhase(A, B, kInf, nullptr);
+  if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
   PairStatus tracked = PairStatus::Clear;
   auto it = m.pairs.find(orderedKey(ia->second, ib->second));
   if (it != m.pairs.end()) tracked = it->second.status;
@@ -1312,6 +1315,7 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
       best_slot = o;
     }
   }
+  if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
   PairStatus tracked = PairStatus::Clear;
   auto it = m.pairs.find(orderedKey(sa, best_slot));
   if (it != m.pairs.end()) tracked = it->second.status;

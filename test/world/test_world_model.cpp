@@ -282,6 +282,13 @@ TEST(WorldModel, AbandonedChecksStopAtOnce) {
   const CycleResult next = w.check(2.0);
   EXPECT_TRUE(next.abandoned);
   EXPECT_EQ(next.num_part_checks, 0u);
+  // And queries fail, saying why (their part queries are cut short: no distance to stand by).
+  std::string why;
+  EXPECT_FALSE(w.distance("a", "b", 2.0, &why));
+  EXPECT_EQ(why, "checks abandoned: the monitor is shutting down");
+  why.clear();
+  EXPECT_FALSE(w.nearest("a", 2.0, &why));
+  EXPECT_EQ(why, "checks abandoned: the monitor is shutting down");
 }
 
 TEST(WorldModel, SettingsChangedWhileRunning) {
