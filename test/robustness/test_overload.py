@@ -185,13 +185,19 @@ class Overload(unittest.TestCase):
         self.place(1)
         threading.Thread(target=lambda: self.call_quietly('s0', 'big_a'), daemon=True).start()
         time.sleep(0.3)
+        with open('/proc/%d/status' % pid) as f:
+            peak_memory = ' '.join(l.split(':')[1].strip() for l in f if l.startswith('VmHWM'))
         t0 = time.monotonic()
         os.kill(pid, signal.SIGINT)
         exited = wait_for(lambda: not alive(pid), 30.0, 0.05)
         t_exit = time.monotonic() - t0
-        print('SIGINT during a check (%s): exit after %.2f s' % (d.message, t_exit), flush=True)
+        print('SIGINT during a check (%s): exit after %.2f s; peak memory %s' %
+              (d.message, t_exit, peak_memory), flush=True)
         self.assertTrue(exited, 'the node did not exit within 30 s of SIGINT')
-        self.assertLess(t_exit, 3.0)
+        # 0.21 to 0.30 s here, as a plain exit. It was up to 2.3 s (4 runs of 5 over 1.5 s)
+        # while a pair's warm-start caches were all made before its first part query: 208 MB for
+        # each pair of these bodies, allocated in 0.65 s, deaf to abandonChecks().
+        self.assertLess(t_exit, 1.5)
 
 
 if __name__ == '__main__':

@@ -139,6 +139,9 @@ struct CycleResult {
   std::size_t num_pairs_cached = 0;
   std::size_t num_unknown_pairs = 0;  ///< every UNKNOWN pair, listed or not
   std::size_t num_part_checks = 0;    ///< convex part-pair GJK runs (<= parts_a * parts_b per pair)
+  /// Warm-start caches (208 bytes each) held over every tracked pair after this check: one per
+  /// part pair queried, at most 4,096 a pair.
+  std::size_t num_part_caches = 0;
   /// WorldModel::abandonChecks() cut this check short: nothing in it is a verdict.
   bool abandoned = false;
 };
