@@ -133,12 +133,28 @@ collision_monitor::Shape shape(const XmlRpcValue& v, const std::string& field) {
 
 Expected<collision_monitor::Body> bodyFromXmlRpc(const XmlRpcValue& v) {
   try {
+    // The fields of Body (INTERFACE.md), and `frame_id` for `header: {frame_id: ...}`.
     checkKeys(v, "body",
-              {"id", "frame_id", "group", "padding", "pose_from_topic", "pose_topic", "parts"});
+              {"id", "operation", "header", "frame_id", "group", "padding", "pose_from_topic",
+               "pose_topic", "parts"});
     collision_monitor::Body b;
     b.operation = collision_monitor::Body::ADD;
     if (!v.hasMember("id")) fail("body", "missing 'id'");
     b.id = string(v["id"], "id");
+    if (v.hasMember("operation")) {
+      const XmlRpcValue& op = v["operation"];
+      const bool add = op.getType() == XmlRpcValue::TypeInt
+                           ? static_cast<const int&>(op) == collision_monitor::Body::ADD
+                           : string(op, "operation") == "ADD" || string(op, "operation") == "add";
+      if (!add)
+        fail("operation", "a body of ~bodies is added (ADD, 0): there is nothing to remove");
+    }
+    if (v.hasMember("header")) {
+      const XmlRpcValue& h = v["header"];
+      checkKeys(h, "header", {"frame_id", "stamp", "seq"});  // stamp and seq: unused
+      if (v.hasMember("frame_id")) fail("body", "both 'frame_id' and 'header.frame_id'");
+      if (h.hasMember("frame_id")) b.header.frame_id = string(h["frame_id"], "header.frame_id");
+    }
     if (v.hasMember("frame_id")) b.header.frame_id = string(v["frame_id"], "frame_id");
     if (v.hasMember("group")) b.group = string(v["group"], "group");
     if (v.hasMember("padding")) b.padding = number(v["padding"], "padding");

@@ -434,6 +434,34 @@ TEST(Params, BodyFromYaml) {
   XmlRpc::XmlRpcValue no_id = b;
   no_id["id"] = 3;
   EXPECT_TRUE(contains(bodyFromXmlRpc(no_id).error(), "id"));
+
+  // Body's own fields (INTERFACE.md: "same fields as Body"): header.frame_id and operation ADD.
+  // They were refused ("unknown field 'header'"), and the body was not loaded.
+  XmlRpc::XmlRpcValue as_msg;
+  as_msg["id"] = "table";
+  as_msg["parts"] = b["parts"];
+  as_msg["header"]["frame_id"] = "table_frame";
+  as_msg["header"]["seq"] = 0;
+  as_msg["operation"] = 0;
+  auto m2 = bodyFromXmlRpc(as_msg);
+  ASSERT_TRUE(m2) << m2.error();
+  EXPECT_EQ(m2->header.frame_id, "table_frame");
+  EXPECT_EQ(m2->operation, collision_monitor::Body::ADD);
+  ASSERT_EQ(m2->parts.size(), 2u);
+  as_msg["operation"] = "ADD";
+  EXPECT_TRUE(bodyFromXmlRpc(as_msg));
+  XmlRpc::XmlRpcValue remove = as_msg;
+  remove["operation"] = 1;
+  EXPECT_EQ(bodyFromXmlRpc(remove).error(),
+            "operation: a body of ~bodies is added (ADD, 0): there is nothing to remove");
+  remove["operation"] = "REMOVE";
+  EXPECT_TRUE(contains(bodyFromXmlRpc(remove).error(), "nothing to remove"));
+  XmlRpc::XmlRpcValue both = as_msg;
+  both["frame_id"] = "world";
+  EXPECT_EQ(bodyFromXmlRpc(both).error(), "body: both 'frame_id' and 'header.frame_id'");
+  XmlRpc::XmlRpcValue header_typo = as_msg;
+  header_typo["header"]["frame"] = "world";
+  EXPECT_EQ(bodyFromXmlRpc(header_typo).error(), "header: unknown field 'frame'");
 }
 
 TEST(Params, PairsAndStrings) {
