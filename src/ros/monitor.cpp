@@ -471,10 +471,12 @@ void Monitor::reject(const std::string& key, const std::string& what) {
 
 std::string Monitor::resolvePoseTopic(const std::string& topic) const {
   if (topic.empty()) return topic;
+  // Not remapped: subscribe() remaps the name it is given. Remapped here too, a swap of two
+  // names (a:=b b:=a) was applied twice, and undid itself.
   // roscpp's NodeHandle methods refuse `~name`: it is the private namespace's `name`.
   if (topic[0] == '~')
-    return pnh_.resolveName(topic.substr(topic.size() > 1 && topic[1] == '/' ? 2 : 1));
-  return nh_.resolveName(topic);
+    return pnh_.resolveName(topic.substr(topic.size() > 1 && topic[1] == '/' ? 2 : 1), false);
+  return nh_.resolveName(topic, false);
 }
 
 std::string Monitor::addBody(world::BodySpec spec) {
@@ -486,6 +488,9 @@ std::string Monitor::addBody(world::BodySpec spec) {
   } catch (const ros::Exception& e) {
     return "pose_topic " + quoteInput(spec.pose_topic) + " cannot be resolved: " + e.what();
   }
+  // Kept resolved: a replaced body keeps its pose while it comes from the same topic
+  // (WorldModel::addBody), however it is spelled ('~x' and '/node/x').
+  spec.pose_topic = topic;
   Tracked t;
   t.from_tf = spec.pose_source == world::PoseSource::Tf;
   t.frame = spec.frame;

@@ -743,6 +743,44 @@ class TopicBodies(unittest.TestCase):
         self.assertTrue(self.m.wait_listed('arm', present=False))
         self.assertTrue(self.m.wait_listed('b', present=False))
 
+    def test_19_pose_topic_spelled_otherwise_or_remapped(self):
+        # A tracker that sends one static pose, latched. Bug: replacing the body with the same
+        # pose_topic spelled another way ('~tool_pose', then its full name) dropped its pose
+        # (the spellings were compared, not the topics), and the latched pose does not come
+        # again: UNKNOWN for good.
+        latched = rospy.Publisher(NS + 'tool_pose', PoseStamped, queue_size=1, latch=True)
+        p = PoseStamped()
+        p.header.frame_id = 'world'  # stamp 0: static, never stale
+        p.pose = pose(0, 3, 0)
+        latched.publish(p)
+        # Bug: the node is started with swap_a:=swap_b swap_b:=swap_a (topic_bodies.test), and
+        # a pose_topic was remapped twice (swap_a -> swap_b -> swap_a): the body read swap_a.
+        swapped = rospy.Publisher('/swap_b', PoseStamped, queue_size=1, latch=True)
+        q = PoseStamped()
+        q.header.frame_id = 'world'
+        q.pose = pose(0, -4, 0)
+        swapped.publish(q)
+        try:
+            self.m.add(sphere_body('tool', 0.5, pose_topic='~tool_pose'))
+            self.m.add(sphere_body('swapped', 0.5, pose_topic='swap_a'))
+            self.assertIsNotNone(self.wait_distance('tool', 's1', 1.5), self.distance('tool', 's1'))
+            self.assertIsNotNone(self.wait_distance('swapped', 's1', 2.5),
+                                 self.distance('swapped', 's1'))
+            self.m.add(sphere_body('tool', 0.25, pose_topic=NS + 'tool_pose'))
+            self.assertIsNotNone(self.wait_distance('tool', 's1', 1.75),
+                                 self.distance('tool', 's1'))
+            # Still posed well past pose_timeout (0.5 s): nothing else will come.
+            time.sleep(1.0)
+            r = self.distance('tool', 's1')
+            self.assertTrue(r.success, r.message)
+            self.assertAlmostEqual(r.result.distance, 1.75, places=9)
+            self.assertEqual(latched.get_num_connections(), 1)
+        finally:
+            self.m.add(Body(id='tool', operation=Body.REMOVE))
+            self.m.add(Body(id='swapped', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('tool', present=False))
+        self.assertTrue(self.m.wait_listed('swapped', present=False))
+
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'topic_bodies', TopicBodies, sys.argv)
