@@ -488,15 +488,14 @@ std::string Monitor::addBody(world::BodySpec spec) {
   } catch (const ros::Exception& e) {
     return "pose_topic " + quoteInput(spec.pose_topic) + " cannot be resolved: " + e.what();
   }
-  // Kept resolved: a replaced body keeps its pose while it comes from the same topic
-  // (WorldModel::addBody), however it is spelled ('~x' and '/node/x').
-  spec.pose_topic = topic;
+  // Kept as the topic read (remapped): a replaced body keeps its pose while it comes from the
+  // same topic (WorldModel::addBody), however it is spelled ('~x', '/node/x', or 'a' with a:=/x).
+  if (!topic.empty()) spec.pose_topic = nh_.resolveName(topic);
   Tracked t;
   t.from_tf = spec.pose_source == world::PoseSource::Tf;
   t.frame = spec.frame;
   if (!t.frame.empty() && t.frame[0] == '/') t.frame.erase(0, 1);
   t.origin = spec.origin;
-  t.pose_topic = topic;
   {
     std::lock_guard<std::mutex> lock(world_mutex_);
     std::string err = world_->addBody(std::move(spec));

@@ -143,17 +143,20 @@ Expected<collision_monitor::Body> bodyFromXmlRpc(const XmlRpcValue& v) {
     b.id = string(v["id"], "id");
     if (v.hasMember("operation")) {
       const XmlRpcValue& op = v["operation"];
-      const bool add = op.getType() == XmlRpcValue::TypeInt
-                           ? static_cast<const int&>(op) == collision_monitor::Body::ADD
-                           : string(op, "operation") == "ADD" || string(op, "operation") == "add";
-      if (!add)
-        fail("operation", "a body of ~bodies is added (ADD, 0): there is nothing to remove");
+      const std::string name = op.getType() == XmlRpcValue::TypeInt
+                                   ? std::to_string(static_cast<const int&>(op))
+                                   : string(op, "operation");
+      if (name != "0" && name != "ADD" && name != "add") {
+        fail("operation", "'" + name + "': a body of ~bodies is added (ADD, 0), never removed");
+      }
     }
     if (v.hasMember("header")) {
       const XmlRpcValue& h = v["header"];
       checkKeys(h, "header", {"frame_id", "stamp", "seq"});  // stamp and seq: unused
-      if (v.hasMember("frame_id")) fail("body", "both 'frame_id' and 'header.frame_id'");
-      if (h.hasMember("frame_id")) b.header.frame_id = string(h["frame_id"], "header.frame_id");
+      if (h.hasMember("frame_id")) {
+        if (v.hasMember("frame_id")) fail("body", "both 'frame_id' and 'header.frame_id'");
+        b.header.frame_id = string(h["frame_id"], "header.frame_id");
+      }
     }
     if (v.hasMember("frame_id")) b.header.frame_id = string(v["frame_id"], "frame_id");
     if (v.hasMember("group")) b.group = string(v["group"], "group");

@@ -263,29 +263,35 @@ class SlotIndex {
   std::size_t tombs_ = 0;
 };
 
-/// A pair's warm-start caches: one for each part pair (index i * parts_b + j) as it is first
-/// queried, up to kMaxCaches (later ones run cold). A cache for every part pair, made before the
-/// first query, took 208 MB for two bodies of 1,000 parts (1,000,000 part pairs, of which the
-/// bounds let few through), allocated in 0.65 s; now such a pair holds a 4 MB index and at most
-/// 0.85 MB of caches.
+/// A pair's warm-start caches (208 bytes each), at most kMaxCaches: one per part pair (index
+/// i * parts_b + j) for a pair of up to kMaxCaches part pairs, else one per part pair queried,
+/// all dropped when kMaxCaches are held (the part pairs queried since keep theirs). A cache for
+/// every part pair, made before the first query, took 208 MB for two bodies of 1,000 parts
+/// (1,000,000 part pairs, of which the bounds let few through), allocated in 0.65 s.
 class PartCaches {
  public:
-  /// The cache of part pair `k` of `n` (parts_a * parts_b), cold when new; nullptr past
-  /// kMaxCaches. Another `n` than the last call's (a body's parts changed) drops every cache.
+  /// The cache of part pair `k` of `n` (parts_a * parts_b), cold when new. Another `n` than the
+  /// last call's (a body's parts changed) drops every cache.
   core::PairCache* get(std::size_t k, std::size_t n) {
-    if (n != slot_.size()) {
+    if (n != n_) {
       clear();
-      slot_.assign(n, kNone);
+      n_ = n;
+      if (n <= kMaxCaches) caches_.resize(n);
     }
-    std::uint32_t& s = slot_[k];
-    if (s == kNone) {
-      if (caches_.size() == kMaxCaches) return nullptr;
-      s = static_cast<std::uint32_t>(caches_.size());
+    if (n <= kMaxCaches) return &caches_[k];
+    auto [it, added] = slot_.try_emplace(k, static_cast<std::uint32_t>(caches_.size()));
+    if (added) {
+      if (caches_.size() == kMaxCaches) {
+        slot_.clear();
+        caches_.clear();
+        it = slot_.try_emplace(k, 0u).first;
+      }
       caches_.emplace_back();
     }
-    return &caches_[s];
+    return &caches_[it->second];
   }
   void clear() {
+    n_ = 0;
     slot_ = {};
     caches_ = {};
   }
@@ -293,8 +299,8 @@ class PartCaches {
 
  private:
   static constexpr std::size_t kMaxCaches = 4096;
-  static constexpr std::uint32_t kNone = 0xffffffffu;
-  std::vector<std::uint32_t> slot_;  ///< by part pair: index into caches_, or kNone
+  std::size_t n_ = 0;
+  std::unordered_map<std::size_t, std::uint32_t> slot_;  ///< part pair -> caches_ (n > kMaxCaches)
   std::vector<core::PairCache> caches_;
 };
 

@@ -453,12 +453,18 @@ TEST(Params, BodyFromYaml) {
   XmlRpc::XmlRpcValue remove = as_msg;
   remove["operation"] = 1;
   EXPECT_EQ(bodyFromXmlRpc(remove).error(),
-            "operation: a body of ~bodies is added (ADD, 0): there is nothing to remove");
-  remove["operation"] = "REMOVE";
-  EXPECT_TRUE(contains(bodyFromXmlRpc(remove).error(), "nothing to remove"));
+            "operation: '1': a body of ~bodies is added (ADD, 0), never removed");
+  remove["operation"] = "Add";
+  EXPECT_EQ(bodyFromXmlRpc(remove).error(),
+            "operation: 'Add': a body of ~bodies is added (ADD, 0), never removed");
   XmlRpc::XmlRpcValue both = as_msg;
   both["frame_id"] = "world";
   EXPECT_EQ(bodyFromXmlRpc(both).error(), "body: both 'frame_id' and 'header.frame_id'");
+  XmlRpc::XmlRpcValue seq_only = b;  // frame_id, and a header without one
+  seq_only["header"]["seq"] = 3;
+  auto m3 = bodyFromXmlRpc(seq_only);
+  ASSERT_TRUE(m3) << m3.error();
+  EXPECT_EQ(m3->header.frame_id, "world");
   XmlRpc::XmlRpcValue header_typo = as_msg;
   header_typo["header"]["frame"] = "world";
   EXPECT_EQ(bodyFromXmlRpc(header_typo).error(), "header: unknown field 'frame'");

@@ -29,20 +29,22 @@ class LaunchFile(unittest.TestCase):
         rospy.set_param(NAME + 'fixed_frame', 'old_frame')
         rospy.set_param(NAME + 'bodies', [{'id': 'old_crate', 'frame_id': 'world',
                                            'parts': [{'type': 'box', 'dimensions': [1, 1, 1]}]}])
-        # Bug: roslaunch passed 0 and False on as the integer 0 and the string 'False' (the
-        # <param>s had no type="bool"); the node refused both and kept its defaults (true).
+        # Bug: roslaunch passed 0 on as the integer 0 (the <param>s had no type="bool"); the
+        # node refused it and kept its default (true). False was converted already.
+        log = open(os.path.join(os.environ.get('ROS_HOME', '/tmp'), 'launch_file_roslaunch.log'),
+                   'w+')
         launch = subprocess.Popen(
             ['roslaunch', LAUNCH, 'node_name:=cm_launched', 'publish_markers:=0',
              'check_on_tf:=False', 'exact_min_distance:=0', 'rate:=20'],
-            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True)
+            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
         try:
             m = Monitor(NAME)
             self.assertEqual(m.state.header.frame_id, 'world')  # no URDF here: world
             self.assertEqual(m.ids(), [])
-            self.assertFalse(rospy.get_param(NAME + 'publish_markers'))
-            self.assertFalse(rospy.get_param(NAME + 'check_on_tf'))
-            self.assertFalse(rospy.get_param(NAME + 'exact_min_distance'))
-            self.assertTrue(rospy.get_param(NAME + 'check_on_pose'))
+            self.assertIs(rospy.get_param(NAME + 'publish_markers'), False)
+            self.assertIs(rospy.get_param(NAME + 'check_on_tf'), False)
+            self.assertIs(rospy.get_param(NAME + 'exact_min_distance'), False)
+            self.assertIs(rospy.get_param(NAME + 'check_on_pose'), True)
             self.assertTrue(wait_for(lambda: m.diagnostics is not None, 10.0))
             d = m.diagnostics
             self.assertNotEqual(d.level, DiagnosticStatus.ERROR, d.message)
@@ -58,8 +60,14 @@ class LaunchFile(unittest.TestCase):
                 sub.unregister()
         finally:
             os.killpg(launch.pid, signal.SIGINT)
-            out, _ = launch.communicate(timeout=30.0)
-            print(out[-3000:], flush=True)
+            try:
+                launch.wait(timeout=30.0)
+            except subprocess.TimeoutExpired:
+                os.killpg(launch.pid, signal.SIGKILL)
+                launch.wait()
+            log.seek(0)
+            print(log.read()[-3000:], flush=True)
+            log.close()
         self.assertEqual(launch.returncode, 0)
 
 

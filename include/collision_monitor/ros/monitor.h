@@ -74,7 +74,6 @@ class Monitor {
     std::string frame;  ///< TF frame (PoseSource::Tf) or empty
     bool from_tf = false;
     world::BodyOrigin origin = world::BodyOrigin::Topic;
-    std::string pose_topic;
   };
 
   // start-up
@@ -105,8 +104,8 @@ class Monitor {
   /// false with `why` for a body declared by the URDF or the parameters.
   bool removeBody(const std::string& id, std::string* why);
   /// The absolute name of a body's pose_topic: a relative name in the node's namespace, `~name`
-  /// in its private namespace (as roscpp resolves `~` elsewhere), remappings applied. Throws
-  /// ros::Exception on a name roscpp refuses.
+  /// in its private namespace (as roscpp resolves `~` elsewhere), not remapped (subscribe()
+  /// remaps the name it is given). Throws ros::Exception on a name roscpp refuses.
   std::string resolvePoseTopic(const std::string& topic) const;
   /// The parameter key of robot parameter `name`: its remapped name when remapped, else
   /// `fallback`, else the key found searching upward from the node's namespace.

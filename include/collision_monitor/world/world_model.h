@@ -140,7 +140,8 @@ struct CycleResult {
   std::size_t num_unknown_pairs = 0;  ///< every UNKNOWN pair, listed or not
   std::size_t num_part_checks = 0;    ///< convex part-pair GJK runs (<= parts_a * parts_b per pair)
   /// Warm-start caches (208 bytes each) held over every tracked pair after this check: one per
-  /// part pair queried, at most 4,096 a pair.
+  /// part pair, at most 4,096 a pair; for a pair of more part pairs, one per part pair queried
+  /// since its caches were last dropped (when 4,096 are held).
   std::size_t num_part_caches = 0;
   /// WorldModel::abandonChecks() cut this check short: nothing in it is a verdict.
   bool abandoned = false;
