@@ -718,17 +718,11 @@ struct WorldModel::Impl {
         e->version_b == B.version) {
       return &e->result;
     }
-    const Narrow n = narrowWithCaches(A, B, e, kInf);
+    const Narrow n = narrowPhase(A, B, kInf, &e->caches);
     *part_checks += static_cast<std::size_t>(n.gjk_runs);
     if (!std::isfinite(n.distance)) return nullptr;
     store(e, n, A, B, kInf);
     return &e->result;
-  }
-
-  /// The pair's narrow phase up to `cutoff`, warm-started from the entry's caches.
-  Narrow narrowWithCaches(const BodyState& A, const BodyState& B, PairEntry* e,
-                          double cutoff) const {
-    return narrowPhase(A, B, cutoff, &e->caches);
   }
 
   /// Keeps `n` as the entry's result for the bodies' current versions.
@@ -1133,7 +1127,7 @@ CycleResult WorldModel::check(Stamp now) {
     if (reusable) {
       ++res.num_pairs_cached;
     } else {
-      Impl::store(&e, m.narrowWithCaches(A, B, &e, cutoff), A, B, cutoff);
+      Impl::store(&e, m.narrowPhase(A, B, cutoff, &e.caches), A, B, cutoff);
       ++res.num_pairs_checked;
       res.num_part_checks += static_cast<std::size_t>(e.result.gjk_runs);
     }
