@@ -350,13 +350,29 @@ void Monitor::loadRobot() {
         robotParamKey(robot_description_param_ + "_semantic", key + "_semantic");
     std::string srdf;
     if (nh_.getParam(skey, srdf) && !srdf.empty()) {
-      auto pairs = disabledPairsFromSrdf(srdf);
-      if (!pairs) {
-        rejectAtStartup("SRDF '" + skey + "': " + pairs.error());
+      auto rules = collisionsFromSrdf(srdf);
+      if (!rules) {
+        rejectAtStartup("SRDF '" + skey + "': " + rules.error());
       } else {
-        for (const auto& [a, b] : *pairs)
+        for (const auto& [a, b] : rules->disabled)
           disablePair(a, b, "SRDF <disable_collisions>");
-        ROS_INFO_STREAM(name_ << ": SRDF: " << pairs->size() << " pairs disabled");
+        {
+          std::lock_guard<std::mutex> lock(world_mutex_);
+          for (const std::string& link : rules->default_off) {
+            world_->disableByDefault(link);
+            default_off_.insert(link);
+          }
+          for (const auto& [a, b] : rules->enabled)
+            world_->enablePair(a, b);
+        }
+        if (rules->num_skipped != 0) {
+          ROS_WARN_STREAM(name_ << ": SRDF '" << skey << "': " << rules->num_skipped
+                                << " collision elements skipped, the first: "
+                                << rules->first_skipped);
+        }
+        ROS_INFO_STREAM(name_ << ": SRDF: " << rules->disabled.size() << " pairs disabled, "
+                              << rules->default_off.size() << " links disabled by default, "
+                              << rules->enabled.size() << " pairs enabled");
       }
     }
   }
@@ -765,8 +781,9 @@ void Monitor::onPoseStamped(const std::string& id,
 std::string Monitor::whyNeverChecked(const std::string& a, const std::string& b) const {
   if (world_->isPairDisabled(a, b)) {
     auto it = disabled_reasons_.find(sortedPair(a, b));
-    return "the pair is disabled (" +
-           (it != disabled_reasons_.end() ? it->second : std::string("disabled")) + ")";
+    if (it != disabled_reasons_.end()) return "the pair is disabled (" + it->second + ")";
+    const std::string& off = default_off_.count(a) != 0 ? a : b;
+    return "the pair is disabled (SRDF <disable_default_collisions> of '" + off + "')";
   }
   const world::BodySpec* ba = world_->body(a);
   const world::BodySpec* bb = world_->body(b);

@@ -256,22 +256,35 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
   return out;
 }
 
-Expected<std::vector<IdPair>> disabledPairsFromSrdf(const std::string& srdf_xml) {
+Expected<SrdfCollisions> collisionsFromSrdf(const std::string& srdf_xml) {
   tinyxml2::XMLDocument doc;
   if (doc.Parse(srdf_xml.c_str(), srdf_xml.size()) != tinyxml2::XML_SUCCESS) {
     return Error{std::string("SRDF does not parse: ") + doc.ErrorStr()};
   }
   const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
   if (robot == nullptr) return Error{"SRDF has no <robot> root element"};
-  std::vector<IdPair> pairs;
-  for (const tinyxml2::XMLElement* e = robot->FirstChildElement("disable_collisions"); e;
-       e = e->NextSiblingElement("disable_collisions")) {
-    const char* a = e->Attribute("link1");
-    const char* b = e->Attribute("link2");
-    if (a == nullptr || b == nullptr || *a == '\0' || *b == '\0') continue;
-    pairs.emplace_back(a, b);
+  SrdfCollisions out;
+  const auto attribute = [&](const tinyxml2::XMLElement* e, const char* name) -> const char* {
+    const char* v = e->Attribute(name);
+    if (v != nullptr && *v != '\0') return v;
+    if (out.num_skipped++ == 0) {
+      out.first_skipped = "<" + std::string(e->Name()) + "> on line " +
+                          std::to_string(e->GetLineNum()) + " has no '" + name + "' attribute";
+    }
+    return nullptr;
+  };
+  for (const tinyxml2::XMLElement* e = robot->FirstChildElement(); e; e = e->NextSiblingElement()) {
+    const std::string tag = e->Name();
+    if (tag == "disable_default_collisions") {
+      if (const char* link = attribute(e, "link")) out.default_off.emplace_back(link);
+    } else if (tag == "disable_collisions" || tag == "enable_collisions") {
+      const char* a = attribute(e, "link1");
+      const char* b = a ? attribute(e, "link2") : nullptr;
+      if (b == nullptr) continue;
+      (tag == "enable_collisions" ? out.enabled : out.disabled).emplace_back(a, b);
+    }
   }
-  return pairs;
+  return out;
 }
 
 }  // namespace ros_layer

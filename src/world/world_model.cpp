@@ -328,9 +328,12 @@ struct WorldModel::Impl {
   SlotIndex fast_slot_of;                        ///< the same, for setPose
   std::unordered_map<std::string, int> group_ids;
   std::unordered_map<std::string, std::unordered_set<std::string>> disabled;  ///< both ways
-  std::unordered_set<std::uint64_t> disabled_slots;                           ///< orderedKey
-  std::unordered_map<std::uint64_t, PairEntry> pairs;                         ///< orderedKey
-  HashGrid grid;  ///< the fresh bodies' boxes
+  std::unordered_set<std::string> default_off;                                ///< disableByDefault
+  std::unordered_map<std::string, std::unordered_set<std::string>> enabled;   ///< both ways
+  /// The pairs of bodies present that isDisabled() calls disabled.
+  std::unordered_set<std::uint64_t> disabled_slots;    ///< orderedKey
+  std::unordered_map<std::uint64_t, PairEntry> pairs;  ///< orderedKey
+  HashGrid grid;                                       ///< the fresh bodies' boxes
   std::uint64_t cycle = 0;
   std::size_t count = 0;
   std::vector<Event> pending;  ///< END events of removed bodies' pairs, for the next check()
@@ -464,9 +467,41 @@ struct WorldModel::Impl {
     items->swap(sorted);
   }
 
+  static bool named(const std::unordered_map<std::string, std::unordered_set<std::string>>& pairs,
+                    const std::string& a, const std::string& b) {
+    auto it = pairs.find(a);
+    return it != pairs.end() && it->second.count(b) != 0;
+  }
+
   bool isDisabled(const std::string& a, const std::string& b) const {
-    auto it = disabled.find(a);
-    return it != disabled.end() && it->second.count(b) != 0;
+    if (named(disabled, a, b)) return true;
+    return (default_off.count(a) != 0 || default_off.count(b) != 0) && !named(enabled, a, b);
+  }
+
+  /// Brings disabled_slots up to date for the pairs of the body in `slot` and the bodies
+  /// present.
+  void markDisabledPairsOf(int slot) {
+    const std::string& id = bodies[slot].spec.id;
+    const auto mark = [&](const std::string& other) {
+      auto o = slot_of.find(other);
+      if (o != slot_of.end() && o->second != slot && isDisabled(id, other)) {
+        disabled_slots.insert(orderedKey(slot, o->second));
+      }
+    };
+    auto dis = disabled.find(id);
+    if (dis != disabled.end()) {
+      for (const std::string& other : dis->second)
+        mark(other);
+    }
+    if (default_off.empty()) return;
+    if (default_off.count(id) != 0 || default_off.size() > count) {  // the shorter loop
+      for (const BodyState& o : bodies) {
+        if (o.used) mark(o.spec.id);
+      }
+    } else {
+      for (const std::string& other : default_off)
+        mark(other);
+    }
   }
 
   /// Compound narrow phase: min over part pairs of the signed distance. Part pairs are visited
@@ -913,15 +948,7 @@ std::string WorldModel::addBody(BodySpec spec) {
   m.fast_slot_of.insert(b.spec.id, slot);
   ++m.count;
   m.ranks_dirty = true;
-  auto dis = m.disabled.find(b.spec.id);
-  if (dis != m.disabled.end()) {
-    for (const std::string& other : dis->second) {
-      auto o = m.slot_of.find(other);
-      if (o != m.slot_of.end() && o->second != slot) {
-        m.disabled_slots.insert(orderedKey(slot, o->second));
-      }
-    }
-  }
+  m.markDisabledPairsOf(slot);
   return {};
 }
 
@@ -993,6 +1020,25 @@ void WorldModel::disablePair(const std::string& a, const std::string& b) {
   auto ib = m.slot_of.find(b);
   if (ia != m.slot_of.end() && ib != m.slot_of.end()) {
     m.disabled_slots.insert(orderedKey(ia->second, ib->second));
+  }
+}
+
+void WorldModel::disableByDefault(const std::string& id) {
+  Impl& m = *impl_;
+  m.default_off.insert(id);
+  auto it = m.slot_of.find(id);
+  if (it != m.slot_of.end()) m.markDisabledPairsOf(it->second);
+}
+
+void WorldModel::enablePair(const std::string& a, const std::string& b) {
+  Impl& m = *impl_;
+  if (a == b) return;
+  m.enabled[a].insert(b);
+  m.enabled[b].insert(a);
+  auto ia = m.slot_of.find(a);
+  auto ib = m.slot_of.find(b);
+  if (ia != m.slot_of.end() && ib != m.slot_of.end() && !m.isDisabled(a, b)) {
+    m.disabled_slots.erase(orderedKey(ia->second, ib->second));
   }
 }
 

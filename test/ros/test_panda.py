@@ -264,7 +264,47 @@ class Panda(unittest.TestCase):
                            if ': TF: refused' in m and 'refused_by_both' in m})
         wait_for(lambda: len(names()) == 2, 5.0)
         sub.unregister()
-        self.assertEqual(names(), ['/collision_monitor', '/robot2/arm/arm_monitor'])
+        self.assertEqual(names(), ['/collision_monitor', '/robot2/arm/arm_monitor',
+                                   '/robot3/default_off_monitor'])
+
+    def test_11_srdf_default_collisions_and_enabled_pairs(self):
+        # srdfdom 0.6's <disable_default_collisions> and <enable_collisions> were not read: the
+        # hand was checked against everything (test/ros/panda_default_off.srdf).
+        m = Monitor('/robot3/default_off_monitor/')
+        r = wait_for(lambda: (lambda r: r if r.success else None)(
+            m.get_distance('panda_hand', 'panda_link0', '')), 5.0, 0.05)
+        self.assertIsNotNone(r, m.get_distance('panda_hand', 'panda_link0', '').message)
+        self.assertGreater(r.result.distance, 0.1)
+        off = m.get_distance('panda_link3', 'panda_hand', '')
+        self.assertFalse(off.success)
+        self.assertIn("SRDF <disable_default_collisions> of 'panda_hand'", off.message)
+        adj = m.get_distance('panda_hand', 'panda_link7', '')  # enabled, but adjacent
+        self.assertFalse(adj.success)
+        self.assertIn('adjacent links', adj.message)
+        never = m.get_distance('panda_link0', 'panda_link2', '')
+        self.assertFalse(never.success)
+        self.assertIn('SRDF <disable_collisions>', never.message)
+        # robot2's monitor (the same Panda, no SRDF) checks that pair.
+        other = rospy.ServiceProxy('/robot2/arm/arm_monitor/get_distance', GetDistance)
+        self.assertTrue(wait_for(lambda: other('panda_link3', 'panda_hand', '').success, 5.0))
+        # Bodies added later: probe (enabled with the hand) and block, both inside the hand.
+        for body_id in ('probe', 'block'):
+            m.add(sphere_body(body_id, 0.05, frame='panda_hand', pose_from_topic=False))
+        hit = wait_for(lambda: (lambda r: r if r.success else None)(
+            m.get_distance('probe', 'panda_hand', '')), 5.0, 0.05)
+        self.assertIsNotNone(hit, m.get_distance('probe', 'panda_hand', '').message)
+        self.assertLess(hit.result.distance, 0.0)
+        blocked = m.get_distance('panda_hand', 'block', '')
+        self.assertFalse(blocked.success)
+        self.assertIn("of 'panda_hand'", blocked.message)
+        self.assertTrue(m.wait_event(E.COLLISION_BEGIN, 'panda_hand', 'probe'))
+
+        def pairs():
+            return {(p.body_a, p.body_b) for p in m.state.pairs}
+        self.assertTrue(wait_for(lambda: ('block', 'probe') in pairs(), 5.0))
+        self.assertIn(('panda_hand', 'probe'), pairs())
+        self.assertNotIn(('block', 'panda_hand'), pairs())
+        self.assertEqual(m.events_for({frozenset(('block', 'panda_hand'))}), [])
 
 
 if __name__ == '__main__':

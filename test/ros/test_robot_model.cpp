@@ -396,22 +396,47 @@ TEST(MeshPieces, ModeNames) {
 }
 
 TEST(Srdf, PandaDisabledPairs) {
-  auto pairs =
-      disabledPairsFromSrdf(readFile(robotData() + "/robots/panda_description/srdf/panda.srdf"));
-  ASSERT_TRUE(pairs) << pairs.error();
-  EXPECT_EQ(pairs->size(), 35u);
-  EXPECT_TRUE(hasPair(*pairs, "panda_link0", "panda_link1"));
+  auto rules =
+      collisionsFromSrdf(readFile(robotData() + "/robots/panda_description/srdf/panda.srdf"));
+  ASSERT_TRUE(rules) << rules.error();
+  EXPECT_EQ(rules->disabled.size(), 35u);
+  EXPECT_TRUE(hasPair(rules->disabled, "panda_link0", "panda_link1"));
+  EXPECT_TRUE(rules->default_off.empty());
+  EXPECT_TRUE(rules->enabled.empty());
+  EXPECT_EQ(rules->num_skipped, 0u);
 }
 
 TEST(Srdf, MalformedAndPartial) {
-  EXPECT_FALSE(disabledPairsFromSrdf("<robot><disable_collisions"));
-  EXPECT_FALSE(disabledPairsFromSrdf("<notrobot/>"));
-  auto p = disabledPairsFromSrdf(
+  EXPECT_FALSE(collisionsFromSrdf("<robot><disable_collisions"));
+  EXPECT_FALSE(collisionsFromSrdf("<notrobot/>"));
+  auto p = collisionsFromSrdf(
       R"(<robot name="r"><disable_collisions link1="a" link2="b" reason="Adjacent"/>
          <disable_collisions link1="c"/></robot>)");
   ASSERT_TRUE(p) << p.error();
-  ASSERT_EQ(p->size(), 1u);
-  EXPECT_EQ((*p)[0], IdPair("a", "b"));
+  ASSERT_EQ(p->disabled.size(), 1u);
+  EXPECT_EQ(p->disabled[0], IdPair("a", "b"));
+  EXPECT_EQ(p->num_skipped, 1u);
+  EXPECT_EQ(p->first_skipped, "<disable_collisions> on line 2 has no 'link2' attribute");
+}
+
+TEST(Srdf, DefaultCollisionsAndEnabledPairs) {
+  // srdfdom 0.6's elements, mixed with others, in document order.
+  auto p = collisionsFromSrdf(R"(<robot name="r">
+    <group name="arm"><chain base_link="a" tip_link="c"/></group>
+    <disable_default_collisions link="cam"/>
+    <enable_collisions link1="cam" link2="table" reason="User"/>
+    <disable_collisions link1="a" link2="b" reason="Never"/>
+    <disable_default_collisions link=""/>
+    <enable_collisions link2="x"/>
+    <disable_default_collisions link="mount"/>
+    <enable_collisions link1="mount" link2="cam"/>
+  </robot>)");
+  ASSERT_TRUE(p) << p.error();
+  EXPECT_EQ(p->default_off, (std::vector<std::string>{"cam", "mount"}));
+  EXPECT_EQ(p->enabled, (std::vector<IdPair>{{"cam", "table"}, {"mount", "cam"}}));
+  EXPECT_EQ(p->disabled, (std::vector<IdPair>{{"a", "b"}}));
+  EXPECT_EQ(p->num_skipped, 2u);
+  EXPECT_EQ(p->first_skipped, "<disable_default_collisions> on line 6 has no 'link' attribute");
 }
 
 // ---------------------------------------------------------------------------------------------

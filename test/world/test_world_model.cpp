@@ -171,6 +171,61 @@ TEST(WorldModel, PairFilterGroupsDisabledPairsAndSelf) {
   EXPECT_NEAR(n->distance, -0.98, 1e-12);
 }
 
+// SRDF <disable_default_collisions> and <enable_collisions>, as MoveIt reads them: a body off by
+// default meets only the bodies enabled with it; an explicitly disabled pair stays disabled.
+TEST(WorldModel, BodiesOffByDefaultMeetOnlyTheirEnabledPairs) {
+  WorldModel w(dyadic());
+  w.disableByDefault("c");  // before the bodies exist
+  w.enablePair("d", "c");
+  w.disablePair("c", "e");
+  w.enablePair("c", "e");  // the explicit disable wins
+  for (const char* id : {"a", "b", "c", "d", "e", "f"}) {
+    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
+    ASSERT_TRUE(w.setPose(id, at(0.01 * (id[0] - 'a')), 0.0));  // all overlapping
+  }
+  w.disableByDefault("f");  // after
+  w.enablePair("f", "a");
+  w.enablePair("f", "c");                      // both off by default: enabled all the same
+  ASSERT_EQ(w.addBody(sphere("g", 0.5)), "");  // a later body meets neither c nor f
+  ASSERT_TRUE(w.setPose("g", at(0.06), 0.0));
+  EXPECT_TRUE(w.isPairDisabled("b", "c"));
+  EXPECT_TRUE(w.isPairDisabled("c", "e"));
+  EXPECT_TRUE(w.isPairDisabled("g", "f"));
+  EXPECT_FALSE(w.isPairDisabled("c", "d"));
+  EXPECT_FALSE(w.isPairDisabled("a", "f"));
+  EXPECT_FALSE(w.isPairDisabled("a", "x"));  // neither exists: checked when both do
+  EXPECT_TRUE(w.isPairDisabled("c", "x"));
+  std::map<Key, S> expected;
+  for (const Key& k : std::vector<Key>{{"a", "b"},
+                                       {"a", "d"},
+                                       {"a", "e"},
+                                       {"a", "f"},
+                                       {"a", "g"},
+                                       {"b", "d"},
+                                       {"b", "e"},
+                                       {"b", "g"},
+                                       {"c", "d"},
+                                       {"c", "f"},
+                                       {"d", "e"},
+                                       {"d", "g"},
+                                       {"e", "g"}}) {
+    expected[k] = S::Collision;
+  }
+  const CycleResult r = w.check(1.0);
+  EXPECT_EQ(statuses(r), expected);
+  EXPECT_EQ(r.num_pairs_checked, expected.size());
+  // Removed and added again: the same rules.
+  ASSERT_TRUE(w.removeBody("c"));
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  ASSERT_TRUE(w.setPose("c", at(0.038), 0.0));  // nearest e (disabled), then d
+  EXPECT_EQ(statuses(w.check(2.0)), expected);
+  // nearest() follows them too.
+  std::string why;
+  const auto n = w.nearest("c", 1.0, &why);
+  ASSERT_TRUE(n) << why;
+  EXPECT_EQ(n->body_b, "d");
+}
+
 // distance() and nearest() say the time their answer holds for, as an event's stamp: the older
 // pose of a moving body; zero when both are static (the ROS layer then expresses the points with
 // the latest TF).
@@ -556,6 +611,16 @@ TEST(WorldModel, UnknownPairsCountedWithoutVisitingMatchTheListing) {
     if (a == b) continue;
     full.disablePair(a, b);
     cut.disablePair(a, b);
+  }
+  for (int k = 0; k < 4; ++k) {  // bodies off by default, with some pairs enabled again
+    const std::string& a = ids[g() % 60];
+    full.disableByDefault(a);
+    cut.disableByDefault(a);
+    for (int e = 0; e < 10; ++e) {
+      const std::string& b = ids[g() % 60];
+      full.enablePair(a, b);
+      cut.enablePair(a, b);
+    }
   }
   for (int i = 0; i < 60; i += 2) {  // half posed, far apart
     ASSERT_TRUE(full.setPose(ids[i], at(i), 0.0));

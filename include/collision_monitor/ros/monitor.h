@@ -185,6 +185,7 @@ class Monitor {
   std::unique_ptr<world::WorldModel> world_;
   std::map<std::string, Tracked> tracked_;
   std::map<std::pair<std::string, std::string>, std::string> disabled_reasons_;  // sorted pairs
+  std::set<std::string> default_off_;  // SRDF <disable_default_collisions> links
   // Pose input vs. checks (guarded by world_mutex_): messages that set at least one pose, and
   // checks that saw at least one such message since the previous check. The difference is the
   // number of pose messages superseded before a check used them (coalesced), on /diagnostics.

@@ -52,9 +52,21 @@ std::string checkUrdfStructure(const std::string& urdf_xml);
 Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding,
                                      const Limits& limits, const MeshLoader& load_mesh);
 
-/// Every <disable_collisions link1="" link2=""/> of an SRDF string, in document order. Fails when
-/// the XML does not parse or has no <robot> root; entries with a missing attribute are skipped.
-Expected<std::vector<IdPair>> disabledPairsFromSrdf(const std::string& srdf_xml);
+/// The collision rules of an SRDF (srdfdom 0.6, as MoveIt's allowed collision matrix reads
+/// them): a pair is never checked when <disable_collisions> names it; else it is checked when
+/// <enable_collisions> names it; else it is never checked when either link is named by
+/// <disable_default_collisions link=""/>.
+struct SrdfCollisions {
+  std::vector<IdPair> disabled;          ///< <disable_collisions link1 link2>, document order
+  std::vector<std::string> default_off;  ///< <disable_default_collisions link>
+  std::vector<IdPair> enabled;           ///< <enable_collisions link1 link2>
+  std::size_t num_skipped = 0;           ///< elements with a missing or empty link attribute
+  std::string first_skipped;             ///< why the first of them was skipped
+};
+
+/// Reads the collision rules of an SRDF string. Fails when the XML does not parse or has no
+/// <robot> root; an element with a missing or empty link attribute is skipped and counted.
+Expected<SrdfCollisions> collisionsFromSrdf(const std::string& srdf_xml);
 
 }  // namespace ros_layer
 }  // namespace collision_monitor

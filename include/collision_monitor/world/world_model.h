@@ -194,6 +194,14 @@ class WorldModel {
   /// Pairs never checked: adjacent links, SRDF <disable_collisions>, the disabled_pairs param.
   /// Order of a and b does not matter; ids need not exist yet.
   void disablePair(const std::string& a, const std::string& b);
+  /// SRDF <disable_default_collisions>: the body `id` is checked against no other body (those of
+  /// later bodies included) but the ones enablePair() names with it. It need not exist yet.
+  void disableByDefault(const std::string& id);
+  /// SRDF <enable_collisions>: the pair is checked although a body of it is disabled by default;
+  /// disablePair() still wins.
+  void enablePair(const std::string& a, const std::string& b);
+  /// disablePair() named the pair, or a body of it is disabled by default and enablePair() did
+  /// not name it.
   bool isPairDisabled(const std::string& a, const std::string& b) const;
 
   /// Sets a body's pose (body frame -> fixed frame) valid at `stamp` (s). A stamp older than the
