@@ -288,12 +288,14 @@ Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& sca
 }
 
 MeshCache::MeshCache(std::vector<std::string> mesh_roots, std::size_t max_vertices,
-                     PackageResolver resolve_package, MeshDecomposition mode, std::size_t max_parts)
+                     PackageResolver resolve_package, MeshDecomposition mode, std::size_t max_parts,
+                     std::string log_name)
     : mesh_roots_(std::move(mesh_roots)),
       max_vertices_(max_vertices),
       resolve_package_(std::move(resolve_package)),
       mode_(mode),
-      max_parts_(max_parts) {}
+      max_parts_(max_parts),
+      log_name_(std::move(log_name)) {}
 
 Expected<std::vector<core::ConvexShape>> MeshCache::load(const std::string& uri,
                                                          const core::Vec3& scale) {
@@ -307,7 +309,10 @@ Expected<std::vector<core::ConvexShape>> MeshCache::load(const std::string& uri,
   }
   auto loaded = loadMeshParts(*path, scale, max_vertices_, mode_, max_parts_);
   if (!loaded) return Error{loaded.error()};
-  if (!loaded->note.empty()) ROS_WARN_STREAM("mesh " << *path << ": " << loaded->note);
+  if (!loaded->note.empty()) {
+    ROS_WARN_STREAM((log_name_.empty() ? "" : log_name_ + ": ")
+                    << "mesh " << *path << ": " << loaded->note);
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   if (cache_.size() >= kMaxEntries) cache_.clear();
   cache_.emplace(key, loaded->parts);

@@ -107,7 +107,7 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
         return roots;
       }(),
       limits_.max_vertices_per_part, rosPackagePath, mesh_decomposition_,
-      limits_.max_parts_per_body);
+      limits_.max_parts_per_body, name_);
   mesh_loader_ = [cache = mesh_cache_.get()](const std::string& uri, const core::Vec3& scale) {
     return cache->load(uri, scale);
   };

@@ -11,6 +11,7 @@ import rospy
 import rostest
 from collision_monitor.msg import Body, BodyPoses, Shape
 from diagnostic_msgs.msg import DiagnosticStatus
+from rosgraph_msgs.msg import Log
 
 from cm_test_util import Monitor, pose, shape, sphere_body, wait_for
 
@@ -110,6 +111,27 @@ class Pr2(unittest.TestCase):
         self.assertAlmostEqual(pieces.point_a.y, disc_face, delta=1e-9)
         self.assertAlmostEqual(pieces.point_b.y, 0.135 - probe_radius, delta=1e-9)
         self.assertAlmostEqual(pieces.normal.y, 1.0, delta=1e-9)
+
+    def test_06_mesh_note_names_the_monitor(self):
+        # The note of a mesh kept whole was logged without the monitor's name: in a nodelet
+        # manager holding several monitors, the line could not be told apart. A new scale makes
+        # the cache load head_tilt.stl again (piece 3 of 9 is not closed).
+        lines = []
+        sub = rospy.Subscriber('/rosout', Log, lambda m: lines.append(m.msg), queue_size=1000)
+        self.assertTrue(wait_for(lambda: sub.get_num_connections() > 1, 10.0))
+        tilt = Body(id='tilt', operation=Body.ADD, pose_from_topic=True)
+        tilt.parts = [shape(Shape.MESH, resource='package://example-robot-data/robots/'
+                            'pr2_description/meshes/head_v0/head_tilt.stl')]
+        tilt.parts[0].scale.x, tilt.parts[0].scale.y, tilt.parts[0].scale.z = 1.5, 1.5, 1.5
+        self.pieces.add(tilt)
+        self.assertTrue(self.pieces.wait_listed('tilt'))
+
+        def note():
+            return [m for m in list(lines) if 'head_tilt.stl: not split into pieces' in m]
+        self.assertTrue(wait_for(note, 5.0, 0.05))
+        sub.unregister()
+        self.assertTrue(note()[0].startswith('/collision_monitor_pieces: mesh /'), note()[0])
+        self.assertIn('piece 3 of 9 is not closed', note()[0])
 
 
 if __name__ == '__main__':

@@ -82,13 +82,15 @@ Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& sca
                                   std::size_t max_parts = SIZE_MAX);
 
 /// resolveMeshUri + loadMeshParts with a cache of parts by (canonical path, scale): the PR2 uses
-/// the same wheel mesh eight times. A fallback's note is logged (WARN) when the mesh loads, not
-/// when it comes from the cache. Thread-safe (two threads loading one mesh at once both load it).
+/// the same wheel mesh eight times. A fallback's note is logged (WARN, after `log_name`: the
+/// monitor's name) when the mesh loads, not when it comes from the cache. Thread-safe (two
+/// threads loading one mesh at once both load it).
 class MeshCache {
  public:
   MeshCache(std::vector<std::string> mesh_roots, std::size_t max_vertices,
             PackageResolver resolve_package = rosPackagePath,
-            MeshDecomposition mode = MeshDecomposition::Hull, std::size_t max_parts = SIZE_MAX);
+            MeshDecomposition mode = MeshDecomposition::Hull, std::size_t max_parts = SIZE_MAX,
+            std::string log_name = "");
   Expected<std::vector<core::ConvexShape>> load(const std::string& uri, const core::Vec3& scale);
   const std::vector<std::string>& meshRoots() const { return mesh_roots_; }
   /// Meshes kept (path, scale). Past kMaxEntries the cache starts again empty: a stream of bodies
@@ -102,6 +104,7 @@ class MeshCache {
   PackageResolver resolve_package_;
   MeshDecomposition mode_;
   std::size_t max_parts_;
+  std::string log_name_;
   mutable std::mutex mutex_;
   std::map<std::tuple<std::string, double, double, double>, std::vector<core::ConvexShape>> cache_;
 };
