@@ -74,6 +74,23 @@ if(TARGET collision_monitor_world AND EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/bench/
   set_target_properties(collision_monitor_bench_world PROPERTIES NO_SYSTEM_FROM_IMPORTED OFF)
 endif()
 
+# Robot self-collision cycle (the real robots of example-robot-data, loaded the node's way): needs
+# the ROS layer's URDF/SRDF and mesh loading (no master).
+if(TARGET collision_monitor_ros AND EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/bench/bench_robot.cpp")
+  if(DEFINED ENV{CM_ROBOT_DATA} AND NOT "$ENV{CM_ROBOT_DATA}" STREQUAL "")
+    get_filename_component(CM_BENCH_ROBOT_DATA "$ENV{CM_ROBOT_DATA}" ABSOLUTE)
+  else()
+    get_filename_component(CM_BENCH_ROBOT_DATA "${CMAKE_CURRENT_SOURCE_DIR}/../shared/data" ABSOLUTE)
+  endif()
+  add_executable(collision_monitor_bench_robot bench/bench_robot.cpp)
+  target_link_libraries(collision_monitor_bench_robot PRIVATE
+    collision_monitor_ros benchmark::benchmark Eigen3::Eigen)
+  target_compile_definitions(collision_monitor_bench_robot PRIVATE
+    CM_BENCH_ROBOT_DATA="${CM_BENCH_ROBOT_DATA}")
+  target_compile_options(collision_monitor_bench_robot PRIVATE ${CM_WARNING_FLAGS})
+  add_dependencies(collision_monitor_bench_robot ${${PROJECT_NAME}_EXPORTED_TARGETS})
+endif()
+
 # End-to-end latency probe (bench/latency.launch, scripts/bench_latency.sh): a roscpp node that
 # drives collision_monitor_node over loopback. Needs the ROS layer (full build).
 if(TARGET collision_monitor_ros AND EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/bench/latency_probe.cpp")
