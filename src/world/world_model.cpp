@@ -478,6 +478,14 @@ struct WorldModel::Impl {
     return (default_off.count(a) != 0 || default_off.count(b) != 0) && !named(enabled, a, b);
   }
 
+  /// The orderedKey of two bodies present, else nothing.
+  std::optional<std::uint64_t> slotPair(const std::string& a, const std::string& b) const {
+    auto ia = slot_of.find(a);
+    auto ib = slot_of.find(b);
+    if (ia == slot_of.end() || ib == slot_of.end()) return std::nullopt;
+    return orderedKey(ia->second, ib->second);
+  }
+
   /// Brings disabled_slots up to date for the pairs of the body in `slot` and the bodies
   /// present.
   void markDisabledPairsOf(int slot) {
@@ -1016,11 +1024,7 @@ void WorldModel::disablePair(const std::string& a, const std::string& b) {
   if (a == b) return;
   m.disabled[a].insert(b);
   m.disabled[b].insert(a);
-  auto ia = m.slot_of.find(a);
-  auto ib = m.slot_of.find(b);
-  if (ia != m.slot_of.end() && ib != m.slot_of.end()) {
-    m.disabled_slots.insert(orderedKey(ia->second, ib->second));
-  }
+  if (auto key = m.slotPair(a, b)) m.disabled_slots.insert(*key);
 }
 
 void WorldModel::disableByDefault(const std::string& id) {
@@ -1035,11 +1039,8 @@ void WorldModel::enablePair(const std::string& a, const std::string& b) {
   if (a == b) return;
   m.enabled[a].insert(b);
   m.enabled[b].insert(a);
-  auto ia = m.slot_of.find(a);
-  auto ib = m.slot_of.find(b);
-  if (ia != m.slot_of.end() && ib != m.slot_of.end() && !m.isDisabled(a, b)) {
-    m.disabled_slots.erase(orderedKey(ia->second, ib->second));
-  }
+  auto key = m.slotPair(a, b);
+  if (key && !m.isDisabled(a, b)) m.disabled_slots.erase(*key);
 }
 
 bool WorldModel::isPairDisabled(const std::string& a, const std::string& b) const {
