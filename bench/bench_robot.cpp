@@ -14,8 +14,20 @@
 /// joint turns +-pi. Mimic joints are driven as their own joints.
 ///
 /// Benchmarks, one cycle (setPose of every link + check) per iteration:
-///   BM_Robot/ours/<robot>         the check on the default backend (GJK)
-///   BM_Robot/libccd/<robot>       the same world on the libccd backend
+///   BM_Robot/ours/<robot>         the check with the node's defaults (GJK, exact min_distance:
+///                                 the minimum over every enabled pair, however far)
+///   BM_Robot/ours_reach/<robot>   min_distance only within reach (exact_min_distance false):
+///                                 the pairs within warning + hysteresis, as FCL's row
+///   BM_Robot/libccd/<robot>       the node's defaults on the libccd backend
+///   BM_Robot/fcl/<robot>          a MoveIt-style FCL 0.7 pipeline on the same parts (FCL's
+///                                 Sphere, Box, Cylinder, and Convex with our hulls' triangles):
+///                                 setTransform + computeAABB of every part,
+///                                 DynamicAABBTreeCollisionManager update(), then its
+///                                 self-distance() with a callback that prunes the traversal at
+///                                 warning + hysteresis, skips pairs of one body and disabled pairs
+///                                 (a precomputed table; MoveIt looks them up by name), skips AABBs
+///                                 that far apart and runs fcl::distance (libccd GJK/EPA, signed,
+///                                 nearest points) on the rest, keeping the per-body-pair minimum
 /// Counters per cycle: bodies, enabled (checked) body pairs, broad-phase pairs, narrow-phase pair
 /// checks, pairs listed (WARNING or COLLISION).
 ///
@@ -36,6 +48,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -51,10 +64,21 @@
 #include <urdf_model/model.h>
 #include <urdf_parser/urdf_parser.h>
 
+#include "collision_monitor/core/convex_hull.h"
 #include "collision_monitor/core/query.h"
 #include "collision_monitor/ros/mesh_loader.h"
 #include "collision_monitor/ros/robot_model.h"
 #include "collision_monitor/world/world_model.h"
+
+#ifdef CM_BENCH_HAVE_FCL
+#include <fcl/broadphase/broadphase_dynamic_AABB_tree.h>
+#include <fcl/geometry/shape/box.h>
+#include <fcl/geometry/shape/convex.h>
+#include <fcl/geometry/shape/cylinder.h>
+#include <fcl/geometry/shape/sphere.h>
+#include <fcl/narrowphase/collision_object.h>
+#include <fcl/narrowphase/distance.h>
+#endif
 
 namespace cm_bench_robot {
 namespace {
@@ -218,19 +242,12 @@ double timeOf(std::int64_t cycle) {
 /// The monitor's world of one robot, cycled along the trajectory.
 class Monitor {
  public:
-  Monitor(const Robot& robot, core::BackendType backend)
-      : robot_(robot), world_(settings(backend)) {
+  Monitor(const Robot& robot, const world::Settings& settings) : robot_(robot), world_(settings) {
     for (const auto& b : robot.bodies) {
       const std::string why = world_.addBody(b);
       if (!why.empty()) throw std::runtime_error(why);
     }
     robot.applyRules(world_);
-  }
-
-  static world::Settings settings(core::BackendType backend) {
-    world::Settings s;  // the node's defaults
-    s.backend = backend;
-    return s;
   }
 
   const world::CycleResult& cycle(std::int64_t c) {
@@ -252,6 +269,157 @@ class Monitor {
   world::CycleResult last_;
 };
 
+#ifdef CM_BENCH_HAVE_FCL
+/// FCL's geometry of a shape's core about its offset() (the caller places it there), or null for
+/// a shape FCL has no counterpart of here.
+std::shared_ptr<fcl::CollisionGeometryd> fclGeometry(const core::ConvexShape& shape) {
+  const double r = shape.radius();
+  const auto& c = shape.core();
+  if (const auto* p = std::get_if<core::PointShape<3>>(&c)) {
+    if (p->p.norm() == 0.0) return std::make_shared<fcl::Sphered>(r);
+  } else if (r == 0.0) {
+    if (const auto* b = std::get_if<core::BoxShape<3>>(&c)) {
+      return std::make_shared<fcl::Boxd>(2.0 * b->half);
+    } else if (const auto* y = std::get_if<core::CylinderShape>(&c)) {
+      return std::make_shared<fcl::Cylinderd>(y->radius, 2.0 * y->half_height);
+    } else if (const auto* h = std::get_if<std::shared_ptr<const core::Polytope<3>>>(&c)) {
+      auto verts = std::make_shared<std::vector<fcl::Vector3d>>();
+      for (const Vec3& v : (*h)->vertices())
+        verts->push_back(v);
+      const auto triangles = core::hullTriangles(**h);
+      auto faces = std::make_shared<std::vector<int>>();
+      for (const auto& t : triangles) {
+        faces->push_back(3);
+        faces->insert(faces->end(), t.begin(), t.end());
+      }
+      return std::make_shared<fcl::Convexd>(verts, static_cast<int>(triangles.size()), faces);
+    }
+  }
+  return nullptr;
+}
+
+fcl::Transform3d toFcl(const Transform3& T) {
+  fcl::Transform3d out = fcl::Transform3d::Identity();
+  out.linear() = T.R;
+  out.translation() = T.t;
+  return out;
+}
+
+/// The MoveIt-style FCL pipeline of one robot (see the file comment).
+class FclMonitor {
+ public:
+  explicit FclMonitor(const Robot& robot) : robot_(robot) {
+    const world::Settings s;
+    data_.reach = std::max(s.warning_distance, s.contact_distance) + s.hysteresis;
+    const std::size_t nb = robot.bodies.size();
+    data_.allowed.assign(nb * nb, 0);
+    data_.nb = nb;
+    for (std::size_t i = 0; i < nb; ++i)
+      for (std::size_t j = 0; j < nb; ++j)
+        data_.allowed[i * nb + j] =
+            i != j && !robot.rules.isPairDisabled(robot.bodies[i].id, robot.bodies[j].id);
+    for (std::size_t b = 0; b < nb; ++b) {
+      for (const world::Part& p : robot.bodies[b].parts) {
+        auto g = fclGeometry(p.shape);
+        if (!g) throw std::runtime_error("no FCL shape for " + p.shape.describe());
+        Transform3 at = p.pose;
+        at.t += p.pose.R * p.shape.offset();
+        parts_.push_back({static_cast<int>(b), at});
+        objects_.push_back(std::make_unique<fcl::CollisionObjectd>(g));
+        objects_.back()->setUserData(reinterpret_cast<void*>(static_cast<std::intptr_t>(b)));
+      }
+    }
+    place(0);
+    std::vector<fcl::CollisionObjectd*> all;
+    for (auto& o : objects_)
+      all.push_back(o.get());
+    manager_.registerObjects(all);
+    manager_.setup();
+  }
+
+  /// One cycle; the per-body-pair minima below reach in `found()`.
+  void cycle(std::int64_t c) {
+    place(c);
+    manager_.update();
+    data_.found.clear();
+    data_.narrow_calls = 0;
+    manager_.distance(&data_, &FclMonitor::callback);
+  }
+
+  const std::map<std::pair<int, int>, double>& found() const { return data_.found; }
+  std::size_t narrowCalls() const { return data_.narrow_calls; }
+  std::int64_t next = 0;
+
+ private:
+  struct Data {
+    double reach = 0.055;
+    std::size_t nb = 0;
+    std::vector<char> allowed;  ///< nb x nb
+    std::map<std::pair<int, int>, double> found;
+    std::size_t narrow_calls = 0;
+  };
+
+  static int bodyOf(const fcl::CollisionObjectd* o) {
+    return static_cast<int>(reinterpret_cast<std::intptr_t>(o->getUserData()));
+  }
+
+  static bool callback(fcl::CollisionObjectd* o1, fcl::CollisionObjectd* o2, void* cdata,
+                       double& dist) {
+    Data& d = *static_cast<Data*>(cdata);
+    dist = d.reach;  // prune the traversal at the reach, never stop early
+    const int b1 = bodyOf(o1);
+    const int b2 = bodyOf(o2);
+    if (!d.allowed[static_cast<std::size_t>(b1) * d.nb + static_cast<std::size_t>(b2)]) {
+      return false;
+    }
+    if (o1->getAABB().distance(o2->getAABB()) > d.reach) return false;
+    fcl::DistanceRequestd request(true /*nearest points*/, true /*signed distance*/);
+    fcl::DistanceResultd result;
+    ++d.narrow_calls;
+    fcl::distance(o1, o2, request, result);
+    if (result.min_distance <= d.reach) {
+      auto [it, added] = d.found.emplace(std::minmax(b1, b2), result.min_distance);
+      if (!added) it->second = std::min(it->second, result.min_distance);
+    }
+    return false;
+  }
+
+  void place(std::int64_t c) {
+    robot_.fk(timeOf(c), &poses_);
+    for (std::size_t k = 0; k < objects_.size(); ++k) {
+      objects_[k]->setTransform(toFcl(poses_[parts_[k].body] * parts_[k].pose));
+      objects_[k]->computeAABB();
+    }
+  }
+
+  struct PartRef {
+    int body;
+    Transform3 pose;  ///< FCL object -> body
+  };
+  const Robot& robot_;
+  std::vector<PartRef> parts_;
+  std::vector<std::unique_ptr<fcl::CollisionObjectd>> objects_;
+  std::vector<Transform3> poses_;
+  fcl::DynamicAABBTreeCollisionManagerd manager_;
+  Data data_;
+};
+
+void fclCycle(benchmark::State& state, const Robot* robot) {
+  FclMonitor m(*robot);
+  m.cycle(m.next++);
+  double checked = 0, listed = 0;
+  for (auto _ : state) {
+    m.cycle(m.next++);
+    checked += static_cast<double>(m.narrowCalls());
+    listed += static_cast<double>(m.found().size());
+  }
+  state.counters["bodies"] = static_cast<double>(robot->bodies.size());
+  state.counters["parts"] = static_cast<double>(robot->parts);
+  state.counters["narrow_pairs"] = benchmark::Counter(checked, benchmark::Counter::kAvgIterations);
+  state.counters["reach_pairs"] = benchmark::Counter(listed, benchmark::Counter::kAvgIterations);
+}
+#endif
+
 /// Signed distance of two bodies by brute force: every part pair from cold.
 double bruteDistance(const world::BodySpec& a, const Transform3& pa, const world::BodySpec& b,
                      const Transform3& pb) {
@@ -263,9 +431,9 @@ double bruteDistance(const world::BodySpec& a, const Transform3& pa, const world
   return best;
 }
 
-bool checkRobot(const Robot& robot, core::BackendType backend, std::string* summary) {
-  const world::Settings s = Monitor::settings(backend);
-  Monitor m(robot, backend);
+bool checkRobot(const Robot& robot, std::string* summary) {
+  const world::Settings s;  // the node's defaults
+  Monitor m(robot, s);
   std::size_t failures = 0, listed = 0, below = 0, in_band = 0, cycles = 0;
   double worst = 0.0;
   std::string first;
@@ -332,8 +500,8 @@ bool checkRobot(const Robot& robot, core::BackendType backend, std::string* summ
   return failures == 0;
 }
 
-void robotCycle(benchmark::State& state, const Robot* robot, core::BackendType backend) {
-  Monitor m(*robot, backend);
+void robotCycle(benchmark::State& state, const Robot* robot, const world::Settings& settings) {
+  Monitor m(*robot, settings);
   m.cycle(m.next++);
   double broad = 0, checked = 0, listed = 0;
   for (auto _ : state) {
@@ -389,12 +557,16 @@ int main(int argc, char** argv) {
   }
 
   bool all_ok = true;
-  const std::pair<const char*, core::BackendType> backends[] = {
-      {"ours", core::BackendType::Gjk}, {"libccd", core::BackendType::Libccd}};
+  world::Settings reach;
+  reach.exact_min_distance = false;
+  world::Settings libccd;
+  libccd.backend = core::BackendType::Libccd;
+  const std::pair<const char*, world::Settings> variants[] = {
+      {"ours", world::Settings()}, {"ours_reach", reach}, {"libccd", libccd}};
   for (const auto& r : robots) {
     if (!check) break;
     std::string summary;
-    const bool ok = checkRobot(*r, core::BackendType::Gjk, &summary);
+    const bool ok = checkRobot(*r, &summary);
     all_ok = all_ok && ok;
     std::printf("check %s: %s%s\n", r->name.c_str(), summary.c_str(), ok ? "" : "  <-- FAILED");
     benchmark::AddCustomContext("cm_check_" + r->name, summary);
@@ -403,15 +575,23 @@ int main(int argc, char** argv) {
   benchmark::AddCustomContext("cm_correctness", check ? (all_ok ? "OK" : "FAILED") : "not checked");
   if (!all_ok) std::fprintf(stderr, "CORRECTNESS FAILED (see the check lines above)\n");
 
-  for (const auto& [lib, backend] : backends) {
+  for (const auto& [lib, settings] : variants) {
     for (const auto& r : robots) {
       const Robot* rp = r.get();
-      const core::BackendType be = backend;
+      const world::Settings st = settings;
       benchmark::RegisterBenchmark(("BM_Robot/" + std::string(lib) + "/" + rp->name).c_str(),
-                                   [rp, be](benchmark::State& st) { robotCycle(st, rp, be); })
+                                   [rp, st](benchmark::State& state) { robotCycle(state, rp, st); })
           ->Unit(benchmark::kMicrosecond);
     }
   }
+#ifdef CM_BENCH_HAVE_FCL
+  for (const auto& r : robots) {
+    const Robot* rp = r.get();
+    benchmark::RegisterBenchmark(("BM_Robot/fcl/" + rp->name).c_str(), [rp](benchmark::State& st) {
+      fclCycle(st, rp);
+    })->Unit(benchmark::kMicrosecond);
+  }
+#endif
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return all_ok ? 0 : 1;

@@ -89,6 +89,11 @@ if(TARGET collision_monitor_ros AND EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/bench/be
     CM_BENCH_ROBOT_DATA="${CM_BENCH_ROBOT_DATA}")
   target_compile_options(collision_monitor_bench_robot PRIVATE ${CM_WARNING_FLAGS})
   add_dependencies(collision_monitor_bench_robot ${${PROJECT_NAME}_EXPORTED_TARGETS})
+  if(CM_BENCH_FCL_TARGET)
+    target_link_libraries(collision_monitor_bench_robot PRIVATE ${CM_BENCH_FCL_TARGET})
+    target_compile_definitions(collision_monitor_bench_robot PRIVATE CM_BENCH_HAVE_FCL=1)
+  endif()
+  set_target_properties(collision_monitor_bench_robot PROPERTIES NO_SYSTEM_FROM_IMPORTED OFF)
 endif()
 
 # End-to-end latency probe (bench/latency.launch, scripts/bench_latency.sh): a roscpp node that
