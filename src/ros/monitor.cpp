@@ -85,6 +85,13 @@ std::string capped(const std::string& what, std::size_t max_bytes) {
   return what.substr(0, max_bytes) + "... (" + std::to_string(what.size()) + " bytes)";
 }
 
+/// The time a timed pose holds for: its stamp; for stamp 0 (static) in a frame that TF moves,
+/// the time of the transform it was resolved with, so that it ages with that transform instead
+/// of holding in the fixed frame for ever wherever the frame goes.
+ros::Time poseStamp(const ros::Time& stamp, const ros::Time& transform_used) {
+  return stamp.isZero() ? transform_used : stamp;
+}
+
 }  // namespace
 
 Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name)
@@ -562,13 +569,17 @@ void Monitor::updatePoseSubscription(const std::string& id, const std::string& t
 }
 
 std::optional<Transform3> Monitor::toFixed(const std::string& frame_in, const ros::Time& stamp,
-                                           std::string* why) const {
+                                           std::string* why, ros::Time* used) const {
   std::string frame = frame_in;
   if (!frame.empty() && frame[0] == '/') frame.erase(0, 1);
+  if (used != nullptr) *used = ros::Time();
   if (frame == fixed_frame_) return Transform3::Identity();
+  const auto taken = [used](const geometry_msgs::TransformStamped& tf) {
+    if (used != nullptr) *used = tf.header.stamp;
+    return toTransform3(tf.transform);
+  };
   try {
-    return toTransform3(
-        tf_buffer_->lookupTransform(fixed_frame_, frame, stamp, ros::Duration(0)).transform);
+    return taken(tf_buffer_->lookupTransform(fixed_frame_, frame, stamp, ros::Duration(0)));
   } catch (const tf2::ExtrapolationException&) {
     // The pose may have arrived before the matching TF: give TF a moment, 50 ms of wall time.
     // Not tf2's own timeout: it waits in ROS time, which under a paused /clock never passes, and
@@ -604,7 +615,7 @@ std::optional<Transform3> Monitor::toFixed(const std::string& frame_in, const ro
       }
     }
     try {
-      return toTransform3(tf_buffer_->lookupTransform(fixed_frame_, frame, stamp).transform);
+      return taken(tf_buffer_->lookupTransform(fixed_frame_, frame, stamp));
     } catch (const tf2::TransformException& e) {
       *why = e.what();
     }
@@ -622,7 +633,8 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time
     // A pose from the future of ROS time would count as fresh until the clock caught up with it:
     // data from before a time jump still in flight, ROS time 0 (simulated time before the first
     // /clock), or clocks out of sync. Read under the lock that runCycle clears the poses with.
-    const double now = ros::Time::now().toSec();
+    const ros::Time now_time = ros::Time::now();
+    const double now = now_time.toSec();
     const double t = stamp.toSec();
     if (t > now + kTimeJumpTolerance) {
       std::ostringstream os;
@@ -643,7 +655,11 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time
       } else if (it->second.from_tf) {
         attached.push_back(u.id + " (frame " + it->second.frame + ")");
       } else {
-        applied = world_->setPose(u.id, u.pose, toStamp(stamp), u.twist) || applied;
+        // Stamped ahead (within the tolerance, a publisher's clock ahead of ours): held as of
+        // now, the time it arrived. Its own stamp would keep it fresh for as long as it is ahead
+        // after its publisher stopped.
+        const ros::Time held = stamp > now_time ? now_time : stamp;
+        applied = world_->setPose(u.id, u.pose, toStamp(held), u.twist) || applied;
       }
     }
     if (applied) {  // statistics: see pose_msgs_applied_
@@ -722,7 +738,8 @@ void Monitor::onBodyPoses(
       return;
     }
     std::string why;
-    auto to_fixed = toFixed(msg->header.frame_id, msg->header.stamp, &why);
+    ros::Time used;
+    auto to_fixed = toFixed(msg->header.frame_id, msg->header.stamp, &why, &used);
     if (!to_fixed) {
       reject("~body_poses", "~body_poses refused: cannot resolve frame " +
                                 quoteInput(msg->header.frame_id) + ": " + capped(why, 512));
@@ -730,7 +747,7 @@ void Monitor::onBodyPoses(
     }
     for (auto& u : *updates)
       u = transformUpdate(u, *to_fixed);
-    applyPoses(*updates, msg->header.stamp, "~body_poses");
+    applyPoses(*updates, poseStamp(msg->header.stamp, used), "~body_poses");
   } catch (const std::exception& e) {
     reject("~body_poses", std::string("~body_poses: internal error: ") + e.what());
   }
@@ -762,13 +779,15 @@ void Monitor::onPoseStamped(const std::string& id,
       return;
     }
     std::string why;
-    auto to_fixed = toFixed(msg->header.frame_id, msg->header.stamp, &why);
+    ros::Time used;
+    auto to_fixed = toFixed(msg->header.frame_id, msg->header.stamp, &why, &used);
     if (!to_fixed) {
       reject(key, source + " refused: cannot resolve frame " + quoteInput(msg->header.frame_id) +
                       ": " + capped(why, 512));
       return;
     }
-    applyPoses({PoseUpdate{id, *to_fixed * *pose, std::nullopt}}, msg->header.stamp, source);
+    applyPoses({PoseUpdate{id, *to_fixed * *pose, std::nullopt}},
+               poseStamp(msg->header.stamp, used), source);
   } catch (const std::exception& e) {
     reject(sourceKey("pose_topic:", id),
            "pose_topic of " + quoteInput(id) + ": internal error: " + e.what());
@@ -795,8 +814,15 @@ std::string Monitor::whyNeverChecked(const std::string& a, const std::string& b)
 
 bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
                           collision_monitor::GetDistance::Response& res) {
+  // Until there is an answer, the result says UNKNOWN (a failed call read as CLEAR at distance 0
+  // and time to collision 0 by a client that skipped `success`).
+  res.success = false;
+  res.result.body_a = req.body_a;
+  res.result.body_b = req.body_b;
+  res.result.status = collision_monitor::PairState::UNKNOWN;
+  res.result.distance = std::numeric_limits<double>::infinity();
+  res.result.time_to_collision = std::numeric_limits<double>::infinity();
   try {
-    res.success = false;
     const world::Stamp now = toStamp(ros::Time::now());
     if (req.body_a.empty()) {
       res.message = "body_a is empty";
@@ -1017,24 +1043,48 @@ void Monitor::runCycle() {
   if (last_now_ > 0.0 && now + kTimeJumpTolerance < last_now_) {
     // Bag loop, simulation reset: poses and transforms from before the jump would look fresh
     // (stamped ahead of ROS time), and tf2 would refuse the new ones as older than its cache.
-    ROS_WARN_STREAM(name_ << ": time jumped backwards by " << last_now_ - now
-                          << " s: forgetting every pose and the TF buffer");
+    if (jump_log_.ready()) {
+      ROS_WARN_STREAM(name_ << ": time jumped backwards by " << last_now_ - now
+                            << " s: forgetting every pose and the TF buffer"
+                            << (jumps_not_logged_ ? " (and " + std::to_string(jumps_not_logged_) +
+                                                        " more jumps back in the last 5 s: is "
+                                                        "/clock published twice?)"
+                                                  : std::string()));
+      jumps_not_logged_ = 0;
+    } else {
+      ++jumps_not_logged_;
+    }
+    {
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      ++stats_.time_jumps_back;
+      recent_jumps_.push_back(ros::WallTime::now());
+      if (recent_jumps_.size() > kJumpsWarn) recent_jumps_.pop_front();
+    }
     tf_buffer_->clear();
+    tf_seen_.clear();
     {
       std::lock_guard<std::mutex> lock(world_mutex_);
       world_->clearPoses();
     }
     tf_clear_until_ = steady_now + std::chrono::seconds(kTfClearWindow);
     // diagnostic_updater waits for the ROS time of its next report, now in the future: publish
-    // now, which also schedules the next report from the new time.
-    {
-      std::lock_guard<std::mutex> lock(loop_mutex_);
-      force_diagnostics_ = true;
+    // now, which also schedules the next report from the new time. At most once a second (two
+    // /clock publishers jump back at every other message).
+    const ros::WallTime wall = ros::WallTime::now();
+    if (last_forced_report_.isZero() || (wall - last_forced_report_).toSec() >= 1.0) {
+      last_forced_report_ = wall;
+      {
+        std::lock_guard<std::mutex> lock(loop_mutex_);
+        force_diagnostics_ = true;
+      }
+      diagnostics_cv_.notify_one();
     }
-    diagnostics_cv_.notify_one();
   }
   last_now_ = now;
-  if (stamp_now.isZero()) return;  // simulated time not started yet (or reset to 0)
+  // Simulated time not started yet. Once it has, checks go on at time 0 (a reset to 0, held):
+  // the pairs of the poses just forgotten turn UNKNOWN now, not when the clock runs again.
+  if (stamp_now.isZero() && !clock_started_) return;
+  clock_started_ = true;
 
   // TF lookups outside the world lock: one per distinct frame.
   std::vector<std::pair<std::string, std::string>> attached;  // id, frame
@@ -1046,6 +1096,7 @@ void Monitor::runCycle() {
   }
   std::map<std::string, std::optional<std::pair<Transform3, world::Stamp>>> frames;
   std::vector<std::string> future_frames;
+  std::map<std::string, TfSeen> seen;  // tf_seen_ for this cycle's frames
   // Every frame from the same TF messages: none goes in while these lookups run (TfReceiver).
   auto tf_snapshot = tf_receiver_->snapshot();
   for (const auto& [id, frame] : attached) {
@@ -1057,6 +1108,15 @@ void Monitor::runCycle() {
     try {
       const auto tf = tf_buffer_->lookupTransform(fixed_frame_, frame, ros::Time(0));
       const double stamp = tf.header.stamp.toSec();
+      // When this transform was first seen (this cycle if it is new): a frame stamped ahead of
+      // ROS time (its publisher's clock ahead of ours) is held as of then, as timed poses are.
+      // By its own stamp it would stay fresh for as long as it is ahead after its publisher
+      // stopped, and one more than kTimeJumpTolerance ahead would turn fresh 1 s before its
+      // stamp, long after it came.
+      auto before = tf_seen_.find(frame);
+      const TfSeen& first = seen[frame] = before != tf_seen_.end() && before->second.stamp == stamp
+                                              ? before->second
+                                              : TfSeen{stamp, stamp_now};
       if (stamp > now + kTimeJumpTolerance) {
         // From the future of ROS time: not fresh data (it would stay "fresh" until the clock
         // caught up). Right after a backward jump it is data from before the jump that arrived
@@ -1065,13 +1125,15 @@ void Monitor::runCycle() {
         frames[frame] = std::nullopt;
         future_frames.push_back(frame + " (" + std::to_string(stamp - now) + " s ahead)");
       } else {
-        frames[frame] = std::make_pair(toTransform3(tf.transform), toStamp(tf.header.stamp));
+        const ros::Time held = tf.header.stamp > first.at ? first.at : tf.header.stamp;
+        frames[frame] = std::make_pair(toTransform3(tf.transform), toStamp(held));
       }
     } catch (const tf2::TransformException&) {
       frames[frame] = std::nullopt;
     }
   }
   tf_snapshot.unlock();
+  tf_seen_.swap(seen);
   if (!future_frames.empty()) {
     const bool clear = steady_now < tf_clear_until_;
     if (future_tf_log_.ready()) {
@@ -1177,6 +1239,7 @@ void Monitor::setupDiagnostics() {
   diagnostics_->add("inputs", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
     Stats now, before;
     double dt = 1.0;
+    double jumps_window = 0.0;  ///< > 0: kJumpsWarn jumps back in that long (s), lately
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       now = stats_;
@@ -1185,6 +1248,12 @@ void Monitor::setupDiagnostics() {
       dt = std::max(1e-3, (t - window_start_).toSec());
       stats_window_start_ = stats_;
       window_start_ = t;
+      // The last kJumpsWarn jumps back, if they came within kJumpsWindow s, ended at most that
+      // long ago: how long they took.
+      if (recent_jumps_.size() == kJumpsWarn && (t - recent_jumps_.back()).toSec() < kJumpsWindow &&
+          (recent_jumps_.back() - recent_jumps_.front()).toSec() < kJumpsWindow) {
+        jumps_window = (recent_jumps_.back() - recent_jumps_.front()).toSec();
+      }
       stats_.cycle_time_max = 0.0;  // max over the report window
     }
     const std::size_t rejected = now.rejected - before.rejected;
@@ -1225,6 +1294,13 @@ void Monitor::setupDiagnostics() {
                       "no check for %.1f s (rate %.6g Hz, min_check_interval %.6g s)", idle, rate,
                       min_check_interval_.load());
     }
+    if (jumps_window > 0.0) {
+      // A bag loop or a reset jumps back once in a while; this often, two clocks disagree:
+      // every jump forgets every pose, and the pairs flap between UNKNOWN and their status.
+      s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
+                      "ROS time jumped back %zu times in %.2g s: is /clock published twice?",
+                      kJumpsWarn, jumps_window);
+    }
     if (mean_cycle > 1.0 / rate) {
       // The checks cannot keep up with `rate`: verdicts come later than configured.
       s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
@@ -1256,6 +1332,7 @@ void Monitor::setupDiagnostics() {
                         static_cast<double>(cycles)
                   : 0.0);
     s.add("checks (total)", now.cycles);
+    s.add("ROS time jumps back (total)", now.time_jumps_back);
     s.add("~body_poses messages (total)", now.poses_msgs);
     s.add("pose_topic messages (total)", now.pose_topic_msgs);
     s.add("pose messages applied (total)", now.pose_msgs_applied);

@@ -110,8 +110,10 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
     // buffer, and data stamped after the new time is dropped while that message goes in.
     const bool time_reset = now < last_update_;
     if (time_reset) {
-      ROS_WARN_STREAM(name_ << ": detected jump back in time of " << (last_update_ - now).toSec()
-                            << " s, clearing the TF buffer");
+      if (jump_log_.ready()) {
+        ROS_WARN_STREAM(name_ << ": detected jump back in time of " << (last_update_ - now).toSec()
+                              << " s, clearing the TF buffer (logged at most once every 5 s)");
+      }
       buffer_.clear();
     }
     last_update_ = now;

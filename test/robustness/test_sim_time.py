@@ -29,7 +29,7 @@ import tf2_ros
 from collision_monitor.msg import BodyPoses, CollisionEvent, CollisionState, PairState
 from collision_monitor.srv import GetDistance, ListBodies
 from geometry_msgs.msg import PoseStamped
-from rosgraph_msgs.msg import Clock
+from rosgraph_msgs.msg import Clock, Log
 
 from robust_util import save_figures  # also puts test/ros on the path
 from cm_test_util import NS, Monitor, pose, tf_transform, wait_for
@@ -394,6 +394,109 @@ class SimTime(unittest.TestCase):
                 for b in DYNAMIC:
                     self.sim.offset[b] = 0.0
             self.assertTrue(self.all_fresh(), 'no recovery with current stamps')
+
+    def test_5_clock_reset_to_zero_and_held(self):
+        # Bug: after a reset to 0 no check ran while the clock stayed there: the poses were
+        # forgotten, but no ~state or event said so; consumers kept the last CLEAR verdict.
+        self.assertTrue(self.all_fresh())
+        t_wall = time.monotonic()
+        self.sim.set(streams=())
+        self.sim.set_time(0.0, running=False)
+        s = self.state_after(t_wall, lambda s: set(DYNAMIC) <= set(s.stale_bodies))
+        self.assertIsNotNone(s, 'no ~state with the forgotten poses while /clock holds at 0')
+        self.unknown_events(t_wall)
+        figure('/clock reset to 0 and held: ~state (stamp %.3f) %.3f s (wall) later, stale %s'
+               % (s.header.stamp.to_sec(), time.monotonic() - t_wall, sorted(s.stale_bodies)))
+        self.assertEqual(s.header.stamp.to_sec(), 0.0)
+        self.assertAlmostEqual(self.distance('fixed', 'static_posed'), 2.0 - 0.3, delta=1e-12)
+        self.sim.set_time(5.0)
+        self.sim.set(streams=DYNAMIC)
+        self.assertTrue(self.all_fresh(), 'no recovery after the reset to 0')
+
+    def test_6_stamps_ahead_age_from_their_arrival(self):
+        # A publisher whose clock is ahead of ours. Bug: its data stayed fresh for as long as it
+        # was ahead after the publisher stopped (0.8 s more here), and TF stamped more than the
+        # 1 s tolerance ahead, unresolved while it came, turned fresh 1 s before its stamp,
+        # long after it came.
+        with self.sim.lock:
+            self.sim.offset = {k: 0.8 for k in DYNAMIC}
+        self.assertTrue(self.all_fresh())
+        t_sim, t_wall = self.sim.now(), time.monotonic()
+        self.sim.set(streams=())
+        evs = self.unknown_events(t_wall)
+        lat = max(e[1].header.stamp.to_sec() for e in evs.values()) - t_sim
+        figure('streams stamped 0.8 s ahead stop: UNKNOWN_BEGIN %.3f s (simulated) later '
+               '(pose_timeout %.2f s)' % (lat, self.pose_timeout))
+        self.assertLessEqual(lat, self.pose_timeout + self.sim.factor / self.rate + 0.05)
+        # A failed get_distance says UNKNOWN (it said CLEAR, distance 0, time to collision 0).
+        r = self.m.get_distance('fixed', 'tf_body', '')
+        self.assertFalse(r.success)
+        self.assertEqual((r.result.body_a, r.result.body_b), ('fixed', 'tf_body'))
+        self.assertEqual(r.result.status, PairState.UNKNOWN)
+        self.assertEqual(r.result.distance, float('inf'))
+        self.assertEqual(r.result.time_to_collision, float('inf'))
+        # TF 1.5 s ahead: unresolved while it comes, and after it stops.
+        with self.sim.lock:
+            self.sim.offset = {k: (1.5 if k == 'tf_body' else 0.0) for k in DYNAMIC}
+        self.sim.set(streams=DYNAMIC)
+        time.sleep(1.0)
+        self.assertIsNone(self.distance('fixed', 'tf_body'))
+        t_wall = time.monotonic()
+        self.sim.set(streams=())
+        time.sleep(2.5 / self.sim.factor)  # past the last stamp + pose_timeout
+        ended = [e for t, e in list(self.m.events) if t > t_wall and e.type == E.UNKNOWN_END
+                 and {e.pair.body_a, e.pair.body_b} == {'fixed', 'tf_body'}]
+        figure('TF stamped 1.5 s ahead stopped: %d UNKNOWN_END of fixed-tf_body in %.1f s (wall)'
+               % (len(ended), 2.5 / self.sim.factor))
+        self.assertEqual(ended, [], 'TF from 1.5 s ahead shown as fresh after it stopped')
+
+    def test_7_static_pose_in_a_moving_frame_ages_with_it(self):
+        # Stamp 0 (static) in a frame TF moves. Bug: resolved once with that frame's latest
+        # transform, however old, and then fresh for ever wherever the frame went.
+        self.assertTrue(self.all_fresh())
+        self.sim.set(streams=('tf_body', 'tracked'))  # 'posed' from the message below only
+        time.sleep(0.3)
+        m = BodyPoses(ids=['posed'], poses=[pose(y=1.0)])
+        m.header.frame_id = 'moving_frame'  # at (1, 0, 0)
+        self.m.poses_pub.publish(m)
+        expected = 2.0 ** 0.5 - 0.3
+        self.assertTrue(wait_for(lambda: self.distance('fixed', 'posed') is not None and
+                                 abs(self.distance('fixed', 'posed') - expected) < 1e-9, 5.0))
+        t_wall = time.monotonic()
+        self.sim.set(streams=('tracked',))  # moving_frame's TF stops
+        ev = self.unknown_events(t_wall, ('posed', 'tf_body'))
+        figure('a pose stamped 0 in moving_frame: UNKNOWN_BEGIN %.3f s (wall) after its TF '
+               'stopped, as tf_body (%.3f s)' % (ev['posed'][0] - t_wall,
+                                                 ev['tf_body'][0] - t_wall))
+        self.sim.set(streams=DYNAMIC)
+        self.assertTrue(self.all_fresh())
+
+    def test_8_two_clocks(self):
+        # Two /clock publishers 2 s apart: every other message jumps back. Named on
+        # /diagnostics; the log says it at most once in 5 s (it said it at every jump).
+        self.assertTrue(self.all_fresh())
+        lines = []
+        sub = rospy.Subscriber('/rosout', Log, lambda m: lines.append(m.msg), queue_size=1000)
+        time.sleep(0.5)
+        jumps0 = int(self.m.diag_value('ROS time jumps back (total)') or 0)
+        t = self.sim.now()
+        self.sim.set(running=False)
+        for k in range(12):
+            self.sim.set_time(t + 0.01 * k - (2.0 if k % 2 else 0.0), running=False)
+            time.sleep(0.12)
+        self.sim.set_time(t + 0.2)
+        said = wait_for(lambda: 'published twice' in (self.m.diagnostics.message or '') and
+                        self.m.diagnostics, 10.0)
+        jumps = int(self.m.diag_value('ROS time jumps back (total)') or 0) - jumps0
+        logged = [m for m in list(lines) if 'time jumped backwards' in m]
+        sub.unregister()
+        figure('/clock from two publishers 2 s apart, 6 jumps back: %d counted; %d log lines; '
+               '/diagnostics: %s' % (jumps, len(logged), said and said.message))
+        self.assertTrue(said, self.m.diagnostics.message)
+        self.assertGreaterEqual(jumps, 3)
+        self.assertLessEqual(len(logged), 2)
+        self.sim.set(streams=DYNAMIC)
+        self.assertTrue(self.all_fresh())
 
     @classmethod
     def tearDownClass(cls):

@@ -16,6 +16,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -111,9 +112,10 @@ class Monitor {
   /// `fallback`, else the key found searching upward from the node's namespace.
   std::string robotParamKey(const std::string& name, const std::string& fallback) const;
   void updatePoseSubscription(const std::string& id, const std::string& topic);
-  /// header frame -> fixed frame at `stamp` (latest when zero); nullopt with `why`.
+  /// header frame -> fixed frame at `stamp` (latest when zero); nullopt with `why`. `used`: the
+  /// time of the transform taken (zero for the fixed frame and static chains).
   std::optional<core::Transform3> toFixed(const std::string& frame, const ros::Time& stamp,
-                                          std::string* why) const;
+                                          std::string* why, ros::Time* used = nullptr) const;
   void applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time& stamp,
                   const std::string& source);
 
@@ -186,6 +188,14 @@ class Monitor {
   std::map<std::string, Tracked> tracked_;
   std::map<std::pair<std::string, std::string>, std::string> disabled_reasons_;  // sorted pairs
   std::set<std::string> default_off_;  // SRDF <disable_default_collisions> links
+  /// runCycle(): per attached frame, the stamp of its latest transform and the ROS time it was
+  /// first seen (a frame stamped ahead of ROS time is held as of then). Loop thread only.
+  struct TfSeen {
+    double stamp = 0.0;
+    ros::Time at;
+  };
+  std::map<std::string, TfSeen> tf_seen_;
+  bool clock_started_ = false;  ///< runCycle() has seen a ROS time other than 0. Loop thread only.
   // Pose input vs. checks (guarded by world_mutex_): messages that set at least one pose, and
   // checks that saw at least one such message since the previous check. The difference is the
   // number of pose messages superseded before a check used them (coalesced), on /diagnostics.
@@ -214,11 +224,17 @@ class Monitor {
     std::size_t bodies_msgs = 0, poses_msgs = 0, pose_topic_msgs = 0, cycles = 0;
     std::size_t pose_msgs_applied = 0, checks_with_new_poses = 0;  // copies taken by each check
     std::size_t rejected = 0;
+    std::size_t time_jumps_back = 0;  ///< ROS time more than kTimeJumpTolerance behind the last
     std::string last_rejection;
     double cycle_time_max = 0.0, cycle_time_sum = 0.0;
     std::size_t stale = 0, bodies = 0, pairs_checked = 0, pairs_checked_sum = 0;
     std::vector<std::string> stale_ids;
   } stats_, stats_window_start_;
+  /// Wall times of the last kJumpsWarn jumps back of ROS time (stats_mutex_): that many within
+  /// kJumpsWindow s is a warning on /diagnostics (for kJumpsWindow s after the last).
+  std::deque<ros::WallTime> recent_jumps_;
+  static constexpr std::size_t kJumpsWarn = 3;
+  static constexpr double kJumpsWindow = 5.0;
   ros::WallTime window_start_;
 
   // loop
@@ -238,6 +254,9 @@ class Monitor {
   double last_now_ = 0.0;             ///< ROS time of the previous check (loop thread)
   LogThrottle cycle_error_log_{1.0};  ///< "check cycle failed" (loop thread)
   LogThrottle future_tf_log_{1.0};    ///< "TF stamped more than ... after the current ROS time"
+  LogThrottle jump_log_{5.0};         ///< "time jumped backwards" (two /clock: 10 lines/s)
+  std::size_t jumps_not_logged_ = 0;  ///< since the last such line (loop thread)
+  ros::WallTime last_forced_report_;  ///< diagnostics forced by a jump (loop thread)
   /// ROS time going back by more than this (s) is a time jump (bag loop, simulation reset): every
   /// pose and the TF buffer are forgotten. Poses stamped more than this after ROS time are
   /// refused, and TF that far ahead leaves its frame unresolved.

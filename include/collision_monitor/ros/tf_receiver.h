@@ -77,6 +77,7 @@ class TfReceiver {
   std::size_t refused_ = 0;   ///< guarded by batch_mutex_
   std::string last_refusal_;  ///< guarded by batch_mutex_
   LogThrottle refusal_log_{5.0};
+  LogThrottle jump_log_{5.0};  ///< "detected jump back in time" (two /clock: one a message)
 };
 
 }  // namespace ros_layer
