@@ -1047,8 +1047,8 @@ void Monitor::runCycle() {
       ROS_WARN_STREAM(name_ << ": time jumped backwards by " << last_now_ - now
                             << " s: forgetting every pose and the TF buffer"
                             << (jumps_not_logged_ ? " (and " + std::to_string(jumps_not_logged_) +
-                                                        " more jumps back in the last 5 s: is "
-                                                        "/clock published twice?)"
+                                                        " more jumps back since the last such "
+                                                        "line: is /clock published twice?)"
                                                   : std::string()));
       jumps_not_logged_ = 0;
     } else {
@@ -1099,6 +1099,10 @@ void Monitor::runCycle() {
   std::map<std::string, TfSeen> seen;  // tf_seen_ for this cycle's frames
   // Every frame from the same TF messages: none goes in while these lookups run (TfReceiver).
   auto tf_snapshot = tf_receiver_->snapshot();
+  // After every transform looked up below came in: one stamped later was stamped ahead. (Not
+  // `stamp_now`: TF that came since the check began would be taken as ahead, and held as of an
+  // earlier time than its own.)
+  const ros::Time seen_at = ros::Time::now();
   for (const auto& [id, frame] : attached) {
     if (frames.count(frame)) continue;
     if (frame == fixed_frame_) {
@@ -1116,7 +1120,7 @@ void Monitor::runCycle() {
       auto before = tf_seen_.find(frame);
       const TfSeen& first = seen[frame] = before != tf_seen_.end() && before->second.stamp == stamp
                                               ? before->second
-                                              : TfSeen{stamp, stamp_now};
+                                              : TfSeen{stamp, seen_at};
       if (stamp > now + kTimeJumpTolerance) {
         // From the future of ROS time: not fresh data (it would stay "fresh" until the clock
         // caught up). Right after a backward jump it is data from before the jump that arrived
@@ -1239,7 +1243,7 @@ void Monitor::setupDiagnostics() {
   diagnostics_->add("inputs", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
     Stats now, before;
     double dt = 1.0;
-    double jumps_window = 0.0;  ///< > 0: kJumpsWarn jumps back in that long (s), lately
+    double jumps_window = -1.0;  ///< >= 0: kJumpsWarn jumps back in that long (s), lately
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       now = stats_;
@@ -1294,7 +1298,7 @@ void Monitor::setupDiagnostics() {
                       "no check for %.1f s (rate %.6g Hz, min_check_interval %.6g s)", idle, rate,
                       min_check_interval_.load());
     }
-    if (jumps_window > 0.0) {
+    if (jumps_window >= 0.0) {
       // A bag loop or a reset jumps back once in a while; this often, two clocks disagree:
       // every jump forgets every pose, and the pairs flap between UNKNOWN and their status.
       s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN,
