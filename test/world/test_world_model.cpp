@@ -629,8 +629,13 @@ TEST(WorldModel, UnknownPairsCountedWithoutVisitingMatchTheListing) {
   const CycleResult rf = full.check(1.0);
   const CycleResult rc = cut.check(1.0);
   std::size_t listed = 0;
-  for (const PairResult& p : rf.pairs)
-    listed += p.status == S::Unknown ? 1 : 0;
+  for (const PairResult& p : rf.pairs) {
+    if (p.status != S::Unknown) continue;
+    ++listed;
+    // No distance, no direction: a zero normal (it was (1, 0, 0), a direction made up).
+    ASSERT_EQ(p.normal, Vec3::Zero()) << p.body_a << "-" << p.body_b;
+    ASSERT_EQ(p.point_a, Vec3::Zero());
+  }
   EXPECT_GT(listed, 500u);
   EXPECT_EQ(rf.num_unknown_pairs, listed);
   EXPECT_EQ(rc.num_unknown_pairs, listed);

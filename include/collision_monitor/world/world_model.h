@@ -71,10 +71,10 @@ struct PairResult {
   std::string body_a;
   std::string body_b;
   PairStatus status = PairStatus::Unknown;
-  double distance = std::numeric_limits<double>::infinity();           ///< signed, m
-  Vec3 point_a = Vec3::Zero();                                         ///< fixed frame
-  Vec3 point_b = Vec3::Zero();                                         ///< fixed frame
-  Vec3 normal = Vec3::UnitX();                                         ///< unit, from a towards b
+  double distance = std::numeric_limits<double>::infinity();  ///< signed, m
+  Vec3 point_a = Vec3::Zero();                                ///< fixed frame
+  Vec3 point_b = Vec3::Zero();                                ///< fixed frame
+  Vec3 normal = Vec3::Zero();  ///< unit, from a towards b; zero while UNKNOWN (no distance)
   double time_to_collision = std::numeric_limits<double>::infinity();  ///< s
 };
 
@@ -110,7 +110,7 @@ struct Settings {
   std::size_t max_vertices_per_part = 100000;
   std::size_t max_parts_per_body = 1000;
   /// At most this many UNKNOWN pairs are listed in CycleResult::pairs (those of the stale bodies
-  /// added first); the rest are counted in CycleResult::num_unknown_pairs and implied by
+  /// in slot order: the order of addition until a new body takes a removed one's slot); the rest are counted in CycleResult::num_unknown_pairs and implied by
   /// stale_bodies. Pairs whose bodies never had a pose get events and are tracked only while
   /// listed. Unlimited by default, as the contract asks; 1,000 bodies without poses are ~500k
   /// pairs (first cycle ~0.6 s and ~370 MB with their UNKNOWN_BEGIN events), so a node may want
