@@ -328,6 +328,10 @@ class SimTime(unittest.TestCase):
                       if p.status == PairState.UNKNOWN)
         for b in DYNAMIC:
             self.assertIn(frozenset(('fixed', b)), unknown)
+        for p in s.pairs:  # no distance, no direction (the normal said (1, 0, 0))
+            if p.status == PairState.UNKNOWN:
+                self.assertEqual((p.normal.x, p.normal.y, p.normal.z, p.distance),
+                                 (0.0, 0.0, 0.0, float('inf')))
         self.unknown_events(t_wall)
         for b in DYNAMIC:
             self.assertIsNone(self.distance('fixed', b))
