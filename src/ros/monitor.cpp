@@ -92,6 +92,12 @@ ros::Time poseStamp(const ros::Time& stamp, const ros::Time& transform_used) {
   return stamp.isZero() ? transform_used : stamp;
 }
 
+/// The time a pose or transform came, for WorldModel::setPose: none before the clock starts.
+std::optional<world::Stamp> arrivedAt(const ros::Time& t) {
+  if (t.isZero()) return std::nullopt;
+  return toStamp(t);
+}
+
 }  // namespace
 
 Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name)
@@ -325,6 +331,7 @@ void Monitor::loadRobot() {
   // The URDF's parameter, searched upward from the node's namespace; the SRDF next to it (its
   // own upward search would take another robot's SRDF where this one has none).
   const std::string key = robotParamKey(robot_description_param_, "");
+  std::set<std::string> links;  // the robot's bodies: links with collision geometry
   std::string urdf;
   if (!nh_.getParam(key, urdf) || urdf.empty()) {
     ROS_INFO_STREAM(name_ << ": no URDF on parameter '" << robot_description_param_
@@ -342,6 +349,7 @@ void Monitor::loadRobot() {
       std::size_t added = 0;
       for (auto& spec : robot->bodies) {
         const std::string id = spec.id;
+        links.insert(id);
         const std::string err = addBody(std::move(spec));
         if (err.empty()) {
           ++added;
@@ -361,25 +369,44 @@ void Monitor::loadRobot() {
       if (!rules) {
         rejectAtStartup("SRDF '" + skey + "': " + rules.error());
       } else {
-        for (const auto& [a, b] : rules->disabled)
+        // Only rules on the robot's links, as srdfdom keeps only rules on URDF links: a body
+        // from ~bodies whose id an SRDF names by mistake takes none of them.
+        std::size_t others = 0, disabled = 0, off = 0, enabled = 0;
+        const auto ours = [&](const std::string& a, const std::string& b) {
+          const bool both = links.count(a) != 0 && links.count(b) != 0;
+          others += both ? 0 : 1;
+          return both;
+        };
+        for (const auto& [a, b] : rules->disabled) {
+          if (!ours(a, b)) continue;
           disablePair(a, b, "SRDF <disable_collisions>");
+          ++disabled;
+        }
         {
           std::lock_guard<std::mutex> lock(world_mutex_);
           for (const std::string& link : rules->default_off) {
+            if (!ours(link, link)) continue;
             world_->disableByDefault(link);
             default_off_.insert(link);
+            ++off;
           }
-          for (const auto& [a, b] : rules->enabled)
+          for (const auto& [a, b] : rules->enabled) {
+            if (!ours(a, b)) continue;
             world_->enablePair(a, b);
+            ++enabled;
+          }
         }
         if (rules->num_skipped != 0) {
           ROS_WARN_STREAM(name_ << ": SRDF '" << skey << "': " << rules->num_skipped
                                 << " collision elements skipped, the first: "
                                 << rules->first_skipped);
         }
-        ROS_INFO_STREAM(name_ << ": SRDF: " << rules->disabled.size() << " pairs disabled, "
-                              << rules->default_off.size() << " links disabled by default, "
-                              << rules->enabled.size() << " pairs enabled");
+        ROS_INFO_STREAM(name_ << ": SRDF: " << disabled << " pairs disabled, " << off
+                              << " links disabled by default, " << enabled << " pairs enabled"
+                              << (others ? ", " + std::to_string(others) +
+                                               " rules on links without collision geometry "
+                                               "or not in the URDF left out"
+                                         : std::string()));
       }
     }
   }
@@ -655,11 +682,11 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time
       } else if (it->second.from_tf) {
         attached.push_back(u.id + " (frame " + it->second.frame + ")");
       } else {
-        // Stamped ahead (within the tolerance, a publisher's clock ahead of ours): held as of
-        // now, the time it arrived. Its own stamp would keep it fresh for as long as it is ahead
-        // after its publisher stopped.
-        const ros::Time held = stamp > now_time ? now_time : stamp;
-        applied = world_->setPose(u.id, u.pose, toStamp(held), u.twist) || applied;
+        // Stamped ahead (within the tolerance, a publisher's clock ahead of ours): it ages from
+        // now, when it came. By its own stamp it would stay fresh for as long as it is ahead
+        // after its publisher stopped. (Not before the clock starts: 0 is no time.)
+        applied =
+            world_->setPose(u.id, u.pose, toStamp(stamp), u.twist, arrivedAt(now_time)) || applied;
       }
     }
     if (applied) {  // statistics: see pose_msgs_applied_
@@ -1070,9 +1097,12 @@ void Monitor::runCycle() {
     // diagnostic_updater waits for the ROS time of its next report, now in the future: publish
     // now, which also schedules the next report from the new time. At most once a second (two
     // /clock publishers jump back at every other message).
+    // Further back than the last forced report: that one's schedule is as far ahead again.
     const ros::WallTime wall = ros::WallTime::now();
-    if (last_forced_report_.isZero() || (wall - last_forced_report_).toSec() >= 1.0) {
+    if (last_forced_report_.isZero() || (wall - last_forced_report_).toSec() >= 1.0 ||
+        now < last_forced_time_) {
       last_forced_report_ = wall;
+      last_forced_time_ = now;
       {
         std::lock_guard<std::mutex> lock(loop_mutex_);
         force_diagnostics_ = true;
@@ -1094,7 +1124,12 @@ void Monitor::runCycle() {
       if (t.from_tf) attached.emplace_back(id, t.frame);
     }
   }
-  std::map<std::string, std::optional<std::pair<Transform3, world::Stamp>>> frames;
+  struct FramePose {
+    Transform3 pose;
+    world::Stamp stamp;                   ///< the transform's
+    std::optional<world::Stamp> arrived;  ///< when the check first saw that transform
+  };
+  std::map<std::string, std::optional<FramePose>> frames;
   std::vector<std::string> future_frames;
   std::map<std::string, TfSeen> seen;  // tf_seen_ for this cycle's frames
   // Every frame from the same TF messages: none goes in while these lookups run (TfReceiver).
@@ -1106,7 +1141,7 @@ void Monitor::runCycle() {
   for (const auto& [id, frame] : attached) {
     if (frames.count(frame)) continue;
     if (frame == fixed_frame_) {
-      frames[frame] = std::make_pair(Transform3::Identity(), world::Stamp());  // static
+      frames[frame] = FramePose{Transform3::Identity(), world::Stamp(), std::nullopt};  // static
       continue;
     }
     try {
@@ -1129,14 +1164,19 @@ void Monitor::runCycle() {
         frames[frame] = std::nullopt;
         future_frames.push_back(frame + " (" + std::to_string(stamp - now) + " s ahead)");
       } else {
-        const ros::Time held = tf.header.stamp > first.at ? first.at : tf.header.stamp;
-        frames[frame] = std::make_pair(toTransform3(tf.transform), toStamp(held));
+        frames[frame] =
+            FramePose{toTransform3(tf.transform), toStamp(tf.header.stamp), arrivedAt(first.at)};
       }
     } catch (const tf2::TransformException&) {
       frames[frame] = std::nullopt;
     }
   }
   tf_snapshot.unlock();
+  // Frames not looked up this cycle (no body on them, a failed lookup) keep the time they were
+  // first seen while their stamp is still ahead: seen again later, they are not new data.
+  for (auto& [frame, first] : tf_seen_) {
+    if (first.stamp > now) seen.emplace(frame, first);
+  }
   tf_seen_.swap(seen);
   if (!future_frames.empty()) {
     const bool clear = steady_now < tf_clear_until_;
@@ -1162,7 +1202,7 @@ void Monitor::runCycle() {
       if (it == tracked_.end() || !it->second.from_tf || it->second.frame != frame) continue;
       const auto& f = frames[frame];
       if (f) {
-        world_->setPose(id, f->first, f->second);
+        world_->setPose(id, f->pose, f->stamp, std::nullopt, f->arrived);
       } else {
         world_->markUnresolved(id);
       }

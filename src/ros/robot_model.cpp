@@ -3,6 +3,7 @@
 #include <exception>
 #include <map>
 #include <memory>
+#include <optional>
 #include <set>
 #include <unordered_map>
 #include <vector>
@@ -264,24 +265,32 @@ Expected<SrdfCollisions> collisionsFromSrdf(const std::string& srdf_xml) {
   const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
   if (robot == nullptr) return Error{"SRDF has no <robot> root element"};
   SrdfCollisions out;
-  const auto attribute = [&](const tinyxml2::XMLElement* e, const char* name) -> const char* {
+  // Link names trimmed of white space, as srdfdom does.
+  const auto attribute = [&](const tinyxml2::XMLElement* e,
+                             const char* name) -> std::optional<std::string> {
     const char* v = e->Attribute(name);
-    if (v != nullptr && *v != '\0') return v;
+    if (v != nullptr) {
+      std::string link(v);
+      const auto first = link.find_first_not_of(" \t\r\n");
+      if (first != std::string::npos) {
+        return link.substr(first, link.find_last_not_of(" \t\r\n") - first + 1);
+      }
+    }
     if (out.num_skipped++ == 0) {
       out.first_skipped = "<" + std::string(e->Name()) + "> on line " +
                           std::to_string(e->GetLineNum()) + " has no '" + name + "' attribute";
     }
-    return nullptr;
+    return std::nullopt;
   };
   for (const tinyxml2::XMLElement* e = robot->FirstChildElement(); e; e = e->NextSiblingElement()) {
     const std::string tag = e->Name();
     if (tag == "disable_default_collisions") {
-      if (const char* link = attribute(e, "link")) out.default_off.emplace_back(link);
+      if (auto link = attribute(e, "link")) out.default_off.push_back(std::move(*link));
     } else if (tag == "disable_collisions" || tag == "enable_collisions") {
-      const char* a = attribute(e, "link1");
-      const char* b = a ? attribute(e, "link2") : nullptr;
-      if (b == nullptr) continue;
-      (tag == "enable_collisions" ? out.enabled : out.disabled).emplace_back(a, b);
+      auto a = attribute(e, "link1");
+      auto b = a ? attribute(e, "link2") : std::nullopt;
+      if (!b) continue;
+      (tag == "enable_collisions" ? out.enabled : out.disabled).emplace_back(*a, *b);
     }
   }
   return out;

@@ -137,6 +137,8 @@ struct BodyState {
   bool has_twist = false;
   int group = 0;  ///< dense id of spec.group, 0 = none
   Stamp stamp;    ///< isStatic(): a static pose
+  /// The time freshness is judged from: `stamp`, or when it came, if earlier (setPose).
+  Stamp fresh_from;
   /// Bumped whenever the pose or the geometry changes: a pair result computed at the same
   /// versions of both bodies is still exact.
   std::uint64_t version = 0;
@@ -168,7 +170,7 @@ struct BodyState {
   bool isFresh(Stamp now, double timeout) const {
     if (!has_pose || unresolved) return false;
     if (stamp.isStatic()) return true;
-    return now - stamp <= timeout;
+    return now - fresh_from <= timeout;
   }
 };
 
@@ -741,10 +743,12 @@ struct WorldModel::Impl {
     r.body_b = bodies[b].spec.id;
     r.status = status;
     r.distance = n.exact ? n.distance : kInf;
-    r.point_a = n.point_a;
-    r.point_b = n.point_b;
-    r.normal = n.normal;
-    if (n.exact) r.time_to_collision = timeToCollisionOf(bodies[a], bodies[b], r);
+    if (status != PairStatus::Unknown) {  // a failed query: no points, no normal
+      r.point_a = n.point_a;
+      r.point_b = n.point_b;
+      r.normal = n.normal;
+      if (n.exact) r.time_to_collision = timeToCollisionOf(bodies[a], bodies[b], r);
+    }
     // Report in id order so that a pair always reads the same way.
     if (r.body_b < r.body_a) flipPair(&r);
     return r;
@@ -811,7 +815,7 @@ struct WorldModel::Impl {
     if (!b.has_pose) return "body '" + b.spec.id + "' has no pose yet";
     if (b.unresolved) return "body '" + b.spec.id + "' has an unresolved pose";
     std::ostringstream os;
-    os << "body '" << b.spec.id << "' has a stale pose (" << (now - b.stamp)
+    os << "body '" << b.spec.id << "' has a stale pose (" << (now - b.fresh_from)
        << " s old, pose_timeout " << settings.pose_timeout << " s)";
     return os.str();
   }
@@ -922,6 +926,7 @@ std::string WorldModel::addBody(BodySpec spec) {
       b.has_pose = false;
       b.has_twist = false;
       b.stamp = Stamp();
+      b.fresh_from = Stamp();
       b.box = core::Aabb();
     }
     m.boxes[slot] = b.box;
@@ -1048,12 +1053,13 @@ bool WorldModel::isPairDisabled(const std::string& a, const std::string& b) cons
 }
 
 bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp stamp,
-                         const std::optional<Twist>& twist) {
+                         const std::optional<Twist>& twist, std::optional<Stamp> received) {
   Impl& m = *impl_;
   const int slot =
       m.fast_slot_of.find(id, [&](int k) -> const std::string& { return m.bodies[k].spec.id; });
   if (slot < 0) return false;
   if (!stamp.valid() || !validTransform(pose)) return false;
+  if (received && !received->valid()) return false;
   if (twist && !(core::allFinite(twist->linear) && core::allFinite(twist->angular))) return false;
   BodyState& b = m.bodies[slot];
   // Out of order: only between two timed stamps. A static pose (stamp <= 0) always applies,
@@ -1063,6 +1069,7 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
   b.has_pose = true;
   b.unresolved = false;
   b.stamp = stamp;
+  b.fresh_from = received && !received->isStatic() && *received < stamp ? *received : stamp;
   b.has_twist = twist.has_value();
   b.twist = twist ? *twist : Twist();
   if (moved) {
@@ -1086,6 +1093,7 @@ void WorldModel::clearPoses() {
     b.has_pose = false;
     b.unresolved = false;
     b.stamp = Stamp();
+    b.fresh_from = Stamp();
     b.has_twist = false;
   }
 }

@@ -290,21 +290,23 @@ class Panda(unittest.TestCase):
         # robot2's monitor (the same Panda, no SRDF) checks that pair.
         other = rospy.ServiceProxy('/robot2/arm/arm_monitor/get_distance', GetDistance)
         self.assertTrue(wait_for(lambda: other('panda_link3', 'panda_hand', '').success, 5.0))
-        # Bodies added later: probe (enabled with the hand) and block, both inside the hand.
+        # Bodies added later, inside the hand: neither meets it, probe too (the SRDF's
+        # enable_collisions of probe names no URDF link: left out, as srdfdom does).
         for body_id in ('probe', 'block'):
             m.add(sphere_body(body_id, 0.05, frame='panda_hand', pose_from_topic=False))
-        self.assertLess(answered('probe', 'panda_hand').distance, 0.0)
-        blocked = m.get_distance('panda_hand', 'block', '')
-        self.assertFalse(blocked.success)
-        self.assertIn("of 'panda_hand'", blocked.message)
-        self.assertTrue(m.wait_event(E.COLLISION_BEGIN, 'panda_hand', 'probe'))
+        self.assertLess(answered('probe', 'block').distance, 0.0)
+        for body_id in ('probe', 'block'):
+            off = m.get_distance('panda_hand', body_id, '')
+            self.assertFalse(off.success)
+            self.assertIn("of 'panda_hand'", off.message)
 
         def pairs():
             return {(p.body_a, p.body_b) for p in m.state.pairs}
         self.assertTrue(wait_for(lambda: ('block', 'probe') in pairs(), 5.0))
-        self.assertIn(('panda_hand', 'probe'), pairs())
+        self.assertNotIn(('panda_hand', 'probe'), pairs())
         self.assertNotIn(('block', 'panda_hand'), pairs())
-        self.assertEqual(m.events_for({frozenset(('block', 'panda_hand'))}), [])
+        self.assertEqual(m.events_for({frozenset(('block', 'panda_hand')),
+                                       frozenset(('panda_hand', 'probe'))}), [])
 
 
 if __name__ == '__main__':

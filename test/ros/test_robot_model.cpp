@@ -429,13 +429,14 @@ TEST(Srdf, DefaultCollisionsAndEnabledPairs) {
     <disable_default_collisions link=""/>
     <enable_collisions link2="x"/>
     <disable_default_collisions link="mount"/>
-    <enable_collisions link1="mount" link2="cam"/>
+    <enable_collisions link1=" mount" link2="cam&#9;"/>
+    <disable_default_collisions link="  "/>
   </robot>)");
   ASSERT_TRUE(p) << p.error();
   EXPECT_EQ(p->default_off, (std::vector<std::string>{"cam", "mount"}));
   EXPECT_EQ(p->enabled, (std::vector<IdPair>{{"cam", "table"}, {"mount", "cam"}}));
   EXPECT_EQ(p->disabled, (std::vector<IdPair>{{"a", "b"}}));
-  EXPECT_EQ(p->num_skipped, 2u);
+  EXPECT_EQ(p->num_skipped, 3u);  // the last: white space only
   EXPECT_EQ(p->first_skipped, "<disable_default_collisions> on line 6 has no 'link' attribute");
 }
 

@@ -1354,6 +1354,8 @@ TEST(WorldModel, QueryThatCannotRunIsUnknownNotClear) {
   ASSERT_TRUE(d) << why;
   EXPECT_EQ(d->status, S::Unknown);
   EXPECT_TRUE(std::isnan(d->distance));
+  EXPECT_EQ(d->normal, Vec3::Zero());  // no direction either (it said (1, 0, 0))
+  EXPECT_EQ(r.pairs.at(0).normal, Vec3::Zero());
   const auto out = w.checkHypothetical(sphere("probe", 1e308), at(0.5), 0.0, 1.0);
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[0].status, S::Unknown);

@@ -257,6 +257,7 @@ class Monitor {
   LogThrottle jump_log_{5.0};         ///< "time jumped backwards" (two /clock: 10 lines/s)
   std::size_t jumps_not_logged_ = 0;  ///< since the last such line (loop thread)
   ros::WallTime last_forced_report_;  ///< diagnostics forced by a jump (loop thread)
+  double last_forced_time_ = 0.0;     ///< ROS time of that report (loop thread)
   /// ROS time going back by more than this (s) is a time jump (bag loop, simulation reset): every
   /// pose and the TF buffer are forgotten. Poses stamped more than this after ROS time are
   /// refused, and TF that far ahead leaves its frame unresolved.

@@ -110,11 +110,11 @@ struct Settings {
   std::size_t max_vertices_per_part = 100000;
   std::size_t max_parts_per_body = 1000;
   /// At most this many UNKNOWN pairs are listed in CycleResult::pairs (those of the stale bodies
-  /// in slot order: the order of addition until a new body takes a removed one's slot); the rest are counted in CycleResult::num_unknown_pairs and implied by
-  /// stale_bodies. Pairs whose bodies never had a pose get events and are tracked only while
-  /// listed. Unlimited by default, as the contract asks; 1,000 bodies without poses are ~500k
-  /// pairs (first cycle ~0.6 s and ~370 MB with their UNKNOWN_BEGIN events), so a node may want
-  /// to set a cap.
+  /// in slot order: the order of addition until a new body takes a removed one's slot); the rest
+  /// are counted in CycleResult::num_unknown_pairs and implied by stale_bodies. Pairs whose bodies
+  /// never had a pose get events and are tracked only while listed. Unlimited by default, as the
+  /// contract asks; 1,000 bodies without poses are ~500k pairs (first cycle ~0.6 s and ~370 MB with
+  /// their UNKNOWN_BEGIN events), so a node may want to set a cap.
   std::size_t max_unknown_pairs = std::numeric_limits<std::size_t>::max();
   /// CycleResult::min_distance over every pair however far (true), or only over the pairs within
   /// max(warning, contact) + hysteresis, +inf beyond (false: no search past the broad phase).
@@ -206,9 +206,13 @@ class WorldModel {
 
   /// Sets a body's pose (body frame -> fixed frame) valid at `stamp` (s). A stamp older than the
   /// one held is ignored (returns false): out-of-order input never replaces newer data.
-  /// `stamp` <= 0 means static (never stale).
+  /// `stamp` <= 0 means static (never stale). `received`: when the pose came, if that was before
+  /// `stamp` (a publisher whose clock runs ahead): the pose ages from then, not from its stamp,
+  /// which is kept for everything else (ordering, the verdict's time). A static `received` (0:
+  /// no clock yet) is not used.
   bool setPose(const std::string& id, const Transform3& pose, Stamp stamp,
-               const std::optional<Twist>& twist = std::nullopt);
+               const std::optional<Twist>& twist = std::nullopt,
+               std::optional<Stamp> received = std::nullopt);
   /// Marks a body's pose as unresolvable now (e.g. TF lookup failed): its pairs turn UNKNOWN.
   void markUnresolved(const std::string& id);
   /// Forgets every held pose (e.g. time jumped backwards) except static ones (stamp 0, which
