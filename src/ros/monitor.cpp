@@ -1135,7 +1135,7 @@ void Monitor::runCycle() {
   // Every frame from the same TF messages: none goes in while these lookups run (TfReceiver).
   auto tf_snapshot = tf_receiver_->snapshot();
   // After every transform looked up below came in: one stamped later was stamped ahead. (Not
-  // `stamp_now`: TF that came since the check began would be taken as ahead, and held as of an
+  // `stamp_now`: TF that came since the check began would be taken as ahead, and aged from an
   // earlier time than its own.)
   const ros::Time seen_at = ros::Time::now();
   for (const auto& [id, frame] : attached) {
@@ -1148,10 +1148,10 @@ void Monitor::runCycle() {
       const auto tf = tf_buffer_->lookupTransform(fixed_frame_, frame, ros::Time(0));
       const double stamp = tf.header.stamp.toSec();
       // When this transform was first seen (this cycle if it is new): a frame stamped ahead of
-      // ROS time (its publisher's clock ahead of ours) is held as of then, as timed poses are.
-      // By its own stamp it would stay fresh for as long as it is ahead after its publisher
-      // stopped, and one more than kTimeJumpTolerance ahead would turn fresh 1 s before its
-      // stamp, long after it came.
+      // ROS time (its publisher's clock ahead of ours) ages from then, as timed poses do. By its
+      // own stamp it would stay fresh for as long as it is ahead after its publisher stopped,
+      // and one more than kTimeJumpTolerance ahead would turn fresh 1 s before its stamp, long
+      // after it came.
       auto before = tf_seen_.find(frame);
       const TfSeen& first = seen[frame] = before != tf_seen_.end() && before->second.stamp == stamp
                                               ? before->second

@@ -1451,7 +1451,8 @@ std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, cons
     const BodyState& O = m.bodies[o];
     if (!O.used || (!anonymous && O.spec.id == body.id)) continue;
     if (sameGroup(O.spec.group)) continue;
-    if (!anonymous && m.isDisabled(body.id, O.spec.id)) continue;
+    // A nameless body is in no pair rule, but the links off by default are off for it too.
+    if (m.isDisabled(anonymous ? std::string() : body.id, O.spec.id)) continue;
     if (!O.isFresh(now, settings_.pose_timeout)) {
       addUnknown(O);
       continue;

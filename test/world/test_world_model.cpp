@@ -171,6 +171,33 @@ TEST(WorldModel, PairFilterGroupsDisabledPairsAndSelf) {
   EXPECT_NEAR(n->distance, -0.98, 1e-12);
 }
 
+// A pose stamped ahead of the clock (its publisher's clock runs ahead) ages from when it came,
+// not from its stamp; the stamp still orders poses and dates the verdict.
+TEST(WorldModel, PosesStampedAheadAgeFromTheirArrival) {
+  WorldModel w(dyadic());  // pose_timeout 0.5
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));  // static
+  ASSERT_TRUE(w.setPose("b", at(2), 10.75, std::nullopt, Stamp(10.0)));
+  EXPECT_FALSE(w.listBodies(10.5)[1].stale);
+  EXPECT_TRUE(w.listBodies(10.625)[1].stale);  // by its stamp: fresh until 11.25
+  std::string why;
+  EXPECT_FALSE(w.distance("a", "b", 10.625, &why));
+  EXPECT_EQ(why, "body 'b' has a stale pose (0.625 s old, pose_timeout 0.5 s)");
+  // Older than the held stamp, though it came later: ignored, as any older pose.
+  EXPECT_FALSE(w.setPose("b", at(3), 10.5, std::nullopt, Stamp(10.25)));
+  ASSERT_TRUE(w.setPose("b", at(2), 11.0, std::nullopt, Stamp(10.5)));
+  const CycleResult r = w.check(10.75);
+  EXPECT_EQ(r.stamp, Stamp(11.0));  // the verdict's time is the pose's own
+  // A static arrival time (no clock yet) is not used: the stamp is.
+  ASSERT_TRUE(w.setPose("b", at(2), 20.25, std::nullopt, Stamp()));
+  EXPECT_FALSE(w.listBodies(20.5)[1].stale);
+  // Arriving after its stamp changes nothing.
+  ASSERT_TRUE(w.setPose("b", at(2), 30.0, std::nullopt, Stamp(30.25)));
+  EXPECT_FALSE(w.listBodies(30.5)[1].stale);
+  EXPECT_TRUE(w.listBodies(30.625)[1].stale);
+}
+
 // SRDF <disable_default_collisions> and <enable_collisions>, as MoveIt reads them: a body off by
 // default meets only the bodies enabled with it; an explicitly disabled pair stays disabled.
 TEST(WorldModel, BodiesOffByDefaultMeetOnlyTheirEnabledPairs) {
@@ -224,6 +251,12 @@ TEST(WorldModel, BodiesOffByDefaultMeetOnlyTheirEnabledPairs) {
   const auto n = w.nearest("c", 1.0, &why);
   ASSERT_TRUE(n) << why;
   EXPECT_EQ(n->body_b, "d");
+  // A nameless what-if body is in no pair rule: it meets every body but those off by default.
+  std::set<std::string> met;
+  for (const PairResult& p :
+       w.checkHypothetical(sphere("what_if", 0.5), at(0.03), 0.0, 2.0, /*anonymous=*/true))
+    met.insert(p.body_a == "what_if" ? p.body_b : p.body_a);
+  EXPECT_EQ(met, (std::set<std::string>{"a", "b", "d", "e", "g"}));
 }
 
 // distance() and nearest() say the time their answer holds for, as an event's stamp: the older

@@ -189,7 +189,7 @@ class Monitor {
   std::map<std::pair<std::string, std::string>, std::string> disabled_reasons_;  // sorted pairs
   std::set<std::string> default_off_;  // SRDF <disable_default_collisions> links
   /// runCycle(): per attached frame, the stamp of its latest transform and the ROS time it was
-  /// first seen (a frame stamped ahead of ROS time is held as of then). Loop thread only.
+  /// first seen (a frame stamped ahead of ROS time ages from then). Loop thread only.
   struct TfSeen {
     double stamp = 0.0;
     ros::Time at;

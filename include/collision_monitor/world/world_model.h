@@ -253,7 +253,8 @@ class WorldModel {
   /// pose (respecting its group); returns all within `margin`, sorted by distance.
   /// Also every body in COLLISION whatever the margin; a body with the same id as `body` and the
   /// disabled pairs of that id are skipped ("that body, moved to `pose`"), unless `anonymous`
-  /// (the id is only a label: nothing is skipped by it). Status from the thresholds without
+  /// (the id is only a label: no pair rule of it applies, but bodies off by default, SRDF
+  /// <disable_default_collisions>, are skipped for it too). Status from the thresholds without
   /// hysteresis. Empty when checkSpec(body) refuses it or the pose is not rigid. A tracked id's
   /// own group applies as well as `body.group`. Bodies without a fresh pose (or whose query
   /// failed) are UNKNOWN pairs, at most max_unknown_pairs of them; `num_unknown`, if given, gets
