@@ -81,6 +81,8 @@
 #include <fcl/geometry/shape/sphere.h>
 #include <fcl/narrowphase/collision_object.h>
 #include <fcl/narrowphase/distance.h>
+
+#include "fcl_common.h"
 #endif
 
 namespace cm_bench_robot {
@@ -308,6 +310,8 @@ class Monitor {
 };
 
 #ifdef CM_BENCH_HAVE_FCL
+using cm_bench_fcl::toFcl;
+
 /// FCL's geometry of a shape's core about its offset() (the caller places it there), or null for
 /// a shape FCL has no counterpart of here.
 std::shared_ptr<fcl::CollisionGeometryd> fclGeometry(const core::ConvexShape& shape) {
@@ -321,26 +325,10 @@ std::shared_ptr<fcl::CollisionGeometryd> fclGeometry(const core::ConvexShape& sh
     } else if (const auto* y = std::get_if<core::CylinderShape>(&c)) {
       return std::make_shared<fcl::Cylinderd>(y->radius, 2.0 * y->half_height);
     } else if (const auto* h = std::get_if<std::shared_ptr<const core::Polytope<3>>>(&c)) {
-      auto verts = std::make_shared<std::vector<fcl::Vector3d>>();
-      for (const Vec3& v : (*h)->vertices())
-        verts->push_back(v);
-      const auto triangles = core::hullTriangles(**h);
-      auto faces = std::make_shared<std::vector<int>>();
-      for (const auto& t : triangles) {
-        faces->push_back(3);
-        faces->insert(faces->end(), t.begin(), t.end());
-      }
-      return std::make_shared<fcl::Convexd>(verts, static_cast<int>(triangles.size()), faces);
+      return std::make_shared<fcl::Convexd>(toFcl(**h, core::hullTriangles(**h)));
     }
   }
   return nullptr;
-}
-
-fcl::Transform3d toFcl(const Transform3& T) {
-  fcl::Transform3d out = fcl::Transform3d::Identity();
-  out.linear() = T.R;
-  out.translation() = T.t;
-  return out;
 }
 
 /// The MoveIt-style FCL pipeline of one robot (see the file comment).

@@ -83,6 +83,8 @@
 #include <fcl/geometry/shape/sphere.h>
 #include <fcl/narrowphase/collision_object.h>
 #include <fcl/narrowphase/distance.h>
+
+#include "fcl_common.h"
 #endif
 
 namespace cm_bench_world {
@@ -428,12 +430,7 @@ class Ours {
 // ---- FCL --------------------------------------------------------------------------------------
 
 #ifdef CM_BENCH_HAVE_FCL
-fcl::Transform3d toFcl(const Transform3& p) {
-  fcl::Transform3d t = fcl::Transform3d::Identity();
-  t.linear() = p.R;
-  t.translation() = p.t;
-  return t;
-}
+using cm_bench_fcl::toFcl;
 
 std::shared_ptr<fcl::CollisionGeometryd> fclGeometry(const PartDesc& p) {
   switch (p.kind) {
@@ -443,17 +440,8 @@ std::shared_ptr<fcl::CollisionGeometryd> fclGeometry(const PartDesc& p) {
       return std::make_shared<fcl::Boxd>(p.sides.x(), p.sides.y(), p.sides.z());
     case Kind::Capsule:
       return std::make_shared<fcl::Capsuled>(p.radius, p.length);
-    case Kind::Hull: {
-      auto verts = std::make_shared<std::vector<fcl::Vector3d>>();
-      for (const Vec3& v : p.hull->vertices())
-        verts->push_back(v);
-      auto faces = std::make_shared<std::vector<int>>();
-      for (const auto& t : p.triangles) {
-        faces->push_back(3);
-        faces->insert(faces->end(), t.begin(), t.end());
-      }
-      return std::make_shared<fcl::Convexd>(verts, static_cast<int>(p.triangles.size()), faces);
-    }
+    case Kind::Hull:
+      return std::make_shared<fcl::Convexd>(toFcl(*p.hull, p.triangles));
   }
   return nullptr;
 }

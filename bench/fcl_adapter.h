@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "bench_loop.h"
+#include "fcl_common.h"
 #include "pools.h"
 
 namespace cm_bench {
@@ -50,23 +51,11 @@ class FclBench {
 
 namespace fcl_detail {
 
-inline fcl::Convexd makeConvex(const ShapeSpec& s) {
-  auto verts = std::make_shared<std::vector<fcl::Vector3d>>();
-  for (const Vec3& v : s.hull->vertices())
-    verts->push_back(v);
-  auto faces = std::make_shared<std::vector<int>>();
-  for (const auto& t : s.triangles) {
-    faces->push_back(3);
-    faces->insert(faces->end(), t.begin(), t.end());
-  }
-  return fcl::Convexd(verts, static_cast<int>(s.triangles.size()), faces);
-}
-
 template <class S>
 S make(const ShapeSpec& s);
 template <>
 inline fcl::Convexd make<fcl::Convexd>(const ShapeSpec& s) {
-  return makeConvex(s);
+  return cm_bench_fcl::toFcl(*s.hull, s.triangles);
 }
 template <>
 inline fcl::Boxd make<fcl::Boxd>(const ShapeSpec& s) {
@@ -89,12 +78,7 @@ inline fcl::Coned make<fcl::Coned>(const ShapeSpec& s) {
   return fcl::Coned(s.radius, s.length);
 }
 
-inline fcl::Transform3d toFcl(const Transform3& p) {
-  fcl::Transform3d t = fcl::Transform3d::Identity();
-  t.linear() = p.R;
-  t.translation() = p.t;
-  return t;
-}
+using cm_bench_fcl::toFcl;
 
 template <class S1, class S2>
 class FclBenchT final : public FclBench {

@@ -26,6 +26,16 @@ else()
   message(STATUS "collision_monitor: FCL not found (libfcl-dev): benchmarks run without the FCL competitor")
 endif()
 
+# FCL as a competitor of `target`, when found. Competitor headers are not ours: keep their
+# warnings out of -Werror by treating their include directories as system headers.
+function(cm_bench_with_fcl target)
+  if(CM_BENCH_FCL_TARGET)
+    target_link_libraries(${target} PRIVATE ${CM_BENCH_FCL_TARGET})
+    target_compile_definitions(${target} PRIVATE CM_BENCH_HAVE_FCL=1)
+  endif()
+  set_target_properties(${target} PROPERTIES NO_SYSTEM_FROM_IMPORTED OFF)
+endfunction()
+
 # Bullet 3 (libbullet-dev), double precision: the *-float64 libraries with BT_USE_DOUBLE_PRECISION
 # (pkg-config bullet-float64 carries both). Mixing the float libraries with double headers would
 # silently break the ABI, so only the float64 variant is accepted.
@@ -42,17 +52,11 @@ add_executable(collision_monitor_bench_core
 target_link_libraries(collision_monitor_bench_core PRIVATE
   collision_monitor_core benchmark::benchmark PkgConfig::CCD Eigen3::Eigen)
 target_compile_options(collision_monitor_bench_core PRIVATE ${CM_WARNING_FLAGS})
-if(CM_BENCH_FCL_TARGET)
-  target_link_libraries(collision_monitor_bench_core PRIVATE ${CM_BENCH_FCL_TARGET})
-  target_compile_definitions(collision_monitor_bench_core PRIVATE CM_BENCH_HAVE_FCL=1)
-endif()
+cm_bench_with_fcl(collision_monitor_bench_core)  # Bullet's headers are system headers too
 if(CM_BULLET64_FOUND)
   target_link_libraries(collision_monitor_bench_core PRIVATE PkgConfig::CM_BULLET64)
   target_compile_definitions(collision_monitor_bench_core PRIVATE CM_BENCH_HAVE_BULLET=1)
 endif()
-# Competitor headers (FCL's inline libccd glue, Bullet) are not ours: keep their warnings out of
-# -Werror by treating their include directories as system headers.
-set_target_properties(collision_monitor_bench_core PROPERTIES NO_SYSTEM_FROM_IMPORTED OFF)
 
 # Instruction-count driver for callgrind (scripts/icount.sh): not a benchmark, no competitors.
 add_executable(collision_monitor_icount bench/icount.cpp bench/pools.cpp)
@@ -67,11 +71,7 @@ if(TARGET collision_monitor_world AND EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/bench/
   target_link_libraries(collision_monitor_bench_world PRIVATE
     collision_monitor_world collision_monitor_core benchmark::benchmark Eigen3::Eigen)
   target_compile_options(collision_monitor_bench_world PRIVATE ${CM_WARNING_FLAGS})
-  if(CM_BENCH_FCL_TARGET)
-    target_link_libraries(collision_monitor_bench_world PRIVATE ${CM_BENCH_FCL_TARGET})
-    target_compile_definitions(collision_monitor_bench_world PRIVATE CM_BENCH_HAVE_FCL=1)
-  endif()
-  set_target_properties(collision_monitor_bench_world PROPERTIES NO_SYSTEM_FROM_IMPORTED OFF)
+  cm_bench_with_fcl(collision_monitor_bench_world)
 endif()
 
 # Robot self-collision cycle (the real robots of example-robot-data, loaded the node's way): needs
@@ -89,11 +89,7 @@ if(TARGET collision_monitor_ros AND EXISTS "${CMAKE_CURRENT_SOURCE_DIR}/bench/be
     CM_BENCH_ROBOT_DATA="${CM_BENCH_ROBOT_DATA}")
   target_compile_options(collision_monitor_bench_robot PRIVATE ${CM_WARNING_FLAGS})
   add_dependencies(collision_monitor_bench_robot ${${PROJECT_NAME}_EXPORTED_TARGETS})
-  if(CM_BENCH_FCL_TARGET)
-    target_link_libraries(collision_monitor_bench_robot PRIVATE ${CM_BENCH_FCL_TARGET})
-    target_compile_definitions(collision_monitor_bench_robot PRIVATE CM_BENCH_HAVE_FCL=1)
-  endif()
-  set_target_properties(collision_monitor_bench_robot PROPERTIES NO_SYSTEM_FROM_IMPORTED OFF)
+  cm_bench_with_fcl(collision_monitor_bench_robot)
 endif()
 
 # End-to-end latency probe (bench/latency.launch, scripts/bench_latency.sh): a roscpp node that
