@@ -349,7 +349,8 @@ struct WorldModel::Impl {
   /// margin changes or a slot is freed.
   struct FarPair {
     std::uint64_t key;
-    double lower;  ///< the distance is at least this: box distance, or a GJK cutoff it exceeded
+    double lower;  ///< the distance is at least this: box gap (-inf: boxes touch), or a GJK cutoff
+                   ///< it exceeded
     double exact;  ///< NaN while unknown
   };
   HashGrid far_grid;
@@ -578,12 +579,14 @@ struct WorldModel::Impl {
     return out;
   }
 
-  /// Adds pair (i, j) to `out` when it may collide and its boxes are within far_margin.
+  /// Adds pair (i, j) to `out` when it may collide and its boxes are within far_margin. Its lower
+  /// bound is the boxes' gap, or -inf when they touch: the pair may then overlap, by any depth.
   void addFar(int i, int j, std::vector<FarPair>* out) const {
     if (!allowed(i, j)) return;
-    const double lower = boxes[i].distance(boxes[j]);
-    if (lower > far_margin) return;
-    out->push_back(FarPair{orderedKey(i, j), lower, std::numeric_limits<double>::quiet_NaN()});
+    const double gap = boxes[i].distance(boxes[j]);
+    if (gap > far_margin) return;
+    out->push_back(FarPair{orderedKey(i, j), gap > 0.0 ? gap : -kInf,
+                           std::numeric_limits<double>::quiet_NaN()});
   }
 
   /// far_pairs of this cycle while far_active: the pairs of two unmoved fresh bodies from the
@@ -647,7 +650,10 @@ struct WorldModel::Impl {
         span = all.empty() ? 0.0 : (all.max - all.min).norm();
       }
       if (far_margin >= span) break;
-      far_margin = std::max(4.0 * far_margin, std::isfinite(best) ? 2.0 * best : 0.0);
+      // From a zero margin (every threshold at or below 0: no reach) four times is still zero:
+      // start from a share of the span instead, so the margin reaches it in a few rebuilds.
+      const double grown = std::max(4.0 * far_margin, std::isfinite(best) ? 2.0 * best : 0.0);
+      far_margin = grown > far_margin ? grown : span / 1024.0;
       rebuildFar();
     }
     // A margin far wider than needed costs every cycle: narrow it, keeping the pairs within the

@@ -208,6 +208,33 @@ class Reconfigure(unittest.TestCase):
                         'checks did not resume after min_check_interval 20 s -> 0.002 s')
         self.update(rate=2.0)
 
+    def test_10_thresholds_at_or_below_zero_keep_the_checks_going(self):
+        # Bug (audit, twenty-fifth session): with no reach left (every threshold <= 0), once a
+        # shallow overlap had narrowed min_distance's far grid to margin 0, a check with no
+        # boxes touching grew that margin 4 x 0 = 0 for ever: no ~state, no service answer,
+        # and no exit on SIGINT.
+        self.update(contact_distance=-0.05, warning_distance=-0.05, hysteresis=0.0)
+        msg = BodyPoses()
+        msg.header.frame_id = 'world'  # static poses
+        msg.ids = ['a', 'b']
+        msg.poses = [pose(0, 0, 0), pose(0.99, 0, 0)]  # 0.01 m deep: CLEAR below -0.05
+        self.m.poses_pub.publish(msg)
+        self.assertTrue(wait_for(lambda: abs(self.m.state.min_distance + 0.01) < 1e-9, 5.0),
+                        self.m.state.min_distance)
+        self.assertIsNone(self.pair_ab())
+        self.assertFalse(self.m.state.in_collision)
+        msg.poses = [pose(0, 0, 0), pose(3.0, 0, 0)]  # 2 m apart: no boxes touch
+        self.m.poses_pub.publish(msg)
+        self.assertTrue(wait_for(lambda: abs(self.m.state.min_distance - 2.0) < 1e-9, 5.0),
+                        'no ~state with min_distance 2.0 m after the pair moved apart')
+        n0 = self.m.state_count
+        self.assertTrue(wait_for(lambda: self.m.state_count >= n0 + 2, 3.0),
+                        'the heartbeat stopped')
+        self.update(warning_distance=0.05, contact_distance=0.0, hysteresis=0.005)
+        msg.poses = [pose(0, 0, 0), pose(1.2, 0, 0)]
+        self.m.poses_pub.publish(msg)
+        self.assertTrue(wait_for(lambda: abs(self.m.state.min_distance - 0.2) < 1e-9, 5.0))
+
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'reconfigure', Reconfigure, sys.argv)

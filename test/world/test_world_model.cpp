@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <cstdlib>
+#include <future>
 #include <limits>
 #include <map>
 #include <memory>
@@ -898,51 +900,120 @@ double bruteMinimum(const Scene& scene) {
   return best;
 }
 
+/// w.check(now), or the test program ends with a message when it has not returned in 20 s (a
+/// check that loops for ever would otherwise hold the suite until CTest's timeout).
+CycleResult checkOrEnd(WorldModel& w, double now) {
+  auto done = std::async(std::launch::async, [&w, now] { return w.check(now); });
+  if (done.wait_for(std::chrono::seconds(20)) != std::future_status::ready) {
+    std::fprintf(stderr, "FATAL: WorldModel::check() has not returned in 20 s\n");
+    std::fflush(stderr);
+    std::_Exit(1);
+  }
+  return done.get();
+}
+
+TEST(WorldModel, MinDistanceWithThresholdsAtOrBelowZero) {
+  // Every threshold 0 (collisions only): the broad phase has no reach, and the far grid's margin
+  // must still grow from 0. It did not: check() looped for ever with no pair in reach.
+  Settings z = dyadic();
+  z.warning_distance = z.contact_distance = z.hysteresis = 0.0;
+  z.pose_timeout = 100.0;
+  WorldModel w(z);
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  EXPECT_EQ(checkOrEnd(w, 1.0).min_distance, std::numeric_limits<double>::infinity());  // alone
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("b", at(2.0), 0.0));
+  EXPECT_EQ(checkOrEnd(w, 1.0).min_distance, 1.0);
+  ASSERT_TRUE(w.setPose("b", at(1.0), 1.0));
+  const CycleResult touch = checkOrEnd(w, 1.0);
+  EXPECT_EQ(touch.min_distance, 0.0);
+  EXPECT_TRUE(touch.in_collision);
+  ASSERT_TRUE(w.setPose("b", at(50.0), 1.0));
+  EXPECT_EQ(checkOrEnd(w, 1.0).min_distance, 49.0);
+
+  // Negative thresholds: pairs overlapping by less than |contact_distance| are CLEAR and beyond
+  // the narrow phase's cutoff, and the deepest of them is min_distance. The far pairs' lower
+  // bound was the boxes' gap (0 when they overlap), so once one such depth was known no other
+  // overlapping pair was measured: -1/128 was reported here, not -1/32.
+  Settings n = z;
+  n.warning_distance = n.contact_distance = -0.0625;
+  WorldModel v(n);
+  for (const char* id : {"a", "b", "c", "d"})
+    ASSERT_EQ(v.addBody(sphere(id, 0.5)), "");
+  ASSERT_TRUE(v.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(v.setPose("b", at(1.0 - 1.0 / 128), 0.0));
+  ASSERT_TRUE(v.setPose("c", at(10.0), 0.0));
+  ASSERT_TRUE(v.setPose("d", at(20.0), 0.0));
+  EXPECT_EQ(checkOrEnd(v, 1.0).min_distance, -1.0 / 128);
+  ASSERT_TRUE(v.setPose("d", at(11.0 - 1.0 / 32), 1.0));  // c-d now deeper, still CLEAR
+  CycleResult r = checkOrEnd(v, 1.0);
+  EXPECT_EQ(r.min_distance, -1.0 / 32);
+  EXPECT_FALSE(r.in_collision);
+  EXPECT_TRUE(r.pairs.empty());
+  ASSERT_TRUE(v.setPose("d", at(11.0 - 1.0 / 8), 1.0));  // past the contact distance
+  r = checkOrEnd(v, 1.0);
+  EXPECT_EQ(r.min_distance, -1.0 / 8);
+  EXPECT_TRUE(r.in_collision);
+  ASSERT_TRUE(v.setPose("d", at(11.0 - 1.0 / 64), 1.0));  // back: a-b is the deepest again
+  EXPECT_EQ(checkOrEnd(v, 1.0).min_distance, -1.0 / 64);
+  ASSERT_TRUE(v.setPose("d", at(30.0), 1.0));
+  EXPECT_EQ(checkOrEnd(v, 1.0).min_distance, -1.0 / 128);
+}
+
 TEST(WorldModel, MinDistanceIsTheNearestPairBeyondTheBroadPhase) {
   // min_distance is the contract's "over all checked pairs": the nearest pair's distance also
   // when no pair is within the warning distance (it was +inf then). Sparse random scenes (one
-  // and two-part bodies, a group) against brute force.
-  std::mt19937 g(77);
+  // and two-part bodies, a group) against brute force, with the usual thresholds, with every
+  // threshold 0 (no reach at all) and with negative ones.
   Settings s = dyadic();
   s.pose_timeout = 100.0;
-  const int n = 40;
-  Scene scene = randomScene(g, n, 12.0);
-  WorldModel w(s);
-  ASSERT_NO_FATAL_FAILURE(addScene(w, scene, 1.0));
-  int beyond = 0;
-  for (int round = 0; round < 12; ++round) {
-    if (round > 0) {
-      for (int i = round % 3; i < n; i += 3) {
-        scene.poses[i].t += Vec3(uniform(g, -0.5, 0.5), uniform(g, -0.5, 0.5), 0.0);
-        ASSERT_TRUE(w.setPose(scene.specs[i].id, scene.poses[i], 1.0 + round));
+  Settings zero = s;
+  zero.warning_distance = zero.contact_distance = zero.hysteresis = 0.0;
+  Settings negative = zero;
+  negative.warning_distance = negative.contact_distance = -0.25;
+  for (const Settings& t : {s, zero, negative}) {
+    SCOPED_TRACE("warning_distance " + std::to_string(t.warning_distance));
+    std::mt19937 g(77);
+    const int n = 40;
+    Scene scene = randomScene(g, n, 12.0);
+    WorldModel w(t);
+    ASSERT_NO_FATAL_FAILURE(addScene(w, scene, 1.0));
+    int beyond = 0;
+    for (int round = 0; round < 12; ++round) {
+      if (round > 0) {
+        for (int i = round % 3; i < n; i += 3) {
+          scene.poses[i].t += Vec3(uniform(g, -0.5, 0.5), uniform(g, -0.5, 0.5), 0.0);
+          ASSERT_TRUE(w.setPose(scene.specs[i].id, scene.poses[i], 1.0 + round));
+        }
       }
+      if (round == 4 || round == 5) {
+        // A body replaced by another in its slot; then one taken away and put back.
+        const int k = round == 4 ? 5 : 11;
+        ASSERT_TRUE(w.removeBody(scene.specs[k].id));
+        scene.specs[k].id = "n" + scene.specs[k].id;
+        ASSERT_EQ(w.addBody(scene.specs[k]), "");
+        ASSERT_TRUE(w.setPose(scene.specs[k].id, scene.poses[k], 1.0 + round));
+      }
+      if (round == 7) {
+        // A pair within reach (the narrow phase answers), then apart again (round 8).
+        scene.poses[1].t = scene.poses[2].t;  // overlapping
+        ASSERT_TRUE(w.setPose(scene.specs[1].id, scene.poses[1], 1.0 + round));
+      }
+      const CycleResult r = checkOrEnd(w, 1.0 + round);
+      const double expected = bruteMinimum(scene);
+      EXPECT_NEAR(r.min_distance, expected, 1e-12) << "round " << round;
+      if (expected > clearCutoffAny(t)) ++beyond;
+      if (round == 7) {
+        EXPECT_LT(expected, 0.0);
+      }
+      // Nothing moved: the same answer without any GJK.
+      const CycleResult again = w.check(1.0 + round);
+      EXPECT_EQ(again.min_distance, r.min_distance);
+      EXPECT_EQ(again.num_pairs_checked, 0u);
     }
-    if (round == 4 || round == 5) {
-      // A body replaced by another in its slot; then one taken away and put back.
-      const int k = round == 4 ? 5 : 11;
-      ASSERT_TRUE(w.removeBody(scene.specs[k].id));
-      scene.specs[k].id = "n" + scene.specs[k].id;
-      ASSERT_EQ(w.addBody(scene.specs[k]), "");
-      ASSERT_TRUE(w.setPose(scene.specs[k].id, scene.poses[k], 1.0 + round));
-    }
-    if (round == 7) {
-      // A pair within reach (the narrow phase answers), then apart again (round 8).
-      scene.poses[1].t = scene.poses[2].t;  // overlapping
-      ASSERT_TRUE(w.setPose(scene.specs[1].id, scene.poses[1], 1.0 + round));
-    }
-    const CycleResult r = w.check(1.0 + round);
-    const double expected = bruteMinimum(scene);
-    EXPECT_NEAR(r.min_distance, expected, 1e-12) << "round " << round;
-    if (expected > clearCutoffAny(s)) ++beyond;
-    if (round == 7) {
-      EXPECT_LT(expected, 0.0);
-    }
-    // Nothing moved: the same answer without any GJK.
-    const CycleResult again = w.check(1.0 + round);
-    EXPECT_EQ(again.min_distance, r.min_distance);
-    EXPECT_EQ(again.num_pairs_checked, 0u);
+    EXPECT_GE(beyond, 6);  // the sample is meaningful: most rounds' nearest pair is beyond reach
   }
-  EXPECT_GE(beyond, 6);  // the sample is meaningful: most rounds' nearest pair is beyond reach
   {
     // exact_min_distance off: the pairs within reach only (+inf here), no GJK beyond them.
     Settings near_only = s;
