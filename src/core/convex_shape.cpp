@@ -3,6 +3,7 @@
 #include "collision_monitor/core/convex_shape.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <sstream>
 #include <type_traits>
@@ -15,6 +16,12 @@ namespace collision_monitor {
 namespace core {
 
 namespace {
+
+/// ConvexShape::coreId() of the next shape constructed (from 1: 0 is a cold PairCache's).
+std::uint64_t nextCoreId() {
+  static std::atomic<std::uint64_t> next{1};
+  return next.fetch_add(1, std::memory_order_relaxed);
+}
 
 [[noreturn]] void fail(const std::string& shape, const std::string& what, double value,
                        const std::string& requirement) {
@@ -115,6 +122,7 @@ ConvexShape::ConvexShape(Core core, double radius, std::string kind, const Vec3&
       offset_(offset),
       has_offset_(!offset.isZero(0.0)),
       radius_(radius),
+      core_id_(nextCoreId()),
       kind_(std::move(kind)) {
   local_radius_ = coreRadius(core_, Vec3::Zero()) + radius_;
   // About the frame origin: the core's points are offset() away from where the core has them.

@@ -524,10 +524,24 @@ CM_ALWAYS_INLINE ContactResult distanceIn(const ConvexShape& a, const Transform3
   return run();
 }
 
+/// `cache` bound to (a, b) (PairCache): a cache of other shapes, or of these in the other order,
+/// starts cold.
+CM_ALWAYS_INLINE PairCache* bindCache(PairCache* cache, const ConvexShape& a,
+                                      const ConvexShape& b) {
+  if (cache != nullptr &&
+      __builtin_expect(cache->core_a != a.coreId() || cache->core_b != b.coreId(), 0)) {
+    *cache = PairCache{};
+    cache->core_a = a.coreId();
+    cache->core_b = b.coreId();
+  }
+  return cache;
+}
+
 }  // namespace
 
 bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                const Transform3& pose_b, PairCache* cache, const QueryOptions& options) {
+  cache = bindCache(cache, a, b);
   const PairFrame f = makeFrame(a, pose_a, b, pose_b);
   if (!f.finite) return true;  // undecidable: conservative
   // Touching counts as intersecting: the same band as signedDistance()'s Touching.
@@ -545,13 +559,13 @@ bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape
 
 ContactResult distance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                        const Transform3& pose_b, PairCache* cache, const QueryOptions& options) {
-  return distanceIn<false>(a, pose_a, b, pose_b, cache, options, true);
+  return distanceIn<false>(a, pose_a, b, pose_b, bindCache(cache, a, b), options, true);
 }
 
 ContactResult signedDistance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                              const Transform3& pose_b, PairCache* cache,
                              const QueryOptions& options) {
-  return distanceIn<true>(a, pose_a, b, pose_b, cache, options, true);
+  return distanceIn<true>(a, pose_a, b, pose_b, bindCache(cache, a, b), options, true);
 }
 
 }  // namespace core

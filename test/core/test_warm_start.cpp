@@ -2,6 +2,7 @@
 // iterations after a 1 mm / 1 degree move, with the same answer as a cold query (to 1e-12), and a
 // stale or unrelated cache never changes the answer.
 #include <cmath>
+#include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -184,6 +185,61 @@ TEST(WarmStart, StaleCacheFromAnotherConfigurationGivesTheColdAnswer) {
       }
     }
   }
+}
+
+TEST(WarmStart, CacheOfOtherShapesOrTheOtherOrderStartsCold) {
+  // Audit (twenty-fifth session): the cache's points were trusted as points of whatever shapes it
+  // was given: one cache for (a, b) then (b, a) was 0.38 m off, one shared by two pairs 1.08 m
+  // off and intersect() wrong. Now a query binds the cache to its shapes (coreId(), in order);
+  // given others it starts cold: the cold answer, bit for bit. Copies and padded() keep the id.
+  const std::vector<Scenario> all = scenarios();
+  int rebound = 0;
+  for (const Scenario& s : all) {
+    for (const Scenario& other : all) {
+      for (const bool swapped : {false, true}) {
+        SCOPED_TRACE(std::string(s.name) + (swapped ? " swapped" : "") + ", cache of " +
+                     other.name);
+        if (&s == &other && !swapped) continue;
+        PairCache cache;
+        cm::signedDistance(other.a, other.pa, other.b, other.pb, &cache);
+        ASSERT_GT(cache.size, 0);
+        const ConvexShape& a = swapped ? s.b : s.a;
+        const ConvexShape& b = swapped ? s.a : s.b;
+        const Transform3& pa = swapped ? s.pb : s.pa;
+        const Transform3& pb = swapped ? s.pa : s.pb;
+        for (const bool signed_query : {true, false}) {
+          PairCache c = cache;
+          const ContactResult cold =
+              signed_query ? cm::signedDistance(a, pa, b, pb) : cm::distance(a, pa, b, pb);
+          const ContactResult used =
+              signed_query ? cm::signedDistance(a, pa, b, pb, &c) : cm::distance(a, pa, b, pb, &c);
+          EXPECT_EQ(used.status, cold.status);
+          EXPECT_EQ(used.distance, cold.distance);
+          EXPECT_EQ(used.gjk_iterations, cold.gjk_iterations);
+          EXPECT_EQ(c.core_a, a.coreId());
+          EXPECT_EQ(c.core_b, b.coreId());
+          PairCache d = cache;
+          EXPECT_EQ(cm::intersect(a, pa, b, pb, &d), cm::intersect(a, pa, b, pb));
+        }
+        ++rebound;
+      }
+    }
+  }
+  EXPECT_EQ(rebound, 28);
+  // The same shapes, copied and padded: the cache stays warm.
+  const Scenario& s = all[0];
+  PairCache cache;
+  cm::distance(s.a, s.pa, s.b, s.pb, &cache);
+  const ConvexShape a_copy = s.a;
+  const ConvexShape b_padded = s.b.padded(0.01);
+  EXPECT_EQ(a_copy.coreId(), s.a.coreId());
+  EXPECT_EQ(b_padded.coreId(), s.b.coreId());
+  EXPECT_NE(s.a.coreId(), s.b.coreId());
+  const Transform3 pb = moved(s.pb, 1);
+  const ContactResult warm = cm::distance(a_copy, s.pa, b_padded, pb, &cache);
+  const ContactResult cold = cm::distance(a_copy, s.pa, b_padded, pb);
+  expectSame(warm, cold);
+  EXPECT_LT(warm.gjk_iterations, cold.gjk_iterations);
 }
 
 TEST(WarmStart, PolytopeHintsAreKept) {

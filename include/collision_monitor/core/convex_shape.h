@@ -9,6 +9,7 @@
 /// of its own size, as one given about its origin and placed by its pose.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <stdexcept>
 #include <string>
@@ -84,6 +85,9 @@ class ConvexShape {
   double localRadius() const { return local_radius_; }
   /// Short human-readable name of the core type ("sphere", "box", "polytope(42)", ...).
   std::string describe() const;
+  /// Identity of the core, unique per constructed shape (never 0); copies and padded() keep it,
+  /// as they keep the core. A PairCache is bound to the two shapes' ids (see there).
+  std::uint64_t coreId() const { return core_id_; }
 
  private:
   ConvexShape(Core core, double radius, std::string kind, const Vec3& offset = Vec3::Zero());
@@ -95,6 +99,7 @@ class ConvexShape {
   double radius_ = 0.0;
   double bounding_radius_ = 0.0;
   double local_radius_ = 0.0;
+  std::uint64_t core_id_ = 0;
   std::string kind_;
 };
 

@@ -13,6 +13,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <limits>
 
 #include "collision_monitor/core/convex_shape.h"
@@ -64,13 +65,18 @@ struct ContactResult {
 
 /// Warm-start cache for one pair of shapes: the last GJK simplex (as support points in each
 /// shape's own frame, so it stays valid after the shapes move) and the polytope hill-climbing
-/// hints. Keep one per (part, part) pair across cycles; a default-constructed cache is cold.
+/// hints. Keep one per ordered (part, part) pair across cycles; a default-constructed cache is
+/// cold. A query binds the cache to its two shapes (ConvexShape::coreId(), in order): given
+/// another pair, or the same pair swapped, the cache starts cold and is bound to that pair (its
+/// points would not lie on those shapes), so sharing one cache is slow, never wrong.
 struct PairCache {
   int size = 0;                   ///< simplex vertices cached (0 = cold)
   std::array<Vec3, 4> local_a{};  ///< support points on A's core, A's frame
   std::array<Vec3, 4> local_b{};  ///< support points on B's core, B's frame
   int hint_a = -1;                ///< polytope hill-climbing start on A (-1: none, direction table)
   int hint_b = -1;                ///< polytope hill-climbing start on B (-1: none, direction table)
+  std::uint64_t core_a = 0;       ///< coreId() of the A the cache holds points of (0: none)
+  std::uint64_t core_b = 0;       ///< coreId() of that B
   void reset() { size = 0; }
 };
 
