@@ -41,8 +41,9 @@ target_compile_options(collision_monitor_node PRIVATE ${CM_WARNING_FLAGS})
 add_dependencies(collision_monitor_node collision_monitor_ros)
 
 # The install space runs on its own (scripts/check_install.sh, CI): the three libraries the node
-# and nodelet load, every header the ROS layer's headers include, the demo's files and scripts.
-install(TARGETS collision_monitor_core collision_monitor_world collision_monitor_ros
+# and nodelet load (the core's install rule, with its CMake package, is in cmake/core.cmake), every
+# header the ROS layer's headers include, the demo's files and scripts.
+install(TARGETS collision_monitor_world collision_monitor_ros
   ARCHIVE DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   LIBRARY DESTINATION ${CATKIN_PACKAGE_LIB_DESTINATION}
   RUNTIME DESTINATION ${CATKIN_GLOBAL_BIN_DESTINATION})

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Every test: install dependencies, build with -Werror, run the whole CTest suite (core gtests,
 # world gtests, rostests over a real roscore), then the geometry core again under ASan+UBSan,
-# a bounded libFuzzer run on the core, then a build inside a catkin workspace. Exits non-zero on any failure.
+# a bounded libFuzzer run on the core, then a build inside a catkin workspace, then the core alone
+# installed and used by a plain CMake program. Exits non-zero on any failure.
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
 JOBS="$(nproc)"
@@ -31,7 +32,7 @@ run_ctest() {
 }
 bash "$CM_ROOT/scripts/install_deps.sh"
 
-echo "=== 1/4 standalone build (-Werror) and full test suite"
+echo "=== 1/5 standalone build (-Werror) and full test suite"
 bash "$CM_ROOT/scripts/build.sh" -DCOLLISION_MONITOR_WERROR=ON
 cm_source_devel
 if [ ! -d "$CM_ROBOT_DATA/example-robot-data" ]; then
@@ -40,7 +41,7 @@ if [ ! -d "$CM_ROBOT_DATA/example-robot-data" ]; then
 fi
 run_ctest "$CM_BUILD" CM_ARTIFACTS="$CM_BUILD/test_results"
 
-echo "=== 2/4 geometry core under AddressSanitizer + UndefinedBehaviorSanitizer"
+echo "=== 2/5 geometry core under AddressSanitizer + UndefinedBehaviorSanitizer"
 SAN_BUILD="$CM_BUILD-asan"
 cmake -S "$CM_ROOT" -B "$SAN_BUILD" -DCOLLISION_MONITOR_CORE_ONLY=ON -DCOLLISION_MONITOR_SANITIZE=ON \
   -DCOLLISION_MONITOR_WERROR=ON -DCOLLISION_MONITOR_BENCHMARKS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
@@ -48,7 +49,7 @@ cmake --build "$SAN_BUILD" -j"$JOBS"
 run_ctest "$SAN_BUILD" ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   CM_SWEEP_SCALE="${CM_SWEEP_SCALE_SANITIZER:-0.1}"
 
-echo "=== 3/4 libFuzzer on the geometry core (clang, ASan + UBSan): replay the corpus, fuzz ${CM_FUZZ_RUNS:-1200} inputs (seed ${CM_FUZZ_SEED:-1}, at most ${CM_FUZZ_SECONDS:-120} s)"
+echo "=== 3/5 libFuzzer on the geometry core (clang, ASan + UBSan): replay the corpus, fuzz ${CM_FUZZ_RUNS:-1200} inputs (seed ${CM_FUZZ_SEED:-1}, at most ${CM_FUZZ_SECONDS:-120} s)"
 # Fixed seed and input count: the same inputs on every machine (open findings of longer runs are
 # in fuzz/open/core, docs/reliability.md).
 if CM_FUZZ_SEED="${CM_FUZZ_SEED:-1}" CM_FUZZ_RUNS="${CM_FUZZ_RUNS:-1200}" \
@@ -58,7 +59,7 @@ else
   FAILED=$((FAILED + 1))
 fi
 
-echo "=== 4/4 build and install inside a catkin workspace (catkin_make install), the demo from the install space, a downstream package against it"
+echo "=== 4/5 build and install inside a catkin workspace (catkin_make install), the demo from the install space, a downstream package and a plain CMake program against it"
 # The workspace links back to this package (src/collision_monitor) and holds an install space with
 # its launch files. roslaunch finds a package's files by walking its whole folder, following links
 # and skipping only folders whose names start with a dot: a workspace named build-ws in the package
@@ -73,12 +74,29 @@ ln -sfn "$CM_ROOT" "$WS/src/collision_monitor"
 echo "catkin workspace build and install: ok"
 bash "$CM_ROOT/scripts/check_install.sh" "$WS/install"
 bash "$CM_ROOT/scripts/check_consumer.sh" "$WS/install"
+bash "$CM_ROOT/scripts/check_core_consumer.sh" "$WS/install"
 # The package's own launch files still resolve, once each, beside the workspace.
 if ! out="$(roslaunch --files collision_monitor demo.launch 2>&1)"; then
   echo "test.sh: roslaunch cannot resolve collision_monitor demo.launch beside $WS: $out" | head -c 2000 >&2
   exit 1
 fi
 echo "roslaunch collision_monitor demo.launch resolves to $out: ok"
+
+echo "=== 5/5 the geometry core alone: core-only build of the library (no tests), cmake --install, a plain CMake program against it"
+CORE_BUILD="$CM_BUILD-core"
+rm -rf "$CORE_BUILD/install"
+cmake -S "$CM_ROOT" -B "$CORE_BUILD" -DCOLLISION_MONITOR_CORE_ONLY=ON -DBUILD_TESTING=OFF \
+  -DCOLLISION_MONITOR_BENCHMARKS=OFF -DCOLLISION_MONITOR_WERROR=ON \
+  -DCMAKE_INSTALL_PREFIX="$CORE_BUILD/install" >/dev/null
+cmake --build "$CORE_BUILD" -j"$JOBS"
+cmake --install "$CORE_BUILD" >/dev/null
+# The install holds the core and nothing else: library, core headers, CMake package.
+extra="$(find "$CORE_BUILD/install" -type f -printf '%P\n' | grep -Ev '^(include/collision_monitor/core/[a-z0-9_]+\.h|lib/libcollision_monitor_core\.(a|so)|lib/cmake/collision_monitor_core/collision_monitor_core[A-Za-z-]*\.cmake)$' || true)"
+if [ -n "$extra" ] || [ ! -f "$CORE_BUILD/install/include/collision_monitor/core/query.h" ]; then
+  echo "test.sh: the core-only install is not the core alone (or lacks its headers): ${extra:-no query.h}" >&2
+  exit 1
+fi
+bash "$CM_ROOT/scripts/check_core_consumer.sh" "$CORE_BUILD/install"
 
 # One closing line for CI: every CTest test of both builds.
 echo "all: $PASSED passed, $FAILED failed"
