@@ -200,11 +200,83 @@ ConvexShape ConvexShape::convexHull(const std::vector<Vec3>& points) {
   return polytopeAt(buildConvexHull(offset.isZero(0.0) ? points : shifted(points, offset)), offset);
 }
 
+namespace {
+
+/// A polytope's adjacency (Polytope's constructor): none, or offsets from 0 to the neighbour
+/// count, non-decreasing, one per vertex and one more, neighbours in range and not the vertex
+/// itself; and, where support hill-climbs (usesLinearScan() false), an edge graph it can climb:
+/// from vertex 0 along each of 96 directions (cube-map cell centres, 4 x 4 per face) it ends at a
+/// vertex as far along as the farthest (1e-12 of the size). Hill-climbing needs the hull's edge
+/// graph: with less (empty lists) it stops short and every query is silently wrong.
+void checkAdjacency(const Polytope<3>& p) {
+  const auto bad = [](const std::string& why) {
+    throw std::invalid_argument("ConvexShape::polytope: adjacency " + why);
+  };
+  const std::vector<int>& off = p.adjacencyOffsets();
+  const std::vector<int>& adj = p.adjacency();
+  const int n = p.size();
+  if (off.empty()) {
+    if (!adj.empty()) bad("has neighbours but no offsets");
+    return;
+  }
+  if (static_cast<int>(off.size()) != n + 1)
+    bad("offsets: " + std::to_string(off.size()) + " for " + std::to_string(n) +
+        " vertices (must be one per vertex and one more)");
+  if (off[0] != 0 || off[n] != static_cast<int>(adj.size()))
+    bad("offsets must run from 0 to the neighbour count (" + std::to_string(adj.size()) + ")");
+  for (int i = 0; i < n; ++i) {
+    if (off[i + 1] < off[i]) bad("offsets decrease at vertex " + std::to_string(i));
+  }
+  for (int i = 0; i < n; ++i) {
+    for (int k = off[i]; k < off[i + 1]; ++k) {
+      if (adj[k] < 0 || adj[k] >= n || adj[k] == i)
+        bad("of vertex " + std::to_string(i) + ": neighbour " + std::to_string(adj[k]) +
+            " is not another vertex (0 to " + std::to_string(n - 1) + ")");
+    }
+  }
+  if (p.usesLinearScan()) return;
+  const std::vector<Vec3>& v = p.vertices();
+  double size = 0.0;
+  for (const Vec3& x : v)
+    size = std::max(size, x.cwiseAbs().maxCoeff());
+  constexpr int kGrid = 4;
+  for (int face = 0; face < 6; ++face) {
+    for (int a = 0; a < kGrid; ++a) {
+      for (int b = 0; b < kGrid; ++b) {
+        Vec3 d;
+        d[face / 2] = face % 2 == 0 ? 1.0 : -1.0;
+        d[(face / 2 + 1) % 3] = (2.0 * a + 1.0) / kGrid - 1.0;
+        d[(face / 2 + 2) % 3] = (2.0 * b + 1.0) / kGrid - 1.0;
+        int cur = 0;  // steepest ascent, as Polytope::supportIndex() climbs
+        for (bool moved = true; moved;) {
+          moved = false;
+          int next = cur;
+          for (int k = off[cur]; k < off[cur + 1]; ++k) {
+            if (v[adj[k]].dot(d) > v[next].dot(d)) next = adj[k];
+          }
+          if (next != cur) {
+            cur = next;
+            moved = true;
+          }
+        }
+        const int best = p.scanIndex(d);
+        if (v[cur].dot(d) < v[best].dot(d) - 1e-12 * size * d.norm())
+          bad("is not the hull's edge graph: climbing along (" + std::to_string(d.x()) + ", " +
+              std::to_string(d.y()) + ", " + std::to_string(d.z()) + ") from vertex 0 stops at " +
+              std::to_string(cur) + ", short of vertex " + std::to_string(best));
+      }
+    }
+  }
+}
+
+}  // namespace
+
 ConvexShape ConvexShape::polytope(std::shared_ptr<const Polytope<3>> poly) {
   if (!poly) throw std::invalid_argument("ConvexShape::polytope: null polytope");
   if (poly->size() == 0) throw std::invalid_argument("ConvexShape::polytope: no vertices");
   for (int i = 0; i < poly->size(); ++i)
     checkPoint("polytope", "vertices[" + std::to_string(i) + "]", poly->vertices()[i]);
+  checkAdjacency(*poly);
   const Vec3 offset = coordinatesOffset(poly->vertices());
   if (offset.isZero(0.0)) return polytopeAt(std::move(poly), offset);
   return polytopeAt(

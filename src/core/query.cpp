@@ -530,7 +530,9 @@ CM_ALWAYS_INLINE PairCache* bindCache(PairCache* cache, const ConvexShape& a,
                                       const ConvexShape& b) {
   if (cache != nullptr &&
       __builtin_expect(cache->core_a != a.coreId() || cache->core_b != b.coreId(), 0)) {
-    *cache = PairCache{};
+    cache->size = 0;  // its points are not read again
+    cache->hint_a = -1;
+    cache->hint_b = -1;
     cache->core_a = a.coreId();
     cache->core_b = b.coreId();
   }

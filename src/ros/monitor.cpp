@@ -137,6 +137,7 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
 
   loadRobot();
   loadParameterBodies();
+  if (std::string e = checkDiagnosticPeriod(); !e.empty()) param_errors_.push_back(e);
   for (const auto& e : param_errors_)
     ROS_ERROR_STREAM(name_ << ": invalid parameter " << e);
 
@@ -1031,7 +1032,11 @@ void Monitor::loopThread() {
         std::chrono::duration<double>(std::min(s, kMaxLoopPeriod)));
   };
   auto next = Clock::now();
-  auto last_start = Clock::now() - seconds(1.0 / rate_);
+  // The first check runs at once: neither a period nor min_check_interval has to pass first (a
+  // min_check_interval of 20 s given at start-up held the first ~state back for 20 s).
+  auto last_start = Clock::now() - seconds(std::max(1.0 / rate_, min_check_interval_.load()));
+  // "no check for ..." (/diagnostics) counts from here until a first check starts.
+  last_check_started_ = Clock::now().time_since_epoch().count();
   std::unique_lock<std::mutex> lock(loop_mutex_);
   while (!stop_) {
     loop_cv_.wait_until(lock, next, [this] { return stop_ || triggered_; });
@@ -1264,10 +1269,19 @@ void Monitor::diagnosticsThread() {
     }
     const bool force = std::exchange(force_diagnostics_, false);
     lock.unlock();
-    if (force) {
-      diagnostics_->force_update();
-    } else {
-      diagnostics_->update();
+    if (std::string e = checkDiagnosticPeriod(); !e.empty()) reject("diagnostic_period", e);
+    try {
+      if (force) {
+        diagnostics_->force_update();
+      } else {
+        diagnostics_->update();
+      }
+    } catch (const std::exception& e) {
+      // A value checkDiagnosticPeriod() let through that diagnostic_updater still cannot use
+      // (ros::Time + period beyond 32 bits under simulated time): next round, with 1 s.
+      reject("diagnostic_period", "diagnostic_updater failed (" + std::string(e.what()) +
+                                      "); ~diagnostic_period set to 1 s");
+      pnh_.setParam("diagnostic_period", 1.0);
     }
     lock.lock();
   }
@@ -1275,6 +1289,25 @@ void Monitor::diagnosticsThread() {
 
 // ---------------------------------------------------------------------------------------------
 // diagnostics
+
+std::string Monitor::checkDiagnosticPeriod() {
+  XmlRpc::XmlRpcValue v;
+  if (!pnh_.getParamCached("diagnostic_period", v)) return "";
+  double period = 0.0;
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
+    period = static_cast<double>(v);
+  } else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) {
+    period = static_cast<int>(v);
+  } else {
+    return "";  // diagnostic_updater does not read it: its period stays
+  }
+  if (std::isfinite(period) && std::abs(period) <= kMaxDiagnosticPeriod) return "";
+  pnh_.setParam("diagnostic_period", 1.0);
+  std::ostringstream out;
+  out << "diagnostic_period = " << period << " (must be finite and within +-"
+      << kMaxDiagnosticPeriod << " s); using 1";
+  return out.str();
+}
 
 void Monitor::setupDiagnostics() {
   diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh_, pnh_, name_);

@@ -1,6 +1,7 @@
 #include "collision_monitor/ros/params.h"
 
 #include <set>
+#include <utility>
 
 #include <XmlRpcException.h>
 
@@ -186,7 +187,8 @@ Expected<std::vector<std::pair<std::string, std::string>>> pairsFromXmlRpc(const
       const std::string f = "disabled_pairs[" + std::to_string(i) + "]";
       const XmlRpcValue& p = array(v[i], f);
       if (p.size() != 2) fail(f, "expected [a, b]");
-      out.emplace_back(string(p[0], f + "[0]"), string(p[1], f + "[1]"));
+      std::string a = string(p[0], f + "[0]");  // [0] first: the first bad element is named
+      out.emplace_back(std::move(a), string(p[1], f + "[1]"));
     }
     return out;
   } catch (const FieldError& e) {

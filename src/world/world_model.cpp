@@ -1194,7 +1194,10 @@ CycleResult WorldModel::check(Stamp now) {
     }
     const double d = e.result.exact ? e.result.distance : kInf;
     const PairStatus next = nextStatus(e.status, d, s);
-    if (e.result.exact && d < res.min_distance) res.min_distance = d;
+    // exact_min_distance off: pairs within the clear cutoff only (a pair beyond it whose boxes
+    // touch is measured too, and counted only when min_distance searches beyond).
+    if (e.result.exact && d < res.min_distance && (s.exact_min_distance || d <= clearCutoffAny(s)))
+      res.min_distance = d;
     if (next != e.status || next != PairStatus::Clear) {
       if (next == PairStatus::Clear && !e.result.exact) {
         m.exactResult(a, b, &e, &res.num_part_checks);  // the END event says where the pair is

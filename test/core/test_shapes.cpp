@@ -10,6 +10,7 @@
 
 #include <gtest/gtest.h>
 
+#include "collision_monitor/core/convex_hull.h"
 #include "collision_monitor/core/convex_shape.h"
 #include "collision_monitor/core/gjk.h"
 #include "collision_monitor/core/shapes.h"
@@ -88,6 +89,50 @@ TEST(ShapeValidation, RejectsEmptyAndNullPolytopes) {
   expectRejected([] { ConvexShape::polytope(std::make_shared<cm::Polytope<3>>()); },
                  {"polytope", "no vertices"});
   expectRejected([] { ConvexShape::convexHull({}); }, {"convexHull", "no points"});
+}
+
+TEST(ShapeValidation, RejectsPolytopeAdjacencyThatIsNotTheHullsEdgeGraph) {
+  // Audit (twenty-fifth session): only the vertices were checked. Neighbour lists all empty on a
+  // 60-vertex polytope (which hill-climbs) were accepted and distances came out 2.9 mm short;
+  // out-of-range neighbours would be read out of bounds.
+  std::vector<Vec3> ball;
+  for (int i = 0; i < 60; ++i) {
+    const double z = -1.0 + (2.0 * i + 1.0) / 60.0;
+    const double r = std::sqrt(1.0 - z * z);
+    ball.emplace_back(r * std::cos(2.399963229728653 * i), r * std::sin(2.399963229728653 * i), z);
+  }
+  const auto hull = cm::buildConvexHull(ball);
+  ASSERT_EQ(hull->size(), 60);
+  ASSERT_FALSE(hull->usesLinearScan());
+  EXPECT_NO_THROW(ConvexShape::polytope(hull));  // qhull's edge graph
+  const std::vector<int>& off = hull->adjacencyOffsets();
+  const std::vector<int>& adj = hull->adjacency();
+  const auto make = [&](std::vector<int> o, std::vector<int> a) {
+    return [&, o, a] {
+      ConvexShape::polytope(std::make_shared<cm::Polytope<3>>(hull->vertices(), o, a));
+    };
+  };
+  expectRejected(make(std::vector<int>(61, 0), {}), {"polytope", "not the hull's edge graph"});
+  expectRejected(make({0, 1, 2}, {1, 0}), {"polytope", "offsets: 3 for 60 vertices"});
+  expectRejected(make({}, adj), {"polytope", "neighbours but no offsets"});
+  std::vector<int> a = adj;
+  a[7] = 60;
+  expectRejected(make(off, a), {"polytope", "neighbour 60 is not another vertex"});
+  a[7] = -1;
+  expectRejected(make(off, a), {"neighbour -1"});
+  a = adj;
+  a[off[3]] = 3;
+  expectRejected(make(off, a), {"of vertex 3: neighbour 3"});
+  std::vector<int> o = off;
+  o[5] = o[6] + 1;
+  expectRejected(make(o, adj), {"offsets decrease at vertex 5"});
+  o = off;
+  o[60] -= 1;
+  expectRejected(make(o, adj), {"offsets must run from 0 to the neighbour count"});
+  // A small polytope scans every vertex: its graph is checked for range only.
+  std::vector<Vec3> few(ball.begin(), ball.begin() + 12);
+  EXPECT_NO_THROW(ConvexShape::polytope(
+      std::make_shared<cm::Polytope<3>>(few, std::vector<int>(13, 0), std::vector<int>{})));
 }
 
 TEST(ShapeValidation, ZeroSizesAreValidDegenerateShapes) {

@@ -9,10 +9,12 @@ import unittest
 import rospy
 import rostest
 from collision_monitor.msg import PairState
-from diagnostic_msgs.msg import DiagnosticStatus
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from visualization_msgs.msg import MarkerArray
 
 from cm_test_util import Monitor, PoseStreamer, pose, sphere_body, wait_for, NS
+
+STARTED = time.monotonic()
 
 
 class BadParams(unittest.TestCase):
@@ -38,9 +40,12 @@ class BadParams(unittest.TestCase):
                     'ttc_horizon', 'marker_rate', 'publish_markers', 'marker_frame_locked',
                     'check_on_pose', 'exact_min_distance', 'backend',
                     'max_bodies', 'max_vertices_per_part', 'max_parts_per_body',
-                    'robot_description_param', 'mesh_decomposition'):
+                    'robot_description_param', 'mesh_decomposition', 'diagnostic_period'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
-        self.assertEqual(len(errors), 17, errors)  # max_unknown_pairs = 1.0 is valid
+        self.assertEqual(len(errors), 18, errors)  # max_unknown_pairs = 1.0 is valid
+        self.assertIn('diagnostic_period = 1e+300 (must be finite and within +-1e+06 s); using 1',
+                      errors)
+        self.assertEqual(rospy.get_param(NS + 'diagnostic_period'), 1.0)
         # roscpp threw on it: the node exited 1 with only "cannot load ...Nodelet".
         self.assertIn("robot_description_param = 'robot-description' (must be a ROS name, not "
                       "private); using robot_description", errors)
@@ -95,6 +100,35 @@ class BadParams(unittest.TestCase):
         unknown = [(p.body_a, p.body_b) for p in state.pairs if p.status == PairState.UNKNOWN]
         self.assertEqual(len(unknown), 1, unknown)
         self.assertIn('c', unknown[0])
+
+    def test_04_diagnostic_period_changed_to_nan_while_running(self):
+        # diagnostic_updater re-reads it: ros::Duration threw in the diagnostics thread and the
+        # process ended (SIGABRT). Now refused, set back to 1 s; the monitor runs on.
+        rejected0 = int(self.m.diag_value('rejected inputs (total)') or 0)
+        rospy.set_param(NS + 'diagnostic_period', float('nan'))
+        self.assertTrue(wait_for(
+            lambda: int(self.m.diag_value('rejected inputs (total)') or 0) > rejected0, 10.0))
+        self.assertIn('diagnostic_period = nan', self.m.diag_value('last rejection'))
+        self.assertTrue(wait_for(lambda: rospy.get_param(NS + 'diagnostic_period') == 1.0, 3.0))
+        # Still alive: states go on, and /diagnostics with them (a new report object).
+        n0, last = self.m.state_count, self.m.diagnostics
+        self.assertTrue(wait_for(lambda: self.m.state_count >= n0 + 10 and
+                                 self.m.diagnostics is not last, 5.0))
+
+    def test_05_first_check_at_once_with_a_long_min_check_interval(self):
+        # /slow_checks (min_check_interval 20 s) started with this test: its first check waited
+        # the 20 s out, /diagnostics saying 'checks (total)' 0 and OK meanwhile.
+        slow = Monitor.__new__(Monitor)  # only its diagnostics
+        slow.node, slow.diagnostics = '/slow_checks', None
+        sub = rospy.Subscriber('/diagnostics', DiagnosticArray, slow._on_diag)
+        try:
+            self.assertTrue(
+                wait_for(lambda: int(slow.diag_value('checks (total)') or 0) >= 1,
+                         STARTED + 15.0 - time.monotonic()),
+                'no check by /slow_checks %.1f s after start-up: %s' % (
+                    time.monotonic() - STARTED, slow.diag_value('checks (total)')))
+        finally:
+            sub.unregister()
 
 
 if __name__ == '__main__':

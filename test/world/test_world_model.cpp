@@ -1028,6 +1028,12 @@ TEST(WorldModel, MinDistanceIsTheNearestPairBeyondTheBroadPhase) {
     EXPECT_EQ(r.num_pairs_checked, 0u);
     ASSERT_TRUE(wn.setPose("b", at(1.0625), 0.0));
     EXPECT_EQ(wn.check(1.0).min_distance, 0.0625);
+    // 0.25 m apart on the diagonal: beyond the cutoff, but the boxes touch, so the narrow phase
+    // measures the pair. It counted (audit): +inf as off promises.
+    ASSERT_TRUE(wn.setPose("b", at(1.25 / std::sqrt(2.0), 1.25 / std::sqrt(2.0)), 0.0));
+    const CycleResult diagonal = wn.check(1.0);
+    EXPECT_EQ(diagonal.min_distance, std::numeric_limits<double>::infinity());
+    EXPECT_EQ(diagonal.num_pairs_checked, 1u);
   }
 
   // Disabled pairs, groups and stale bodies do not count; one body: +inf.

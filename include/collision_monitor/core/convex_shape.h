@@ -49,7 +49,10 @@ class ConvexShape {
   /// non-finite coordinates. The core is the hull of the points less offset() (see there).
   static ConvexShape convexHull(const std::vector<Vec3>& points);
   /// A polytope built elsewhere (e.g. by buildConvexHull()); used as it is unless its vertices lie
-  /// far from its origin (offset()): then the core is a copy less offset().
+  /// far from its origin (offset()): then the core is a copy less offset(). Its adjacency, if it
+  /// has one, must be the hull's edge graph (support hill-climbs on it above
+  /// Polytope::kLinearScanMax vertices): malformed offsets or neighbours, or a graph that a climb
+  /// from vertex 0 does not lead to the extreme vertex along one of 96 directions, throw.
   static ConvexShape polytope(std::shared_ptr<const Polytope<3>> poly);
 
   /// This shape inflated by `padding` (m, >= 0): Minkowski sum with a sphere.

@@ -32,8 +32,11 @@ using Vec2 = Vec<2>;
 using Vec3 = Vec<3>;
 using Mat3 = Mat<3>;
 
-/// Rigid transform x -> R x + t in D dimensions. R is orthonormal with det +1 (checked where
-/// transforms enter the core from outside, see isValidRotation()).
+/// Rigid transform x -> R x + t in D dimensions. R must be orthonormal with det +1: the queries
+/// take that as given and do not check it (a scaled or singular R gives a defined but meaningless
+/// answer); callers check poses where they enter from outside, as the ROS layer does
+/// (isValidRotation()). Non-finite poses give FailedToConverge with distance +inf, and
+/// intersect() true (undecidable: conservative).
 template <int D>
 struct Transform {
   Mat<D> R = Mat<D>::Identity();

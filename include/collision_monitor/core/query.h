@@ -24,10 +24,16 @@ namespace core {
 
 /// Outcome of a query.
 enum class Status {
-  Separated,         ///< distance > 0
-  Touching,          ///< |distance| within the tolerance band
-  Penetrating,       ///< distance < 0 (overlap); depth = -distance
-  FailedToConverge,  ///< iteration bound hit; fields hold the best estimate found
+  Separated,    ///< distance > 0
+  Touching,     ///< |distance| within the tolerance band
+  Penetrating,  ///< distance < 0 (overlap); depth = -distance
+  /// Iteration bound hit; fields hold the best estimate found. From EPA (signedDistance() of
+  /// overlapping shapes): the depth is the best upper bound found, not certified to the
+  /// tolerance. Symmetric deep overlaps of curved shapes end so with the right depth (a point at
+  /// a cylinder's or an ellipsoid's centre: depth to 1e-12, but the inscribed polytope's lower
+  /// bound cannot close on a curved surface); the distance is then negative, so a caller can
+  /// still tell apart from overlapping.
+  FailedToConverge,
 };
 const char* toString(Status s);
 
@@ -100,7 +106,9 @@ ContactResult distance(const ConvexShape& a, const Transform3& pose_a, const Con
                        const QueryOptions& options = {});
 
 /// Signed distance in one call: the distance when apart, minus the penetration depth (EPA on
-/// the GJK terminal simplex) when overlapping. Witness points and normal in both cases.
+/// the GJK terminal simplex) when overlapping. Witness points and normal in both cases. EPA keeps
+/// its polytope on the stack (about 80 kB): threads with small stacks (below ~128 kB) must not
+/// call it. Poses must be rigid (Transform: not checked here).
 ContactResult signedDistance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                              const Transform3& pose_b, PairCache* cache = nullptr,
                              const QueryOptions& options = {});

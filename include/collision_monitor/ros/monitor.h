@@ -86,6 +86,12 @@ class Monitor {
   void loadRobot();
   void loadParameterBodies();
   void setupDiagnostics();
+  /// ~diagnostic_period, which diagnostic_updater reads itself at every report: a number
+  /// ros::Duration cannot hold (non-finite, beyond kMaxDiagnosticPeriod) made it throw (at
+  /// start-up the nodelet failed to load; later the diagnostics thread ended the process). Such
+  /// a value is reported (a parameter error at start-up, a rejected input later) and replaced
+  /// on the parameter server by the default, 1 s. Returns the text reported, empty when valid.
+  std::string checkDiagnosticPeriod();
   /// Puts `t` (valid) in force: world settings, marker options, loop rates, check triggers.
   void applyTunables(const Tunables& t);
   /// dynamic_reconfigure: a change is checked by the start-up rules; an invalid value is refused
@@ -267,6 +273,9 @@ class Monitor {
   static constexpr int kTfClearWindow = 10;
   /// s: the longest wait of the check loop (1 / rate, min_check_interval), a year.
   static constexpr double kMaxLoopPeriod = 365.0 * 86400.0;
+  /// s: the largest |~diagnostic_period| let through to diagnostic_updater (ros::Time + it must
+  /// stay within 32 bits of seconds).
+  static constexpr double kMaxDiagnosticPeriod = 1e6;
   std::chrono::steady_clock::time_point tf_clear_until_;  ///< loop thread
 };
 
