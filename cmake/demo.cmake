@@ -4,11 +4,11 @@ if(NOT CATKIN_ENABLE_TESTING)
   return()
 endif()
 
-# MarkerBuilder against the real world model and core (markers.cpp compiled in directly, so the
-# test does not wait for the node library).
+# MarkerBuilder against the real world model and core (linked from the node library, which holds
+# the message conversions it uses).
 cm_add_gtest(test_markers
-  SOURCES test/demo/test_markers.cpp src/ros/markers.cpp
-  LIBS collision_monitor_world collision_monitor_core ${catkin_LIBRARIES})
+  SOURCES test/demo/test_markers.cpp
+  LIBS collision_monitor_ros)
 if(TARGET test_markers)
   target_include_directories(test_markers SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
   add_dependencies(test_markers ${catkin_EXPORTED_TARGETS})

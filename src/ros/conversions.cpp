@@ -63,10 +63,9 @@ const char* dimensionNames(std::uint8_t type) {
 Expected<Vec3> scaleOf(const geometry_msgs::Vector3& s) {
   if (!finite(s)) return Error{"scale is not finite"};
   if (s.x == 0.0 && s.y == 0.0 && s.z == 0.0) return Vec3(1.0, 1.0, 1.0);
-  if (!(s.x > 0.0 && s.y > 0.0 && s.z > 0.0)) {
-    return Error{"scale (" + num(s.x) + ", " + num(s.y) + ", " + num(s.z) +
-                 ") must be all > 0 (or all 0, meaning 1)"};
-  }
+  // A negative factor mirrors (a URDF's scale="-1 1 1" for a left/right pair), a zero one
+  // flattens: the part is the hull of the scaled vertices either way (a part whose vertices then
+  // all coincide is refused as degenerate).
   return Vec3(s.x, s.y, s.z);
 }
 
@@ -437,7 +436,8 @@ geometry_msgs::Vector3 toVector3Msg(const Vec3& v) {
 geometry_msgs::Pose toPoseMsg(const Transform3& t) {
   geometry_msgs::Pose p;
   p.position = toPointMsg(t.t);
-  const Eigen::Quaterniond q(t.R);
+  // Normalised: a rotation off orthonormal by rounding still gives a unit quaternion.
+  const Eigen::Quaterniond q = Eigen::Quaterniond(t.R).normalized();
   p.orientation.x = q.x();
   p.orientation.y = q.y();
   p.orientation.z = q.z();

@@ -50,26 +50,6 @@ std_msgs::ColorRGBA rgba(double r, double g, double b, double a = 1.0) {
   return c;
 }
 
-geometry_msgs::Point toPoint(const Vec3& v) {
-  geometry_msgs::Point p;
-  p.x = v.x();
-  p.y = v.y();
-  p.z = v.z();
-  return p;
-}
-
-geometry_msgs::Pose toPose(const core::Transform3& t) {
-  geometry_msgs::Pose pose;
-  pose.position = toPoint(t.t);
-  Eigen::Quaterniond q(t.R);
-  q.normalize();
-  pose.orientation.w = q.w();
-  pose.orientation.x = q.x();
-  pose.orientation.y = q.y();
-  pose.orientation.z = q.z();
-  return pose;
-}
-
 geometry_msgs::Pose identityPose() {
   geometry_msgs::Pose pose;
   pose.orientation.w = 1.0;
@@ -188,9 +168,9 @@ void tessellate(const ConvexShape& shape, double radius, int n, Marker* m) {
     if (normal.squaredNorm() <= min_area2) return;
     const Vec3 outward = dirs[a] + dirs[b] + dirs[c];
     if (normal.dot(outward) < 0.0) std::swap(b, c);
-    m->points.push_back(toPoint(pts[a]));
-    m->points.push_back(toPoint(pts[b]));
-    m->points.push_back(toPoint(pts[c]));
+    m->points.push_back(toPointMsg(pts[a]));
+    m->points.push_back(toPointMsg(pts[b]));
+    m->points.push_back(toPointMsg(pts[c]));
   };
   m->type = Marker::TRIANGLE_LIST;
   m->scale.x = m->scale.y = m->scale.z = 1.0;
@@ -243,7 +223,7 @@ void solidMarker(const ConvexShape& shape, double radius, int n, Marker* m) {
         const auto& v = (*poly)->vertices();
         for (const auto& t : triangles) {
           for (int k : t)
-            m->points.push_back(toPoint(v[static_cast<std::size_t>(k)] + shape.offset()));
+            m->points.push_back(toPointMsg(v[static_cast<std::size_t>(k)] + shape.offset()));
         }
         return;
       }
@@ -301,6 +281,8 @@ void MarkerBuilder::reset() {
   sent_.clear();
   deleting_.clear();
   ids_.clear();
+  free_ids_.clear();
+  next_id_ = 0;  // after the DELETEALL
   geometry_.clear();
   first_ = true;
   last_build_ = -1.0;
@@ -309,7 +291,13 @@ void MarkerBuilder::reset() {
 int MarkerBuilder::markerId(const std::string& ns, const std::string& key) {
   const auto it = ids_.find({ns, key});
   if (it != ids_.end()) return it->second;
-  const int id = next_id_++;
+  int id;
+  if (!free_ids_.empty()) {
+    id = free_ids_.back();
+    free_ids_.pop_back();
+  } else {
+    id = next_id_++;
+  }
   ids_.emplace(std::make_pair(ns, key), id);
   return id;
 }
@@ -490,7 +478,7 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
       const PartGeometry& pg = g.geometry[i];
       const core::Transform3 in_body =
           spec->parts[i].pose * core::makeTransform(Eigen::Quaterniond::Identity(), pg.offset);
-      const geometry_msgs::Pose pose = toPose(locked ? in_body : *body_pose * in_body);
+      const geometry_msgs::Pose pose = toPoseMsg(locked ? in_body : *body_pose * in_body);
       const std::string key = info.id + '#' + std::to_string(i);
       part(kBodies, pg.solid, pg.solid_shade, color, pose, key);
       if (pg.has_shell) part(kPadding, pg.shell, pg.shell_shade, shell_color, pose, key);
@@ -516,7 +504,7 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     line.pose = identityPose();
     line.scale.x = options_.line_width;
     line.color = color;
-    line.points = {toPoint(p.point_a), toPoint(p.point_b)};
+    line.points = {toPointMsg(p.point_a), toPointMsg(p.point_b)};
     emit(std::move(line), key);
 
     Marker label;
@@ -527,7 +515,7 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     label.action = Marker::ADD;
     label.pose = identityPose();
     label.pose.position =
-        toPoint(0.5 * (p.point_a + p.point_b) + Vec3(0.0, 0.0, 1.2 * options_.text_height));
+        toPointMsg(0.5 * (p.point_a + p.point_b) + Vec3(0.0, 0.0, 1.2 * options_.text_height));
     label.scale.z = options_.text_height;
     // Lighter than the bodies so that the text stays readable in front of them.
     label.color = rgba(0.5 + 0.5 * color.r, 0.5 + 0.5 * color.g, 0.5 + 0.5 * color.b);
@@ -547,15 +535,17 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
       arrow.scale.y = 3.0 * options_.line_width;     // head diameter
       arrow.scale.z = std::min(0.4 * length, 0.02);  // head length
       arrow.color = color;
-      arrow.points = {toPoint(p.point_a), toPoint(p.point_a + length * p.normal.normalized())};
+      arrow.points = {toPointMsg(p.point_a),
+                      toPointMsg(p.point_a + length * p.normal.normalized())};
       emit(std::move(arrow), key);
     }
   }
 
   // Deletions: whatever was shown last time and is gone now, sent again in every array for as
   // long as the marker would live (1 s for markers that live forever): a subscriber that missed
-  // one array gets it with the next. Ids are never reused, so a late DELETE cannot hit a new
-  // marker.
+  // one array gets it with the next. An id is reused only once its DELETEs have stopped, so no
+  // DELETE comes after a new marker's ADD. (Never reused, ids grew by two for each pair that
+  // flapped: a signed overflow after weeks.)
   for (const auto& [ns_id, key] : shown_) {
     if (shown.count(ns_id) != 0) continue;
     // Body markers for as long as they live (a subscriber that misses every DELETE would keep
@@ -567,6 +557,7 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
   }
   for (auto it = deleting_.begin(); it != deleting_.end();) {
     if (now > it->second) {
+      free_ids_.push_back(it->first.second);
       it = deleting_.erase(it);
       continue;
     }

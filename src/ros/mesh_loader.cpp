@@ -4,12 +4,16 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <climits>
+#include <cmath>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <fstream>
+#include <iterator>
 #include <memory>
 #include <numeric>
 
@@ -17,6 +21,7 @@
 #include <geometric_shapes/shapes.h>
 #include <ros/console.h>
 #include <ros/package.h>
+#include <tinyxml2.h>
 
 #include "collision_monitor/core/shapes.h"
 #include "collision_monitor/ros/conversions.h"
@@ -28,6 +33,36 @@ namespace {
 
 bool startsWith(const std::string& s, const std::string& prefix) {
   return s.compare(0, prefix.size(), prefix) == 0;
+}
+
+/// The path of a URI as resource_retriever (libcurl) reads it, which rviz shows: %XX decoded
+/// (a '%' not followed by two hex digits stays); a query or fragment ('?', '#') is refused, as
+/// curl cut the path there (a mesh "hash#1.stl" loaded the file "hash"), and so is a NUL.
+Expected<std::string> uriPath(const std::string& encoded) {
+  if (encoded.find_first_of("?#") != std::string::npos) {
+    return Error{
+        "a URI with a query or fragment ('?' or '#') names no mesh file; percent-encode "
+        "them in a file name (%3F, %23)"};
+  }
+  const auto hex = [](char c) -> int {
+    if (c >= '0' && c <= '9') return c - '0';
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+    if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+    return -1;
+  };
+  std::string out;
+  out.reserve(encoded.size());
+  for (std::size_t i = 0; i < encoded.size(); ++i) {
+    if (encoded[i] == '%' && i + 2 < encoded.size() && hex(encoded[i + 1]) >= 0 &&
+        hex(encoded[i + 2]) >= 0) {
+      out.push_back(static_cast<char>(16 * hex(encoded[i + 1]) + hex(encoded[i + 2])));
+      i += 2;
+    } else {
+      out.push_back(encoded[i]);
+    }
+  }
+  if (out.find('\0') != std::string::npos) return Error{"the URI's path holds a NUL (%00)"};
+  return out;
 }
 
 /// realpath(3) as a string; empty with `why` set on failure.
@@ -51,23 +86,19 @@ bool inside(const std::string& path, const std::string& dir) {
   return startsWith(path, dir) && (path.size() == dir.size() || path[dir.size()] == '/');
 }
 
-/// The pieces of `mesh` (vertices `points`) for MeshDecomposition::Pieces; empty, for one hull,
-/// when it is one piece or is not split (`note` then says why).
-std::vector<std::vector<core::Vec3>> splitMesh(const shapes::Mesh& mesh,
-                                               const std::vector<core::Vec3>& points,
-                                               std::size_t max_vertices, std::size_t max_parts,
-                                               std::string* note) {
-  if (mesh.triangle_count > kMaxTrianglesPerVertex * max_vertices) {
+/// The pieces of a mesh (vertices `points`, `triangles`) for MeshDecomposition::Pieces; empty,
+/// for one hull, when it is one piece or is not split (`note` then says why).
+/// `triangle_count`: the mesh's; beyond kMaxTrianglesPerVertex x `max_vertices`, `triangles` is
+/// empty (not kept).
+std::vector<std::vector<core::Vec3>> splitMesh(
+    const std::vector<core::Vec3>& points, const std::vector<std::array<std::size_t, 3>>& triangles,
+    std::size_t triangle_count, std::size_t max_vertices, std::size_t max_parts,
+    std::string* note) {
+  if (triangle_count > kMaxTrianglesPerVertex * max_vertices) {
     // A closed mesh has about two triangles per vertex; this bounds the edge list and its sort.
-    *note = "not split into pieces: " + std::to_string(mesh.triangle_count) +
-            " triangles, more than " + std::to_string(kMaxTrianglesPerVertex) +
-            " x max_vertices_per_part; one convex hull";
+    *note = "not split into pieces: " + std::to_string(triangle_count) + " triangles, more than " +
+            std::to_string(kMaxTrianglesPerVertex) + " x max_vertices_per_part; one convex hull";
     return {};
-  }
-  std::vector<std::array<std::size_t, 3>> triangles(mesh.triangle_count);
-  for (unsigned t = 0; t < mesh.triangle_count; ++t) {
-    for (int k = 0; k < 3; ++k)
-      triangles[t][k] = mesh.triangles[3 * t + k];
   }
   MeshPieces split = meshPieces(points, triangles);
   // One piece is its hull either way, closed or not (many collision meshes are open).
@@ -86,6 +117,27 @@ std::vector<std::vector<core::Vec3>> splitMesh(const shapes::Mesh& mesh,
   return std::move(split.pieces);
 }
 
+/// A COLLADA file's `<asset><unit meter="...">`: metres per unit of its coordinates (1 when
+/// absent or when the file is not XML, which assimp then judges). assimp puts it in the scene's
+/// root transform, which geometric_shapes drops: a mesh in centimetres came out 100 times too
+/// large. rviz applies it (getMeshUnitRescale), and so does this.
+Expected<double> colladaUnit(const std::string& bytes, const std::string& path) {
+  tinyxml2::XMLDocument doc;
+  if (doc.Parse(bytes.data(), bytes.size()) != tinyxml2::XML_SUCCESS) return 1.0;
+  const tinyxml2::XMLElement* e = doc.FirstChildElement("COLLADA");
+  if (e) e = e->FirstChildElement("asset");
+  if (e) e = e->FirstChildElement("unit");
+  const char* meter = e ? e->Attribute("meter") : nullptr;
+  if (meter == nullptr) return 1.0;
+  double unit = 0.0;
+  if (e->QueryDoubleAttribute("meter", &unit) != tinyxml2::XML_SUCCESS || !std::isfinite(unit) ||
+      !(unit > 0.0)) {
+    return Error{path + ": COLLADA <unit meter=" + quoteInput(meter) +
+                 "> is not a number of metres > 0"};
+  }
+  return unit;
+}
+
 }  // namespace
 
 std::string rosPackagePath(const std::string& package) {
@@ -98,7 +150,9 @@ Expected<std::string> resolveMeshUri(const std::string& uri,
   std::string path;
   std::string package_dir;
   if (startsWith(uri, "package://")) {
-    const std::string rest = uri.substr(std::strlen("package://"));
+    auto decoded = uriPath(uri.substr(std::strlen("package://")));
+    if (!decoded) return Error{decoded.error()};
+    const std::string& rest = *decoded;
     const auto slash = rest.find('/');
     if (slash == std::string::npos || slash == 0 || slash + 1 == rest.size()) {
       return Error{"malformed package URI (want package://<package>/<path>)"};
@@ -112,7 +166,9 @@ Expected<std::string> resolveMeshUri(const std::string& uri,
     if (package_dir.empty()) return Error{"package directory " + dir + ": " + why};
     path = dir + "/" + rest.substr(slash + 1);
   } else if (startsWith(uri, "file://")) {
-    path = uri.substr(std::strlen("file://"));
+    auto decoded = uriPath(uri.substr(std::strlen("file://")));
+    if (!decoded) return Error{decoded.error()};
+    path = *decoded;
     if (startsWith(path, "localhost/")) path = path.substr(std::strlen("localhost"));
     if (path.empty() || path[0] != '/') return Error{"file:// URI needs an absolute path"};
   } else {
@@ -243,22 +299,60 @@ Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& sca
                                   std::size_t max_vertices, MeshDecomposition mode,
                                   std::size_t max_parts) {
   try {
-    std::unique_ptr<shapes::Mesh> mesh(shapes::createMeshFromResource(
-        "file://" + path, Eigen::Vector3d(scale.x(), scale.y(), scale.z())));
-    if (!mesh) return Error{"cannot load " + path + " (not a readable STL/DAE/OBJ mesh)"};
+    // Read here, from the path that was checked: resource_retriever (libcurl) decoded %XX and
+    // cut at '#' and '?' again, and loaded another file than the one checked.
+    std::ifstream in(path, std::ios::binary);
+    if (!in) return Error{"cannot open " + path + ": " + std::strerror(errno)};
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (in.bad()) return Error{"cannot read " + path};
+    if (bytes.empty()) return Error{path + " is empty"};
+    // assimp's format hint, as geometric_shapes' createMeshFromResource gives it.
+    std::string hint;
+    if (const auto dot = path.find_last_of('.'); dot != std::string::npos) {
+      hint = path.substr(dot + 1);
+      std::transform(hint.begin(), hint.end(), hint.begin(),
+                     [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+      if (hint.find("stl") != std::string::npos) hint = "stl";
+    }
+    auto unit = hint == "dae" ? colladaUnit(bytes, path) : Expected<double>(1.0);
+    if (!unit) return Error{unit.error()};
+    const core::Vec3 s = *unit * scale;
+    std::unique_ptr<shapes::Mesh> mesh(shapes::createMeshFromBinary(
+        bytes.data(), bytes.size(), Eigen::Vector3d(s.x(), s.y(), s.z()), hint));
+    if (!mesh) {
+      return Error{"cannot load " + path +
+                   " (not a readable STL/DAE/OBJ mesh, or one without triangles)"};
+    }
     if (mesh->vertex_count == 0) return Error{path + " has no vertices"};
     // Checked before hulling: a huge mesh inside mesh_roots is refused without the hull's cost.
     if (mesh->vertex_count > max_vertices) {
       return Error{path + " has " + std::to_string(mesh->vertex_count) +
                    " vertices, more than max_vertices_per_part " + std::to_string(max_vertices)};
     }
+    // The vertices on triangles only: others (an OBJ's lines and points, unused vertices) are
+    // not the surface rviz draws; they stretched the hull (an OBJ line 2 m away, by 0.34 m).
+    // Triangles are kept for splitting only, and not beyond what splitMesh() takes.
+    const bool keep_triangles = mode == MeshDecomposition::Pieces &&
+                                mesh->triangle_count <= kMaxTrianglesPerVertex * max_vertices;
+    std::vector<std::size_t> index(mesh->vertex_count, SIZE_MAX);
     std::vector<core::Vec3> points;
-    points.reserve(mesh->vertex_count);
-    for (unsigned i = 0; i < mesh->vertex_count; ++i) {
-      const core::Vec3 p(mesh->vertices[3 * i], mesh->vertices[3 * i + 1],
-                         mesh->vertices[3 * i + 2]);
-      if (!p.allFinite()) return Error{path + ": vertex " + std::to_string(i) + " is not finite"};
-      points.push_back(p);
+    std::vector<std::array<std::size_t, 3>> triangles(keep_triangles ? mesh->triangle_count : 0);
+    for (unsigned t = 0; t < mesh->triangle_count; ++t) {
+      for (int k = 0; k < 3; ++k) {
+        const unsigned v = mesh->triangles[3 * t + k];
+        if (v >= mesh->vertex_count) {
+          return Error{path + ": triangle " + std::to_string(t) + " has a vertex out of range"};
+        }
+        if (index[v] == SIZE_MAX) {
+          const core::Vec3 p(mesh->vertices[3 * v], mesh->vertices[3 * v + 1],
+                             mesh->vertices[3 * v + 2]);
+          if (!p.allFinite())
+            return Error{path + ": vertex " + std::to_string(v) + " is not finite"};
+          index[v] = points.size();
+          points.push_back(p);
+        }
+        if (keep_triangles) triangles[t][k] = index[v];
+      }
     }
     double spread = 0.0;  // as for CONVEX parts: a point is no mesh
     for (const core::Vec3& p : points)
@@ -267,8 +361,10 @@ Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& sca
 
     MeshParts out;
     std::vector<std::vector<core::Vec3>> pieces;
-    if (mode == MeshDecomposition::Pieces)
-      pieces = splitMesh(*mesh, points, max_vertices, max_parts, &out.note);
+    if (mode == MeshDecomposition::Pieces) {
+      pieces =
+          splitMesh(points, triangles, mesh->triangle_count, max_vertices, max_parts, &out.note);
+    }
     if (pieces.empty()) pieces.push_back(std::move(points));
     for (std::size_t i = 0; i < pieces.size(); ++i) {
       core::ConvexShape hull = core::ConvexShape::convexHull(pieces[i]);

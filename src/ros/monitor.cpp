@@ -157,9 +157,6 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   // allocated (wire_check.h).
   bodies_sub_ = pnh_.subscribe("bodies", 1000, &Monitor::onBody, this, hints);
   poses_sub_ = pnh_.subscribe("body_poses", 100, &Monitor::onBodyPoses, this, hints);
-  distance_srv_ = pnh_.advertiseService("get_distance", &Monitor::getDistance, this);
-  check_srv_ = pnh_.advertiseService("check_collision", &Monitor::checkCollision, this);
-  list_srv_ = pnh_.advertiseService("list_bodies", &Monitor::listBodies, this);
   setupDiagnostics();
   // ~set_parameters, ~parameter_descriptions, ~parameter_updates. The server reads the raw
   // parameters (and writes them back): it is then given the checked values in force, which
@@ -170,6 +167,10 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   reconfigure_->setCallback([this](collision_monitor::MonitorConfig& config, std::uint32_t level) {
     onReconfigure(config, level);
   });
+  // Last: a client that waits for a service finds the checked values on the parameter server.
+  distance_srv_ = pnh_.advertiseService("get_distance", &Monitor::getDistance, this);
+  check_srv_ = pnh_.advertiseService("check_collision", &Monitor::checkCollision, this);
+  list_srv_ = pnh_.advertiseService("list_bodies", &Monitor::listBodies, this);
 
   {
     // rate_, not tunables_.rate: ~set_parameters is served from here on, and onReconfigure()
@@ -340,11 +341,14 @@ void Monitor::loadRobot() {
   } else {
     auto robot = bodiesFromUrdf(urdf, robot_padding_, limits_, mesh_loader_);
     if (!robot) {
-      rejectAtStartup("URDF '" + key + "': " + robot.error());
+      robot_errors_.push_back("URDF '" + key + "': " + robot.error());
+      rejectAtStartup(robot_errors_.back());
     } else {
       root_link = robot->root_link;
-      for (const auto& e : robot->errors)
-        rejectAtStartup("URDF link " + e);
+      for (const auto& e : robot->errors) {
+        robot_errors_.push_back("URDF link " + e);
+        rejectAtStartup(robot_errors_.back());
+      }
       for (const auto& [a, b] : robot->adjacent)
         disablePair(a, b, "adjacent links");
       std::size_t added = 0;
@@ -355,12 +359,17 @@ void Monitor::loadRobot() {
         if (err.empty()) {
           ++added;
         } else {
-          rejectAtStartup("URDF link '" + id + "' refused: " + err);
+          robot_errors_.push_back("URDF link '" + id + "' refused: " + err);
+          rejectAtStartup(robot_errors_.back());
         }
       }
       ROS_INFO_STREAM(name_ << ": robot '" << robot->robot_name << "': " << added
                             << " links with collision geometry, " << robot->adjacent.size()
-                            << " adjacent pairs disabled");
+                            << " adjacent pairs disabled"
+                            << (robot_errors_.empty()
+                                    ? std::string()
+                                    : ", " + std::to_string(robot_errors_.size()) +
+                                          " links or collision elements left out (errors above)"));
     }
     const std::string skey =
         robotParamKey(robot_description_param_ + "_semantic", key + "_semantic");
@@ -542,10 +551,12 @@ std::string Monitor::addBody(world::BodySpec spec) {
   // Kept as the topic read (remapped): a replaced body keeps its pose while it comes from the
   // same topic (WorldModel::addBody), however it is spelled ('~x', '/node/x', or 'a' with a:=/x).
   if (!topic.empty()) spec.pose_topic = nh_.resolveName(topic);
+  // tf2 frames have no leading '/': the body's markers and ~list_bodies named "/f1", which tf2
+  // (and so rviz) refuses.
+  if (!spec.frame.empty() && spec.frame[0] == '/') spec.frame.erase(0, 1);
   Tracked t;
   t.from_tf = spec.pose_source == world::PoseSource::Tf;
   t.frame = spec.frame;
-  if (!t.frame.empty() && t.frame[0] == '/') t.frame.erase(0, 1);
   t.origin = spec.origin;
   {
     std::lock_guard<std::mutex> lock(world_mutex_);
@@ -784,7 +795,6 @@ void Monitor::onBodyPoses(
 void Monitor::onPoseStamped(const std::string& id,
                             const geometry_msgs::PoseStamped::ConstPtr& msg) {
   try {
-    std::string topic;
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       ++stats_.pose_topic_msgs;
@@ -968,8 +978,7 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
           world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now, anonymous, &unknown);
       contact_distance = settings_.contact_distance;
     }
-    std::stable_sort(pairs.begin(), pairs.end(),
-                     [](const auto& x, const auto& y) { return x.distance < y.distance; });
+    // Sorted by distance (then body), UNKNOWN last, by checkHypothetical.
     res.in_collision = false;
     std::size_t listed = 0;
     for (const auto& p : pairs) {
@@ -1002,7 +1011,7 @@ bool Monitor::listBodies(collision_monitor::ListBodies::Request& /*req*/,
     std::lock_guard<std::mutex> lock(world_mutex_);
     infos = world_->listBodies(now);
   }
-  std::sort(infos.begin(), infos.end(), [](const auto& a, const auto& b) { return a.id < b.id; });
+  // By id (WorldModel::listBodies).
   for (const auto& b : infos) {
     res.ids.push_back(b.id);
     res.frames.push_back(b.frame);
@@ -1227,6 +1236,10 @@ void Monitor::runCycle() {
     }
     marker_subscribers_ = marker_subscribers;
   }
+  // The whole cycle, as INTERFACE.md says: TF lookups, the check and the markers (it was the
+  // world's check alone).
+  cycle.compute_time =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - steady_now).count();
 
   for (const auto& e : cycle.events)
     events_pub_.publish(toMsg(e, fixed_frame_, toStamp(stamp_now)));
@@ -1337,6 +1350,9 @@ void Monitor::setupDiagnostics() {
     if (!param_errors_.empty()) {
       s.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
                 "invalid parameters: " + joined(param_errors_));
+    } else if (!robot_errors_.empty()) {
+      s.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
+                "robot geometry not monitored: " + joined(robot_errors_));
     } else if (rejected > 0) {
       s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu inputs rejected: %s", rejected,
                  now.last_rejection.c_str());
@@ -1418,11 +1434,15 @@ void Monitor::setupDiagnostics() {
     s.add("TF messages (total)", tf_receiver_->messages());
     const auto [tf_refused, tf_last_refusal] = tf_receiver_->refused();
     s.add("TF transforms refused (total)", tf_refused);
+    s.add("TF transforms stamped 0 on /tf (total)", tf_receiver_->zeroStamped());
     s.add("last refused TF transform", tf_last_refusal);
     s.add("pose messages coalesced (total)",
           now.pose_msgs_applied - std::min(now.pose_msgs_applied, now.checks_with_new_poses));
     for (const auto& e : param_errors_)
       s.add("invalid parameter", e);
+    // The first 10 (a hostile URDF refuses thousands of links); the summary counts them all.
+    for (std::size_t i = 0; i < robot_errors_.size() && i < 10; ++i)
+      s.add("robot geometry left out", robot_errors_[i]);
   });
 }
 

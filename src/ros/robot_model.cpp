@@ -42,6 +42,9 @@ Expected<collision_monitor::Shape> shapeOf(const urdf::Collision& c) {
     }
     case urdf::Geometry::MESH: {
       const auto* mesh = static_cast<const urdf::Mesh*>(g);
+      // Shape's scale 0,0,0 means 1,1,1 (an unset message field); in a URDF it is a point.
+      if (mesh->scale.x == 0.0 && mesh->scale.y == 0.0 && mesh->scale.z == 0.0)
+        return Error{"mesh scale 0 0 0 makes it a point"};
       s.type = collision_monitor::Shape::MESH;
       s.resource = mesh->filename;
       s.scale.x = mesh->scale.x;
@@ -81,7 +84,8 @@ struct FlattenOnExit {
 
 }  // namespace
 
-std::string checkUrdfStructure(const std::string& urdf_xml) {
+std::string checkUrdfStructure(const std::string& urdf_xml,
+                               std::unordered_map<std::string, std::size_t>* collisions) {
   tinyxml2::XMLDocument doc;
   const tinyxml2::XMLError parsed = doc.Parse(urdf_xml.c_str(), urdf_xml.size());
   if (parsed == tinyxml2::XML_ELEMENT_DEPTH_EXCEEDED) {
@@ -104,6 +108,14 @@ std::string checkUrdfStructure(const std::string& urdf_xml) {
     if (name == nullptr) continue;  // urdfdom reports it
     if (!index.emplace(name, index.size()).second) {
       return "URDF declares link " + quoted(name) + " more than once";
+    }
+    if (collisions) {
+      std::size_t n = 0;
+      for (const tinyxml2::XMLElement* c = e->FirstChildElement("collision"); c;
+           c = c->NextSiblingElement("collision")) {
+        ++n;
+      }
+      if (n > 0) (*collisions)[name] = n;
     }
   }
   constexpr std::size_t kNone = static_cast<std::size_t>(-1);
@@ -170,7 +182,8 @@ std::string checkUrdfStructure(const std::string& urdf_xml) {
 
 Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding,
                                      const Limits& limits, const MeshLoader& load_mesh) {
-  const std::string refused = checkUrdfStructure(urdf_xml);
+  std::unordered_map<std::string, std::size_t> xml_collisions;  // link -> <collision> elements
+  const std::string refused = checkUrdfStructure(urdf_xml, &xml_collisions);
   if (!refused.empty()) return Error{refused};
   urdf::ModelInterfaceSharedPtr model;
   const FlattenOnExit flatten{&model};
@@ -188,39 +201,70 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
     if (!link) continue;
     std::vector<urdf::CollisionSharedPtr> elements = link->collision_array;
     if (elements.empty() && link->collision) elements.push_back(link->collision);
+    // urdfdom drops a <collision> without (usable) <geometry>, saying so on stderr only.
+    const auto in_xml = xml_collisions.find(name);
+    if (in_xml != xml_collisions.end() && in_xml->second > elements.size()) {
+      const std::size_t dropped = in_xml->second - elements.size();
+      out.errors.push_back(name + ": " + std::to_string(dropped) + " of " +
+                           std::to_string(in_xml->second) +
+                           " <collision> elements without usable <geometry> (urdfdom dropped " +
+                           (dropped == 1 ? "it" : "them") + ")");
+    }
     if (elements.empty()) continue;
     collision_monitor::Body msg;
     msg.id = name;
     msg.header.frame_id = name;
     msg.operation = collision_monitor::Body::ADD;
     msg.padding = padding;
-    std::string error;
-    for (std::size_t i = 0; i < elements.size() && error.empty(); ++i) {
+    // Each element is a part. A refused one is reported and left out; the link keeps the others
+    // (it was left out whole: one missing mesh left its boxes unchecked too).
+    std::vector<std::size_t> element_of;  // part -> element
+    for (std::size_t i = 0; i < elements.size(); ++i) {
       if (!elements[i]) continue;
       auto shape = shapeOf(*elements[i]);
       if (!shape) {
-        error = "collision " + std::to_string(i) + ": " + shape.error();
+        out.errors.push_back(name + ": collision " + std::to_string(i) + ": " + shape.error());
       } else {
         msg.parts.push_back(*shape);
+        element_of.push_back(i);
       }
     }
-    if (error.empty()) {
-      auto spec = bodyFromMsg(msg, world::BodyOrigin::Urdf, limits, load_mesh);
-      if (spec) {
-        out.bodies.push_back(std::move(spec).value());
-        continue;
+    if (msg.parts.empty()) continue;
+    auto spec = bodyFromMsg(msg, world::BodyOrigin::Urdf, limits, load_mesh);
+    if (!spec && msg.parts.size() > 1) {
+      // Which elements: each alone (a mesh comes from the cache the second time).
+      collision_monitor::Body good = msg;
+      good.parts.clear();
+      std::vector<std::string> refused_parts;
+      for (std::size_t k = 0; k < msg.parts.size(); ++k) {
+        auto parts = partsFromMsg(msg.parts[k], msg.padding, limits, load_mesh);
+        if (parts) {
+          good.parts.push_back(msg.parts[k]);
+        } else {
+          refused_parts.push_back(name + ": collision " + std::to_string(element_of[k]) + " (" +
+                                  shapeTypeName(msg.parts[k].type) + "): " + parts.error());
+        }
       }
-      error = spec.error();
+      // Every element alone is fine (too many parts together): the link's own error stands.
+      if (!refused_parts.empty()) {
+        out.errors.insert(out.errors.end(), refused_parts.begin(), refused_parts.end());
+        if (good.parts.empty()) continue;
+        spec = bodyFromMsg(good, world::BodyOrigin::Urdf, limits, load_mesh);
+      }
     }
-    out.errors.push_back(name + ": " + error);
+    if (spec) {
+      out.bodies.push_back(std::move(spec).value());
+    } else {
+      out.errors.push_back(name + ": " + spec.error());
+    }
   }
 
   // Adjacency: each body with its nearest ancestor that has collision geometry (whether or not
   // it loaded: a refused link still counts as the physical neighbour). Memoised, so that many
   // bodies below one long geometry-less stretch walk it once; at most one step per link (no
   // cycles: checkUrdfStructure).
-  auto has_geometry = [](const urdf::Link* l) {
-    return !l->collision_array.empty() || l->collision;
+  auto has_geometry = [&xml_collisions](const urdf::Link* l) {
+    return !l->collision_array.empty() || l->collision || xml_collisions.count(l->name) != 0;
   };
   std::unordered_map<const urdf::Link*, const urdf::Link*> nearest;  // link -> ancestor or null
   std::vector<const urdf::Link*> walk;

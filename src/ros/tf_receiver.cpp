@@ -46,6 +46,11 @@ std::size_t TfReceiver::messages() const {
   return messages_;
 }
 
+std::size_t TfReceiver::zeroStamped() const {
+  std::lock_guard<std::mutex> lock(batch_mutex_);
+  return zero_stamped_;
+}
+
 std::pair<std::size_t, std::string> TfReceiver::refused() const {
   std::lock_guard<std::mutex> lock(batch_mutex_);
   return {refused_, last_refusal_};
@@ -123,9 +128,34 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
       // 200 Hz): refused here, counted, and logged at most once every 5 s.
       std::string why = whyRefused(t);
       if (why.empty() && !is_static) why = whyTooFarAhead(t.header.stamp, now);
+      const bool zero_stamp = !is_static && t.header.stamp.isZero();
+      if (why.empty() && zero_stamp && now.isZero())
+        why = "stamped 0 on /tf before ROS time started";
       if (why.empty()) {
+        geometry_msgs::TransformStamped in = t;
+        // tf2 composes a chain with the conjugate, not the inverse: a rotation it takes (|q|^2
+        // within 0.01 of 1) scaled the offsets of the frames below it by |q|^2 (0.808 m for
+        // 0.8 with |q| = 1.004, as a hand-typed 0 0 0.71 0.71 gives).
+        auto& q = in.transform.rotation;
+        const double norm = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+        q.x /= norm;
+        q.y /= norm;
+        q.z /= norm;
+        q.w /= norm;
+        if (zero_stamp) {
+          // tf2 keeps stamp 0 on /tf: it looked static, and the body never went stale after its
+          // publisher stopped. Taken as of its arrival, it ages like any other transform.
+          in.header.stamp = now;
+          ++zero_stamped_;
+          if (zero_stamp_log_.ready()) {
+            ROS_WARN_STREAM(name_ << ": TF: transform " << t.header.frame_id << " -> "
+                                  << t.child_frame_id << " from " << authority
+                                  << " stamped 0 on /tf: taken as of its arrival (" << zero_stamped_
+                                  << " so far; fixed transforms go on /tf_static)");
+          }
+        }
         try {
-          buffer_.setTransform(t, authority, is_static);
+          buffer_.setTransform(in, authority, is_static);
         } catch (const std::exception& e) {
           // tf2::TransformException, and std::runtime_error from ros::Time for a stamp within
           // the cache time of the largest ROS time: it escaped this thread and aborted the

@@ -337,6 +337,8 @@ struct WorldModel::Impl {
   std::unordered_map<std::uint64_t, PairEntry> pairs;  ///< orderedKey
   HashGrid grid;                                       ///< the fresh bodies' boxes
   std::uint64_t cycle = 0;
+  std::optional<Stamp> last_check_now;  ///< the time the last check() was given
+  bool sweep_all = false;  ///< the next check() takes every body as moved (new reach, backend)
   std::size_t count = 0;
   std::vector<Event> pending;  ///< END events of removed bodies' pairs, for the next check()
 
@@ -858,11 +860,12 @@ void WorldModel::setSettings(const Settings& settings) {
     }
   }
   if (new_reach || new_backend) {
-    // The pairs kept from the last cycle are those whose bodies did not move: flag every body as
-    // moved, so that check() queries the grid (at its new margin) for each. The far grid's exact
-    // distances are rebuilt too.
-    for (BodyState& b : m.bodies)
-      b.swept_version = b.version + 1;
+    // The pairs kept from the last cycle are those whose bodies did not move: check() takes
+    // every body as moved, and queries the grid (at its new margin) for each. (It bumped each
+    // body's swept version instead: one pose or replace before the check bumped the version to
+    // match, the body counted as still, and its grid box and new pairs were never seen.) The
+    // far grid's exact distances are rebuilt too.
+    m.sweep_all = true;
     m.far_active = false;
   }
 }
@@ -1123,15 +1126,20 @@ CycleResult WorldModel::check(Stamp now) {
   const double reach = std::max(0.0, clearCutoffAny(s));
   m.grid.setMargin(reach);
   std::optional<Stamp> oldest;  // of the timed poses
+  // The clock went back (a little: further, the node forgets every pose): a pose that arrived
+  // after `now` ages from now. From its arrival it stayed fresh for as long again as the jump.
+  const bool clock_back = m.last_check_now && now < *m.last_check_now;
+  m.last_check_now = now;
   for (int slot = 0; slot < static_cast<int>(m.bodies.size()); ++slot) {
     BodyState& b = m.bodies[slot];
     if (!b.used) continue;
+    if (clock_back && !b.stamp.isStatic() && now < b.fresh_from) b.fresh_from = now;
     b.fresh_prev = b.fresh;
     b.fresh = b.isFresh(now, s.pose_timeout);
     if (b.fresh) {
       m.active.push_back(slot);
       if (!b.stamp.isStatic()) oldest = oldest ? std::min(*oldest, b.stamp) : b.stamp;
-      if (!b.was_active || b.swept_version != b.version) {
+      if (!b.was_active || b.swept_version != b.version || m.sweep_all) {
         m.moved[slot] = 1;
         m.moved_list.push_back(slot);
         m.grid.set(slot, m.boxes[slot]);
@@ -1145,6 +1153,7 @@ CycleResult WorldModel::check(Stamp now) {
     b.was_active = b.fresh;
     b.swept_version = b.version;
   }
+  m.sweep_all = false;
   res.stamp = oldest.value_or(now);
 
   m.refreshRanks();
@@ -1406,13 +1415,19 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   for (const auto& [lb, o] : order) {
     if (best_slot >= 0 && lb >= best.distance) break;
     const Narrow n = m.narrowPhase(A, m.bodies[o], kInf, nullptr);
+    if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
+    if (std::isnan(n.distance)) {
+      // A failed query may hide the nearest, as a stale pose does (the pair is UNKNOWN in
+      // check()): the answer depended on the order the bodies were added in.
+      return fail("the nearest body to '" + a + "' is unknown: the query against '" +
+                  m.bodies[o].spec.id + "' failed");
+    }
     if (best_slot < 0 || n.distance < best.distance ||
         (n.distance == best.distance && m.bodies[o].spec.id < m.bodies[best_slot].spec.id)) {
       best = n;
       best_slot = o;
     }
   }
-  if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
   PairStatus tracked = PairStatus::Clear;
   auto it = m.pairs.find(orderedKey(sa, best_slot));
   if (it != m.pairs.end()) tracked = it->second.status;

@@ -431,6 +431,45 @@ TEST(MarkerBuilder, DeletesRemovedBodiesAndClearedPairs) {
   EXPECT_EQ(find(fourth, "labels", Marker::ADD).size(), 1u);
 }
 
+// Ids were never reused: a pair that flapped took new ones each time it came back, and the int
+// counter grew without bound (100 flapping pairs at 15 Hz overflowed it in about 16 days). An id
+// is now reused once its DELETEs have stopped: the ids stay few, and a subscriber that applies
+// every array in order (as rviz does) always shows exactly the pair's markers.
+TEST(MarkerBuilder, IdsAreReusedOnceTheirDeletionsStop) {
+  cm::world::WorldModel world;
+  addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
+  addBody(world, boxBody("c"), at(2.0, 0.0, 0.0));
+  cm::world::CycleResult present, absent;
+  present.pairs.push_back(pair("a", "c", PairStatus::Collision, -0.01));
+  MarkerBuilder builder(everyCycle());
+  std::map<std::pair<std::string, int>, int> rviz;  // (ns, id) -> action of what it holds
+  int max_id = 0;
+  for (int step = 0; step < 2000; ++step) {
+    const bool shown = step % 4 < 2;  // two arrays with the pair, two without: 0.5 s each
+    const MarkerArray a = builder.build(world, shown ? present : absent, kFrame, 0.25 * step);
+    for (const auto& m : a.markers) {
+      if (m.action == Marker::DELETEALL) {
+        rviz.clear();
+      } else if (m.action == Marker::DELETE) {
+        rviz.erase({m.ns, m.id});
+      } else {
+        rviz[{m.ns, m.id}] = m.action;
+        max_id = std::max(max_id, m.id);
+      }
+    }
+    std::map<std::string, int> per_ns;
+    for (const auto& [ns_id, action] : rviz)
+      ++per_ns[ns_id.first];
+    const std::map<std::string, int> want = shown ? std::map<std::string, int>{{"bodies", 2},
+                                                                               {"witness", 1},
+                                                                               {"labels", 1},
+                                                                               {"normals", 1}}
+                                                  : std::map<std::string, int>{{"bodies", 2}};
+    ASSERT_EQ(per_ns, want) << "step " << step;
+  }
+  EXPECT_LE(max_id, 12);  // 2 bodies and up to 3 sets of 3 pair markers (was 1,500 by the end)
+}
+
 TEST(MarkerBuilder, AMissedDeletionComesAgainOrExpires) {
   // A subscriber that misses the array with the DELETEs (a slow link; the publisher's queue is 1)
   // kept cleared pairs' segments and labels, and removed bodies, for good. DELETEs now come again

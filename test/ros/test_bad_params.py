@@ -9,6 +9,7 @@ import unittest
 import rospy
 import rostest
 from collision_monitor.msg import PairState
+from collision_monitor.srv import ListBodies
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from visualization_msgs.msg import MarkerArray
 
@@ -22,6 +23,10 @@ class BadParams(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('test_bad_params')
         cls.m = Monitor()
+        # Read as soon as the services exist: the node advertises them after dynamic_reconfigure
+        # wrote the checked values back (they were advertised a moment before).
+        cls.params_at_services = {k: rospy.get_param(NS + k)
+                                  for k in ('rate', 'warning_distance', 'hysteresis')}
         cls.poses = PoseStreamer(cls.m.poses_pub, 'world', rate=20.0)
         cls.m.add(sphere_body('a', 0.5))
         cls.m.add(sphere_body('b', 0.5))
@@ -58,6 +63,10 @@ class BadParams(unittest.TestCase):
         self.assertIn("mesh_decomposition = 'convex' (must be hull or pieces); using hull", errors)
         self.assertEqual(self.m.diag_value('mesh decomposition', d), 'hull')
         self.assertEqual(self.m.state.header.frame_id, 'world')  # fixed_frame's default
+
+    def test_01b_checked_values_on_the_server_once_services_exist(self):
+        self.assertEqual(self.params_at_services,
+                         {'rate': 50.0, 'warning_distance': 0.05, 'hysteresis': 0.005})
 
     def test_02_defaults_in_effect(self):
         r = wait_for(lambda: (lambda r: r if r.success else None)(
@@ -129,6 +138,15 @@ class BadParams(unittest.TestCase):
                     time.monotonic() - STARTED, slow.diag_value('checks (total)')))
         finally:
             sub.unregister()
+        # Its robot: link l keeps its box; the mesh left out is an ERROR in every report.
+        st = slow.diagnostics
+        self.assertEqual(st.level, DiagnosticStatus.ERROR, st.message)
+        self.assertTrue(st.message.startswith(
+            "robot geometry not monitored: URDF link l: collision 1 (mesh): mesh "
+            "'file:///nowhere/m.stl': cannot resolve '/nowhere/m.stl'"), st.message)
+        self.assertEqual(len([kv for kv in st.values if kv.key == 'robot geometry left out']), 1)
+        listed = rospy.ServiceProxy('/slow_checks/list_bodies', ListBodies)()
+        self.assertEqual(list(listed.ids), ['l'])
 
 
 if __name__ == '__main__':

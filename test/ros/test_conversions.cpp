@@ -3,6 +3,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -205,8 +206,23 @@ TEST(Shape, Convex) {
   EXPECT_TRUE(contains(shapeFromMsg(s, limits, kNoMeshes).error(), "degenerate"));
   s.vertices[1].x = kNaN;
   EXPECT_TRUE(contains(shapeFromMsg(s, limits, kNoMeshes).error(), "not finite"));
+  s.scale.y = std::numeric_limits<double>::infinity();
+  EXPECT_TRUE(contains(shapeFromMsg(s, limits, kNoMeshes).error(), "scale is not finite"));
+  // A negative factor mirrors, a zero one flattens: the hull of the scaled vertices.
+  s.vertices.resize(4);
+  for (int i = 0; i < 4; ++i) {
+    s.vertices[i].x = i == 1 ? 1.0 : 0.0;
+    s.vertices[i].y = i == 2 ? 1.0 : 0.0;
+    s.vertices[i].z = i == 3 ? 1.0 : 0.0;
+  }
+  s.scale.x = -2;
   s.scale.y = 0;
-  EXPECT_TRUE(contains(shapeFromMsg(s, limits, kNoMeshes).error(), "scale"));
+  s.scale.z = 1;
+  auto mirrored = shapeFromMsg(s, limits, kNoMeshes);
+  ASSERT_TRUE(mirrored) << mirrored.error();
+  EXPECT_EQ(mirrored->support(core::Vec3(-1, 0.5, 0)), core::Vec3(-2, 0, 0));
+  EXPECT_EQ(mirrored->support(core::Vec3(1, 0.5, 0.25)), core::Vec3(0, 0, 1));
+  EXPECT_EQ(mirrored->support(core::Vec3(0, 1, 0)).y(), 0.0);
 }
 
 TEST(Shape, MeshGoesThroughTheLoader) {
@@ -572,6 +588,127 @@ TEST_F(MeshUris, MeshOfOnePointIsRefused) {
   auto r = cache.load("file://" + dir_ + "/root/point.stl", core::Vec3(1, 1, 1));
   ASSERT_FALSE(r);
   EXPECT_TRUE(contains(r.error(), "every vertex coincides")) << r.error();
+}
+
+/// A tetrahedron (0,0,0), (k,0,0), (0,k,0), (0,0,k) as an ASCII STL.
+std::string tetStl(double k) {
+  const std::string a = "0 0 0", b = std::to_string(k) + " 0 0",
+                    c = "0 " + std::to_string(k) + " 0", d = "0 0 " + std::to_string(k);
+  std::string out = "solid t\n";
+  for (const auto& f : {std::array<std::string, 3>{a, b, c}, {a, c, d}, {a, d, b}, {b, d, c}}) {
+    out += "facet normal 0 0 0\nouter loop\nvertex " + f[0] + "\nvertex " + f[1] + "\nvertex " +
+           f[2] + "\nendloop\nendfacet\n";
+  }
+  return out + "endsolid t\n";
+}
+
+// The path of a URI is read as libcurl read it for resource_retriever (and rviz): %XX decoded. The
+// node checked the literal path and curl loaded the decoded one: "m%41.stl" was checked and
+// "mA.stl" loaded, "root/%2E%2E/x" passed the roots' check and read outside them, and
+// "hash#1.stl" loaded the file "hash". Now what is checked is what is read, by the node itself.
+TEST_F(MeshUris, PercentEncodingIsDecodedBeforeTheCheckAndQueriesAreRefused) {
+  std::ofstream(dir_ + "/root/mA.stl") << tetStl(1);
+  std::ofstream(dir_ + "/root/m%41.stl") << tetStl(2);
+  std::ofstream(dir_ + "/root/with space.stl") << tetStl(4);
+  std::ofstream(dir_ + "/root/hash#1.stl") << tetStl(8);
+  std::ofstream(dir_ + "/root/hash") << tetStl(16);
+  std::ofstream(dir_ + "/root/100%.stl") << tetStl(32);
+  MeshCache cache(roots_, 1000, resolver_);
+  const auto size = [&](const std::string& name) -> double {
+    auto r = cache.load("file://" + dir_ + "/root/" + name, core::Vec3(1, 1, 1));
+    if (!r) return -1;
+    return r->front().support(core::Vec3(1, 0.1, 0.1)).x();
+  };
+  EXPECT_EQ(size("mA.stl"), 1.0);
+  EXPECT_EQ(size("m%41.stl"), 1.0);    // mA.stl, checked and read
+  EXPECT_EQ(size("m%2541.stl"), 2.0);  // the file named m%41.stl
+  EXPECT_EQ(size("with%20space.stl"), 4.0);
+  EXPECT_EQ(size("with space.stl"), 4.0);  // curl refused it
+  EXPECT_EQ(size("hash%231.stl"), 8.0);
+  EXPECT_EQ(size("100%.stl"), 32.0);  // '%' without two hex digits stays
+  EXPECT_EQ(resolveMeshUri("file://" + dir_ + "/root/hash#1.stl", roots_, resolver_).error(),
+            "a URI with a query or fragment ('?' or '#') names no mesh file; percent-encode them "
+            "in a file name (%3F, %23)");
+  EXPECT_TRUE(contains(resolveMeshUri("package://pkg/p.stl?x=1", roots_, resolver_).error(),
+                       "query or fragment"));
+  EXPECT_TRUE(contains(
+      resolveMeshUri("file://" + dir_ + "/root/%2E%2E/outside/secret.stl", roots_, resolver_)
+          .error(),
+      "outside mesh_roots"));
+  EXPECT_TRUE(
+      contains(resolveMeshUri("package://pkg/%2E%2E/outside/secret.stl", roots_, resolver_).error(),
+               "outside"));
+  EXPECT_EQ(resolveMeshUri("file://" + dir_ + "/root/mA.stl%00.x", roots_, resolver_).error(),
+            "the URI's path holds a NUL (%00)");
+}
+
+/// A COLLADA file of one tetrahedron with corners at `k` units, in `unit` (meter attribute;
+/// none when empty).
+std::string tetDae(int k, const std::string& unit) {
+  const std::string n = std::to_string(k);
+  return "<?xml version=\"1.0\"?>\n"
+         "<COLLADA xmlns=\"http://www.collada.org/2005/11/COLLADASchema\" version=\"1.4.1\">"
+         "<asset>" +
+         (unit.empty() ? "" : "<unit name=\"u\" meter=\"" + unit + "\"/>") +
+         "<up_axis>Z_UP</up_axis></asset><library_geometries><geometry id=\"g\"><mesh>"
+         "<source id=\"p\"><float_array id=\"a\" count=\"12\">0 0 0 " +
+         n + " 0 0 0 " + n + " 0 0 0 " + n +
+         "</float_array><technique_common><accessor source=\"#a\" count=\"4\" stride=\"3\">"
+         "<param name=\"X\" type=\"float\"/><param name=\"Y\" type=\"float\"/>"
+         "<param name=\"Z\" type=\"float\"/></accessor></technique_common></source>"
+         "<vertices id=\"v\"><input semantic=\"POSITION\" source=\"#p\"/></vertices>"
+         "<triangles count=\"4\"><input semantic=\"VERTEX\" source=\"#v\" offset=\"0\"/>"
+         "<p>0 2 1 0 3 2 0 1 3 1 2 3</p></triangles></mesh></geometry></library_geometries>"
+         "<library_visual_scenes><visual_scene id=\"s\"><node id=\"n\"><instance_geometry "
+         "url=\"#g\"/></node></visual_scene></library_visual_scenes>"
+         "<scene><instance_visual_scene url=\"#s\"/></scene></COLLADA>\n";
+}
+
+// COLLADA's <unit meter>: assimp puts it in the root transform, which geometric_shapes drops; a
+// mesh in centimetres was 100 times too large (a robot in collision for good). As rviz does, it
+// is applied; a unit that is no length is refused.
+TEST_F(MeshUris, ColladaUnitIsApplied) {
+  std::ofstream(dir_ + "/root/cm.dae") << tetDae(10, "0.01");
+  std::ofstream(dir_ + "/root/quarter.DAE") << tetDae(4, "0.25");
+  std::ofstream(dir_ + "/root/none.dae") << tetDae(2, "");
+  std::ofstream(dir_ + "/root/zero.dae") << tetDae(2, "0");
+  std::ofstream(dir_ + "/root/word.dae") << tetDae(2, "inch");
+  MeshCache cache(roots_, 1000, resolver_);
+  const auto load = [&](const std::string& name, double scale) {
+    return cache.load("file://" + dir_ + "/root/" + name, core::Vec3(scale, 1, 1));
+  };
+  auto cm = load("cm.dae", 1.0);
+  ASSERT_TRUE(cm) << cm.error();
+  EXPECT_NEAR(cm->front().support(core::Vec3(1, 0.1, 0.1)).x(), 0.1, 1e-15);
+  auto quarter = load("quarter.DAE", -2.0);  // with the URDF's scale, mirrored
+  ASSERT_TRUE(quarter) << quarter.error();
+  EXPECT_EQ(quarter->front().support(core::Vec3(-1, 0.1, 0.1)), core::Vec3(-2, 0, 0));
+  EXPECT_EQ(quarter->front().support(core::Vec3(0.1, 0.1, 1)), core::Vec3(0, 0, 1));
+  auto none = load("none.dae", 1.0);
+  ASSERT_TRUE(none) << none.error();
+  EXPECT_EQ(none->front().support(core::Vec3(0.1, 1, 0.1)), core::Vec3(0, 2, 0));
+  EXPECT_TRUE(contains(load("zero.dae", 1.0).error(),
+                       "zero.dae: COLLADA <unit meter='0'> is not a number of metres > 0"))
+      << load("zero.dae", 1.0).error();
+  EXPECT_TRUE(contains(load("word.dae", 1.0).error(), "<unit meter='inch'>"));
+}
+
+// Vertices on no triangle (an OBJ's lines and points) are not the surface: an OBJ line 2 m away
+// stretched the hull to it. In `pieces` mode the mesh could then never be split.
+TEST_F(MeshUris, VerticesOnNoTriangleAreLeftOut) {
+  std::ofstream(dir_ + "/root/line.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 3 0 0\n"
+                                            "f 1 3 2\nf 1 4 3\nf 1 2 4\nf 2 3 4\nl 2 5\n";
+  for (const auto mode : {MeshDecomposition::Hull, MeshDecomposition::Pieces}) {
+    auto r = loadMeshParts(dir_ + "/root/line.obj", core::Vec3(1, 1, 1), 1000, mode);
+    ASSERT_TRUE(r) << r.error();
+    ASSERT_EQ(r->parts.size(), 1u);
+    EXPECT_EQ(r->note, "");
+    EXPECT_EQ(r->parts[0].support(core::Vec3(1, 0.1, 0.1)), core::Vec3(1, 0, 0));
+  }
+  std::ofstream(dir_ + "/root/points.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nl 1 2 3\n";
+  EXPECT_TRUE(contains(loadMeshParts(dir_ + "/root/points.obj", core::Vec3(1, 1, 1), 1000).error(),
+                       "or one without triangles"))
+      << loadMeshParts(dir_ + "/root/points.obj", core::Vec3(1, 1, 1), 1000).error();
 }
 
 // Bug: the cache kept every (mesh, scale) ever loaded: a stream of bodies with ever new scales

@@ -137,6 +137,93 @@ TEST(Urdf, BadLinkIsLeftOutOthersLoad) {
   EXPECT_NE(robot->errors[0].find("outside mesh_roots"), std::string::npos) << robot->errors[0];
 }
 
+// A URDF mesh's scale="-1 1 1" mirrors it (a left part drawn from the right one's mesh), as
+// rviz and MoveIt draw it: the link was refused ("scale must be all > 0") and left unchecked.
+// A zero factor flattens it; scale="0 0 0" is a point (a Shape message's 0,0,0 means 1,1,1).
+TEST(Urdf, MirroredAndFlattenedMeshes) {
+  const std::string mesh =
+      "package://example-robot-data/robots/pr2_description/meshes/"
+      "shoulder_v0/upper_arm_roll_L.stl";
+  const auto link = [&](const std::string& name, const std::string& scale) {
+    return "<link name=\"" + name + "\"><collision><geometry><mesh filename=\"" + mesh +
+           "\" scale=\"" + scale + "\"/></geometry></collision></link>";
+  };
+  const std::string xml = "<robot name=\"r\">" + link("right", "1 1 1") + link("left", "-1 1 1") +
+                          link("flat", "1 0 1") + link("point", "0 0 0") + R"(
+    <joint name="a" type="fixed"><parent link="right"/><child link="left"/></joint>
+    <joint name="b" type="fixed"><parent link="right"/><child link="flat"/></joint>
+    <joint name="c" type="fixed"><parent link="right"/><child link="point"/></joint>
+  </robot>)";
+  MeshCache cache({}, 100000, resolver());
+  auto robot = bodiesFromUrdf(xml, 0.0, Limits(), loaderOf(cache));
+  ASSERT_TRUE(robot) << robot.error();
+  ASSERT_EQ(robot->errors.size(), 1u);
+  EXPECT_EQ(robot->errors[0].rfind("point: ", 0), 0u) << robot->errors[0];
+  EXPECT_NE(robot->errors[0].find("mesh scale 0 0 0 makes it a point"), std::string::npos)
+      << robot->errors[0];
+  std::map<std::string, const world::BodySpec*> by_id;
+  for (const auto& b : robot->bodies)
+    by_id[b.id] = &b;
+  ASSERT_EQ(by_id.size(), 3u);
+  const core::ConvexShape& right = by_id["right"]->parts.at(0).shape;
+  const core::ConvexShape& left = by_id["left"]->parts.at(0).shape;
+  const core::ConvexShape& flat = by_id["flat"]->parts.at(0).shape;
+  for (const core::Vec3& d :
+       {core::Vec3(1, 0.25, 0.5), core::Vec3(-0.5, 1, -0.25), core::Vec3(0.125, -0.5, 1)}) {
+    const core::Vec3 m(-d.x(), d.y(), d.z());
+    const core::Vec3 r = right.support(m);
+    EXPECT_EQ(left.support(d), core::Vec3(-r.x(), r.y(), r.z()));
+    EXPECT_EQ(flat.support(d).y(), 0.0);
+    EXPECT_EQ(flat.support(d).x(), right.support(core::Vec3(d.x(), 0, d.z())).x());
+  }
+}
+
+// One refused <collision> element left its whole link unchecked (a box and a missing mesh: no
+// body), and an element urdfdom drops for want of geometry went unreported; a link whose only
+// element it drops counted as geometry-less, so its parent and child were taken as adjacent
+// (never checked).
+TEST(Urdf, RefusedElementsAreLeftOutOfTheirLinkAlone) {
+  const std::string xml = R"(<robot name="r">
+    <link name="a"><collision><geometry><sphere radius="0.5"/></geometry></collision></link>
+    <link name="mixed">
+      <collision><geometry><box size="1 2 3"/></geometry></collision>
+      <collision><geometry><mesh filename="file:///nowhere/x.stl"/></geometry></collision>
+      <collision><origin xyz="1 0 0"/></collision>
+    </link>
+    <link name="ghost"><collision><geometry/></collision></link>
+    <link name="c"><collision><geometry><sphere radius="0.5"/></geometry></collision></link>
+    <joint name="j1" type="fixed"><parent link="a"/><child link="mixed"/></joint>
+    <joint name="j2" type="fixed"><parent link="mixed"/><child link="ghost"/></joint>
+    <joint name="j3" type="fixed"><parent link="ghost"/><child link="c"/></joint>
+  </robot>)";
+  MeshCache cache({}, 1000, resolver());
+  auto robot = bodiesFromUrdf(xml, 0.0, Limits(), loaderOf(cache));
+  ASSERT_TRUE(robot) << robot.error();
+  std::vector<std::string> ids;
+  for (const auto& b : robot->bodies) {
+    ids.push_back(b.id);
+    if (b.id == "mixed") {
+      ASSERT_EQ(b.parts.size(), 1u);
+      EXPECT_EQ(b.parts[0].shape.support(core::Vec3(1, 1, 1)), core::Vec3(0.5, 1, 1.5));
+    }
+  }
+  std::sort(ids.begin(), ids.end());
+  EXPECT_EQ(ids, (std::vector<std::string>{"a", "c", "mixed"}));
+  std::vector<std::string> errors = robot->errors;
+  std::sort(errors.begin(), errors.end());
+  ASSERT_EQ(errors.size(), 3u);
+  EXPECT_EQ(errors[0],
+            "ghost: 1 of 1 <collision> elements without usable <geometry> (urdfdom "
+            "dropped it)");
+  EXPECT_EQ(errors[1],
+            "mixed: 1 of 3 <collision> elements without usable <geometry> (urdfdom "
+            "dropped it)");
+  EXPECT_EQ(errors[2].rfind("mixed: collision 1 (mesh): ", 0), 0u) << errors[2];
+  EXPECT_NE(errors[2].find("cannot resolve '/nowhere/x.stl'"), std::string::npos) << errors[2];
+  EXPECT_TRUE(hasPair(robot->adjacent, "a", "mixed"));
+  EXPECT_FALSE(hasPair(robot->adjacent, "mixed", "c"));  // ghost is between them
+}
+
 TEST(Urdf, NotAUrdf) {
   EXPECT_FALSE(bodiesFromUrdf("<html/>", 0.0, Limits(), MeshLoader()));
   EXPECT_FALSE(bodiesFromUrdf("not xml at all", 0.0, Limits(), MeshLoader()));

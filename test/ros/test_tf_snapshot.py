@@ -8,6 +8,7 @@ posed some frames at tick k and others at k - 1 (TF going in transform by transf
 check looks them up) would list a neighbour pair at 0.019 or 0.021 m. Every ~state must list
 exactly the 39 neighbour pairs at 0.02 m, with the stamp of a published tick and witness points
 at that tick's positions."""
+import math
 import threading
 import time
 import unittest
@@ -166,6 +167,47 @@ class TfSnapshot(unittest.TestCase):
         self.assertIn("expressed with the latest transform of 'late'", r.message)
         self.assertAlmostEqual(r.result.point_a.y, -1.0, delta=1e-9)
         self.assertAlmostEqual(r.result.point_b.x - r.result.point_a.x, GAP, delta=1e-9)
+
+
+    def test_tf_stamped_zero_ages_and_rotations_are_normalised(self):
+        """A frame sent on /tf (not /tf_static) stamped 0 by a driver is taken as of its
+        arrival: its body turns stale pose_timeout (0.5 s) after the publisher stops (tf2 kept
+        stamp 0, which looked static: fresh for ever). A rotation tf2 takes (|q|^2 within 0.01
+        of 1) is normalised: with |q| = 1.004, tf2's chain scaled the child's 1 m offset by
+        |q|^2 (the spheres 0.108 m apart instead of 0.1)."""
+        s = 1.004 * math.sqrt(0.5)
+        for body, frame in (('z_child', 'zc'), ('z_ref', 'zr')):
+            self.monitor.add(sphere_body(body, 0.1, frame=frame, pose_from_topic=False))
+        self.assertTrue(self.monitor.wait_listed('z_child') and self.monitor.wait_listed('z_ref'))
+
+        def send():
+            self.tf_pub.publish(TFMessage(transforms=[
+                tf_transform('zp', xyz=(5.0, 0.0, 0.0), q=(0.0, 0.0, s, s)),
+                tf_transform('zc', parent='zp', xyz=(1.0, 0.0, 0.0)),
+                tf_transform('zr', stamp=rospy.Time(0), xyz=(5.0, 1.3, 0.0))]))
+
+        answers = []
+        start = time.monotonic()
+        while time.monotonic() - start < 1.0:
+            send()
+            stopped = time.monotonic()
+            answers.append(self.monitor.get_distance('z_child', 'z_ref', ''))
+            time.sleep(0.02)
+        good = [r for r in answers if r.success]
+        self.assertGreater(len(good), 10, [r.message for r in answers[-3:]])
+        for r in good:
+            self.assertAlmostEqual(r.result.distance, 0.1, delta=1e-9)
+            self.assertAlmostEqual(r.result.point_a.y, 1.1, delta=1e-9)
+        def z_ref_stale():
+            listed = self.monitor.list_bodies()
+            return dict(zip(listed.ids, listed.stale))['z_ref']
+
+        stale = wait_for(z_ref_stale, 3.0)
+        self.assertTrue(stale, 'z_ref (TF stamped 0) never went stale')
+        self.assertGreater(time.monotonic() - stopped, 0.45)
+        r = self.monitor.get_distance('z_child', 'z_ref', '')
+        self.assertFalse(r.success)
+        self.assertIn('has a stale pose', r.message)  # z_child's too: its TF stopped
 
 
 if __name__ == '__main__':

@@ -200,6 +200,30 @@ TEST(WorldModel, PosesStampedAheadAgeFromTheirArrival) {
   EXPECT_TRUE(w.listBodies(30.625)[1].stale);
 }
 
+// The clock goes back by less than the node's tolerance (poses are kept): a pose that arrived
+// after the new time ages from the first check at that time, not from its stamp or arrival,
+// which are still ahead (it stayed fresh 0.75 s longer, as long again as the jump).
+TEST(WorldModel, PosesAgeFromTheCheckThatSawTheClockGoBack) {
+  WorldModel w(dyadic());  // pose_timeout 0.5
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));                              // static
+  ASSERT_TRUE(w.setPose("b", at(2), 10.0, std::nullopt, Stamp(10.0)));  // arrived at its stamp
+  EXPECT_TRUE(w.check(10.0).stale_bodies.empty());
+  EXPECT_TRUE(w.check(9.25).stale_bodies.empty());  // the clock went back 0.75 s
+  EXPECT_TRUE(w.check(9.75).stale_bodies.empty());  // 0.5 s after the jump: fresh
+  const CycleResult r = w.check(9.875);             // 0.625 s after it: stale
+  EXPECT_EQ(r.stale_bodies, std::vector<std::string>{"b"});
+  std::string why;
+  EXPECT_FALSE(w.distance("a", "b", 9.875, &why));
+  EXPECT_EQ(why, "body 'b' has a stale pose (0.625 s old, pose_timeout 0.5 s)");
+  // A pose that came before the new time is not touched: it ages from its own time.
+  ASSERT_TRUE(w.setPose("b", at(2), 10.5, std::nullopt, Stamp(10.5)));
+  EXPECT_TRUE(w.check(10.75).stale_bodies.empty());
+  EXPECT_TRUE(w.check(10.625).stale_bodies.empty());  // back 0.125 s; 10.5 is not ahead of it
+  EXPECT_EQ(w.check(11.125).stale_bodies, std::vector<std::string>{"b"});
+}
+
 // SRDF <disable_default_collisions> and <enable_collisions>, as MoveIt reads them: a body off by
 // default meets only the bodies enabled with it; an explicitly disabled pair stays disabled.
 TEST(WorldModel, BodiesOffByDefaultMeetOnlyTheirEnabledPairs) {
@@ -437,6 +461,61 @@ TEST(WorldModel, SettingsChangedWhileRunning) {
   w.setSettings(tight);
   EXPECT_EQ(w.settings().max_bodies, dyadic().max_bodies);
   EXPECT_EQ(w.addBody(sphere("d", 0.5)), "");
+}
+
+// A new reach, then one move (or one replace) before the next check. The new reach flagged
+// every body by setting its swept version one past its version; the one move bumped the version
+// to match, the body counted as still, and its pair with a was never found: CLEAR (no event, not
+// in_collision) for as long as b stayed put, while distance() said COLLISION.
+TEST(WorldModel, ABodyThatMovesOnceAfterNewSettingsIsSwept) {
+  for (const bool replace : {false, true}) {
+    SCOPED_TRACE(replace ? "replaced by a bigger sphere" : "moved");
+    WorldModel w(dyadic());
+    ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+    ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+    ASSERT_TRUE(w.setPose("a", at(0), 0.0));  // static poses
+    ASSERT_TRUE(w.setPose("b", at(2), 0.0));
+    EXPECT_TRUE(w.check(1.0).pairs.empty());
+    Settings s = dyadic();
+    s.warning_distance = 0.125;
+    w.setSettings(s);
+    if (replace) {
+      ASSERT_EQ(w.addBody(sphere("b", 1.625)), "");  // same source: keeps its pose
+    } else {
+      ASSERT_TRUE(w.setPose("b", at(0.875), 0.0));
+    }
+    for (const double t : {2.0, 3.0}) {
+      const CycleResult r = w.check(t);
+      EXPECT_TRUE(r.in_collision) << "at " << t;
+      ASSERT_EQ(r.pairs.size(), 1u) << "at " << t;
+      EXPECT_EQ(r.pairs[0].status, S::Collision);
+      EXPECT_EQ(r.pairs[0].distance, -0.125);
+    }
+  }
+}
+
+// A pair whose query fails (two spheres of 1e308 m: NaN) is UNKNOWN in check(); nearest() took
+// the first body in slot order instead, so its answer (the small body, or the other giant with
+// distance NaN and success) depended on the order the bodies were added in.
+TEST(WorldModel, NearestIsUnknownWhenAQueryFails) {
+  for (const bool small_first : {true, false}) {
+    WorldModel w(dyadic());
+    if (small_first) {
+      ASSERT_EQ(w.addBody(sphere("small", 0.125)), "");
+    }
+    ASSERT_EQ(w.addBody(sphere("huge1", 1e308)), "");
+    ASSERT_EQ(w.addBody(sphere("huge2", 1e308)), "");
+    if (!small_first) {
+      ASSERT_EQ(w.addBody(sphere("small", 0.125)), "");
+    }
+    ASSERT_TRUE(w.setPose("huge1", at(0), 0.0));
+    ASSERT_TRUE(w.setPose("huge2", at(1), 0.0));
+    ASSERT_TRUE(w.setPose("small", at(5), 0.0));
+    std::string why;
+    EXPECT_FALSE(w.nearest("huge1", 1.0, &why)) << small_first;
+    EXPECT_EQ(why, "the nearest body to 'huge1' is unknown: the query against 'huge2' failed")
+        << small_first;
+  }
 }
 
 TEST(WorldModel, NegativeThresholdsStillFindOverlappingPairs) {

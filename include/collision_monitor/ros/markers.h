@@ -140,6 +140,7 @@ class MarkerBuilder {
   std::map<std::string, BodyGeometry> geometry_;            ///< by body id
   std::map<std::pair<std::string, std::string>, int> ids_;  ///< (ns, key) -> marker id
   int next_id_ = 0;
+  std::vector<int> free_ids_;  ///< ids whose DELETEs have stopped: taken before next_id_
   std::uint64_t next_generation_ = 1;
   bool first_ = true;
   double last_build_ = -1.0;  ///< steady clock (s) of the last non-empty build()

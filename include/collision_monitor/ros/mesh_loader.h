@@ -6,8 +6,10 @@
 ///  - a directory of `mesh_roots` (file:// and package:// URIs), or
 ///  - the package's own directory (package:// URIs only).
 /// So `file:///etc/passwd`, `package://pkg/../../etc/passwd` and a symlink inside a mesh root
-/// that points outside it are all refused. The mesh is then read from the canonical path (not the
-/// URI), so what is loaded is what was checked.
+/// that points outside it are all refused. The URI's path is percent-decoded first, as libcurl
+/// (resource_retriever, rviz) reads it, and a query or fragment ('?', '#') is refused. The mesh is
+/// then read from the canonical path by the node itself (not through resource_retriever, which
+/// decoded the path again), so what is loaded is what was checked.
 #pragma once
 
 #include <array>
@@ -70,12 +72,14 @@ struct MeshParts {
   std::string note;  ///< why `Pieces` fell back to one hull; empty otherwise
 };
 
-/// Loads the mesh file at `path` (STL/DAE/OBJ via geometric_shapes/assimp), scaled, and returns
-/// its convex hull, or with `Pieces` one hull per piece; refused when the mesh has more than
-/// `max_vertices` (distinct) vertices, checked right after loading and before hulling, when a
-/// hull has more, or when it has no vertices. `Pieces` keeps the one hull, with a note, when a
-/// piece is open, when there are more than `max_parts` pieces (checked before hulling them), or
-/// more than kMaxTrianglesPerVertex x `max_vertices` triangles (checked before splitting).
+/// Loads the mesh file at `path` (STL/DAE/OBJ via geometric_shapes/assimp; a COLLADA file's
+/// `<unit meter>` applied, as rviz does), scaled (a negative factor mirrors), and returns the
+/// convex hull of its triangles' vertices, or with `Pieces` one hull per piece; refused when the
+/// mesh has more than `max_vertices` (distinct) vertices, checked right after loading and before
+/// hulling, when a hull has more, or when it has no triangles. `Pieces` keeps the one hull, with a
+/// note, when a piece is open, when there are more than `max_parts` pieces (checked before hulling
+/// them), or more than kMaxTrianglesPerVertex x `max_vertices` triangles (checked before
+/// splitting).
 Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& scale,
                                   std::size_t max_vertices,
                                   MeshDecomposition mode = MeshDecomposition::Hull,

@@ -179,6 +179,9 @@ class Monitor {
   std::string robot_description_param_ = "robot_description";
   MeshDecomposition mesh_decomposition_ = MeshDecomposition::Hull;  ///< start-up only
   std::vector<std::string> param_errors_;  ///< invalid parameters (fell back to defaults)
+  /// Robot geometry left out at start-up (the URDF, a link, a <collision> element): not watched
+  /// for as long as the node runs, so /diagnostics says so in every report (ERROR).
+  std::vector<std::string> robot_errors_;
 
   ros::NodeHandle nh_;
   ros::NodeHandle pnh_;

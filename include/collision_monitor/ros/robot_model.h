@@ -5,6 +5,7 @@
 
 #include <cstddef>
 #include <string>
+#include <unordered_map>
 #include <utility>
 #include <vector>
 
@@ -27,7 +28,8 @@ struct RobotBodies {
   /// body's nearest ancestor that is itself a body (so panda_link7 and panda_hand are adjacent
   /// through the geometry-less panda_link8).
   std::vector<IdPair> adjacent;
-  /// Links left out, each with the reason ("panda_hand: part 0 (mesh): ..."). Other links load.
+  /// Elements and links left out, each with the reason ("panda_hand: collision 1 (mesh): ...",
+  /// "base: part 0 (mesh): ..." for a link of one element). Other links load.
   std::vector<std::string> errors;
 };
 
@@ -44,11 +46,14 @@ constexpr std::size_t kMaxUrdfDepth = 1000;
 /// kMaxUrdfLinks links, unique link and joint names, no link that is its own parent, no link with
 /// two parent joints, no cycle of joints, no link more than kMaxUrdfDepth joints below its root.
 /// Empty when fine, else the reason. Linear time, no recursion beyond the XML depth limit.
-std::string checkUrdfStructure(const std::string& urdf_xml);
+/// `collisions`, if given: link name -> its number of <collision> elements (links with any).
+std::string checkUrdfStructure(const std::string& urdf_xml,
+                               std::unordered_map<std::string, std::size_t>* collisions = nullptr);
 
 /// Parses a URDF string with urdf::parseURDF after checkUrdfStructure. Fails when the XML is not a
-/// URDF or its structure is refused; a link whose geometry is refused is listed in `errors` and
-/// left out. `padding` (m, >= 0) inflates every part.
+/// URDF or its structure is refused. A refused <collision> element (and one urdfdom dropped for
+/// want of geometry) is listed in `errors` and left out of its link, which keeps the others; a
+/// link whose every element is refused is left out. `padding` (m, >= 0) inflates every part.
 Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding,
                                      const Limits& limits, const MeshLoader& load_mesh);
 

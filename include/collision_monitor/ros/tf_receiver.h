@@ -45,9 +45,12 @@ class TfReceiver {
 
   /// Messages inserted so far (/tf and /tf_static).
   std::size_t messages() const;
+  /// /tf transforms stamped 0 so far, taken as of their arrival (ROS time).
+  std::size_t zeroStamped() const;
   /// Transforms refused so far (empty or self-parented frames, non-finite values, rotations that
   /// are not unit quaternions, /tf stamped more than the buffer's cache length after the current
-  /// ROS time, anything tf2 throws on), and the last one's description.
+  /// ROS time or stamped 0 before ROS time started, anything tf2 throws on), and the last one's
+  /// description. The rotations taken are normalised.
   std::pair<std::size_t, std::string> refused() const;
 
   /// Why `t` is refused, or empty: what tf2 refuses itself (logging every one: empty or
@@ -73,10 +76,12 @@ class TfReceiver {
   /// Latest /tf stamp taken while ROS time was 0 (simulated time before /clock), until time
   /// starts (receiving thread only).
   ros::Time taken_before_time_;
-  std::size_t messages_ = 0;  ///< guarded by batch_mutex_
-  std::size_t refused_ = 0;   ///< guarded by batch_mutex_
-  std::string last_refusal_;  ///< guarded by batch_mutex_
+  std::size_t messages_ = 0;      ///< guarded by batch_mutex_
+  std::size_t refused_ = 0;       ///< guarded by batch_mutex_
+  std::size_t zero_stamped_ = 0;  ///< guarded by batch_mutex_
+  std::string last_refusal_;      ///< guarded by batch_mutex_
   LogThrottle refusal_log_{5.0};
+  LogThrottle zero_stamp_log_{5.0};
   LogThrottle jump_log_{5.0};  ///< "detected jump back in time" (two /clock: one a message)
 };
 

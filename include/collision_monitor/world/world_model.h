@@ -189,6 +189,7 @@ class WorldModel {
   /// check(), so every BEGIN stays matched; pairs never seen in such a status vanish silently.
   bool removeBody(const std::string& id);
   bool hasBody(const std::string& id) const;
+  /// Every body, sorted by id.
   std::vector<BodyInfo> listBodies(Stamp now) const;
 
   /// Pairs never checked: adjacent links, SRDF <disable_collisions>, the disabled_pairs param.
@@ -209,7 +210,8 @@ class WorldModel {
   /// `stamp` <= 0 means static (never stale). `received`: when the pose came, if that was before
   /// `stamp` (a publisher whose clock runs ahead): the pose ages from then, not from its stamp,
   /// which is kept for everything else (ordering, the verdict's time). A static `received` (0:
-  /// no clock yet) is not used.
+  /// no clock yet) is not used. A check() whose `now` is before the last check's (the clock went
+  /// back) ages the poses that arrived after `now` from `now`.
   bool setPose(const std::string& id, const Transform3& pose, Stamp stamp,
                const std::optional<Twist>& twist = std::nullopt,
                std::optional<Stamp> received = std::nullopt);
