@@ -2,6 +2,8 @@
 /// collision_monitor_node: loads the CollisionMonitorNodelet in this process (like image_proc's
 /// nodes), so the node and the nodelet run the same code. Parameters and topics are private to
 /// the node name (default `collision_monitor`).
+#include <csignal>
+
 #include <nodelet/loader.h>
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
@@ -27,10 +29,18 @@ void spinUntilShutdown() {
   }
 }
 
+/// SIGTERM (systemd, `docker stop`, kill) stops the node as SIGINT does: roscpp handles SIGINT
+/// only, and SIGTERM ended the process at once, its node and services left registered with the
+/// master until `rosnode cleanup`.
+void onSigterm(int /*signal*/) {
+  ros::requestShutdown();
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   ros::init(argc, argv, "collision_monitor");
+  std::signal(SIGTERM, onSigterm);
   ros::NodeHandle nh;             // starts roscpp
   nodelet::Loader loader(false);  // no manager services: this process hosts one nodelet
   const nodelet::M_string remappings(ros::names::getRemappings());

@@ -1,5 +1,7 @@
 #include "collision_monitor/ros/monitor.h"
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <chrono>
 #include <climits>
@@ -13,6 +15,7 @@
 #include <collision_monitor/CollisionState.h>
 #include <collision_monitor/MonitorConfig.h>
 #include <dynamic_reconfigure/server.h>
+#include <ros/master.h>
 #include <tf2/exceptions.h>
 #include <visualization_msgs/MarkerArray.h>
 #include <boost/function.hpp>
@@ -102,6 +105,8 @@ std::optional<world::Stamp> arrivedAt(const ros::Time& t) {
 
 Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name)
     : nh_(nh), pnh_(pnh), name_(name) {
+  nh_.setCallbackQueue(&callback_queue_);
+  pnh_.setCallbackQueue(&callback_queue_);
   readParameters();
   world_ = std::make_unique<world::WorldModel>(settings_);
   applyTunables(tunables_);
@@ -113,6 +118,15 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
           auto r = stringsFromXmlRpc(v);
           if (r) {
             roots = *r;
+            for (const std::string& root : roots) {
+              // A typo, or a command line's _mesh_roots:=[a, b] (one string): every mesh from
+              // there is refused later, each with its own error; said once here.
+              struct stat st {};
+              if (::stat(root.c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) {
+                ROS_WARN_STREAM(name_ << ": mesh_roots: " << quoteInput(root, 512)
+                                      << " is not a directory");
+              }
+            }
           } else {
             param_errors_.push_back("mesh_roots: " + r.error());
           }
@@ -183,6 +197,11 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   }
   loop_thread_ = std::thread([this] { loopThread(); });
   diagnostics_thread_ = std::thread([this] { diagnosticsThread(); });
+  // As many threads as a manager would give (at least 2, at most 8): a service answers while a
+  // pose callback waits for the check in progress.
+  const unsigned threads = std::clamp(std::thread::hardware_concurrency(), 2u, 8u);
+  spinner_ = std::make_unique<ros::AsyncSpinner>(threads, &callback_queue_);
+  spinner_->start();
 }
 
 Monitor::~Monitor() {
@@ -196,6 +215,9 @@ Monitor::~Monitor() {
   world_->abandonChecks();  // a check of seconds (bodies of 1,000 parts) stops now
   if (loop_thread_.joinable()) loop_thread_.join();
   if (diagnostics_thread_.joinable()) diagnostics_thread_.join();
+  // No callback starts from here on; one in progress finishes (no check holds the world now).
+  callback_queue_.disable();
+  if (spinner_) spinner_->stop();
   tf_receiver_.reset();  // after the loop, which reads through it; its trigger()s are harmless
   bodies_sub_.shutdown();
   poses_sub_.shutdown();
@@ -446,8 +468,13 @@ void Monitor::loadRobot() {
 }
 
 void Monitor::loadParameterBodies() {
-  XmlRpc::XmlRpcValue list;
-  if (!pnh_.getParam("bodies", list)) return;
+  // ~bodies is a topic and a parameter: roscpp's getParam applies remappings, so remapping the
+  // topic (~bodies:=/obstacles) read the parameter /obstacles (another monitor's bodies, or none
+  // and no word). Asked of the master as it is named.
+  XmlRpc::XmlRpcValue params, result, list;
+  params[0] = ros::this_node::getName();
+  params[1] = pnh_.resolveName("bodies", false);
+  if (!ros::master::execute("getParam", params, result, list, false)) return;
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray) {
     rejectAtStartup("parameter ~bodies: expected a list of bodies");
     return;
@@ -1312,7 +1339,10 @@ std::string Monitor::checkDiagnosticPeriod() {
   } else if (v.getType() == XmlRpc::XmlRpcValue::TypeInt) {
     period = static_cast<int>(v);
   } else {
-    return "";  // diagnostic_updater does not read it: its period stays
+    // diagnostic_updater ignored it and kept its period (a launch argument "inf" or "abc" comes
+    // as a string): silent before.
+    pnh_.setParam("diagnostic_period", 1.0);
+    return "diagnostic_period: not a number; using 1";
   }
   if (std::isfinite(period) && std::abs(period) <= kMaxDiagnosticPeriod) return "";
   pnh_.setParam("diagnostic_period", 1.0);

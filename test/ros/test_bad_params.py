@@ -138,13 +138,18 @@ class BadParams(unittest.TestCase):
                     time.monotonic() - STARTED, slow.diag_value('checks (total)')))
         finally:
             sub.unregister()
-        # Its robot: link l keeps its box; the mesh left out is an ERROR in every report.
+        # Its robot: link l keeps its box; the mesh left out is an ERROR in every report, as is
+        # its diagnostic_period "abc" (reset to 1 on the parameter server).
         st = slow.diagnostics
         self.assertEqual(st.level, DiagnosticStatus.ERROR, st.message)
-        self.assertTrue(st.message.startswith(
-            "robot geometry not monitored: URDF link l: collision 1 (mesh): mesh "
-            "'file:///nowhere/m.stl': cannot resolve '/nowhere/m.stl'"), st.message)
-        self.assertEqual(len([kv for kv in st.values if kv.key == 'robot geometry left out']), 1)
+        self.assertEqual(st.message,
+                         'invalid parameters: diagnostic_period: not a number; using 1')
+        self.assertEqual(rospy.get_param('/slow_checks/diagnostic_period'), 1.0)
+        left_out = [kv.value for kv in st.values if kv.key == 'robot geometry left out']
+        self.assertEqual(len(left_out), 1, left_out)
+        self.assertTrue(left_out[0].startswith(
+            "URDF link l: collision 1 (mesh): mesh 'file:///nowhere/m.stl': cannot resolve "
+            "'/nowhere/m.stl'"), left_out[0])
         listed = rospy.ServiceProxy('/slow_checks/list_bodies', ListBodies)()
         self.assertEqual(list(listed.ids), ['l'])
 

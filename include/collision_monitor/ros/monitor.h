@@ -3,8 +3,10 @@
 /// topic and TF inputs, the check loop, outputs, services and diagnostics, around one
 /// world::WorldModel. The nodelet (and through it the node executable) owns one Monitor.
 ///
-/// Threads: callbacks (subscriptions, services) run on the caller's callback queue, which may be
-/// multi-threaded (the nodelet's MT queue); the check loop runs on its own thread, woken at
+/// Threads: callbacks (subscriptions, services, dynamic_reconfigure) run on a callback queue and
+/// threads of the monitor's own, not the caller's (a nodelet manager's workers: a callback that
+/// waits for a check of seconds held one, and with a few such every other nodelet in the manager
+/// stopped); the check loop runs on its own thread, woken at
 /// `rate` Hz and promptly after pose input and new TF data (coalescing bursts, at most one check
 /// per `min_check_interval`). One mutex guards the world model; TF lookups, mesh loading and
 /// publishing happen outside it. TF comes in on TfReceiver's own thread, a message at a time;
@@ -34,6 +36,7 @@
 #include <collision_monitor/ListBodies.h>
 #include <diagnostic_updater/diagnostic_updater.h>
 #include <geometry_msgs/PoseStamped.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <tf2_ros/buffer.h>
 #include <boost/thread/recursive_mutex.hpp>
@@ -183,8 +186,12 @@ class Monitor {
   /// for as long as the node runs, so /diagnostics says so in every report (ERROR).
   std::vector<std::string> robot_errors_;
 
-  ros::NodeHandle nh_;
-  ros::NodeHandle pnh_;
+  /// The callbacks' queue and threads (see the file comment). Declared before everything that
+  /// subscribes or advertises on it.
+  ros::CallbackQueue callback_queue_;
+  std::unique_ptr<ros::AsyncSpinner> spinner_;
+  ros::NodeHandle nh_;   ///< on callback_queue_
+  ros::NodeHandle pnh_;  ///< on callback_queue_
   std::string name_;
 
   std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
