@@ -13,7 +13,6 @@
 #include <cstring>
 #include <exception>
 #include <fstream>
-#include <iterator>
 #include <memory>
 #include <numeric>
 
@@ -150,11 +149,17 @@ Expected<std::string> resolveMeshUri(const std::string& uri,
   std::string path;
   std::string package_dir;
   if (startsWith(uri, "package://")) {
-    auto decoded = uriPath(uri.substr(std::strlen("package://")));
+    // The package name as resource_retriever takes it (not decoded); the path after it decoded.
+    const std::string raw = uri.substr(std::strlen("package://"));
+    const auto raw_slash = raw.find('/');
+    if (raw_slash == std::string::npos || raw_slash == 0) {
+      return Error{"malformed package URI (want package://<package>/<path>)"};
+    }
+    auto decoded = uriPath(raw.substr(raw_slash));
     if (!decoded) return Error{decoded.error()};
-    const std::string& rest = *decoded;
-    const auto slash = rest.find('/');
-    if (slash == std::string::npos || slash == 0 || slash + 1 == rest.size()) {
+    const std::string rest = raw.substr(0, raw_slash) + *decoded;
+    const auto slash = raw_slash;
+    if (slash + 1 >= rest.size()) {
       return Error{"malformed package URI (want package://<package>/<path>)"};
     }
     const std::string package = rest.substr(0, slash);
@@ -301,11 +306,17 @@ Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& sca
   try {
     // Read here, from the path that was checked: resource_retriever (libcurl) decoded %XX and
     // cut at '#' and '?' again, and loaded another file than the one checked.
-    std::ifstream in(path, std::ios::binary);
+    std::ifstream in(path, std::ios::binary | std::ios::ate);
     if (!in) return Error{"cannot open " + path + ": " + std::strerror(errno)};
-    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    if (in.bad()) return Error{"cannot read " + path};
-    if (bytes.empty()) return Error{path + " is empty"};
+    const std::streamoff size = in.tellg();
+    if (size <= 0) return Error{path + " is empty"};
+    if (static_cast<std::uint64_t>(size) > kMaxMeshFileBytes) {
+      return Error{path + " is " + std::to_string(size) + " bytes, more than " +
+                   std::to_string(kMaxMeshFileBytes >> 20) + " MiB"};
+    }
+    std::string bytes(static_cast<std::size_t>(size), '\0');
+    in.seekg(0);
+    if (!in.read(bytes.data(), size)) return Error{"cannot read " + path};
     // assimp's format hint, as geometric_shapes' createMeshFromResource gives it.
     std::string hint;
     if (const auto dot = path.find_last_of('.'); dot != std::string::npos) {

@@ -187,8 +187,8 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   list_srv_ = pnh_.advertiseService("list_bodies", &Monitor::listBodies, this);
 
   {
-    // rate_, not tunables_.rate: ~set_parameters is served from here on, and onReconfigure()
-    // writes tunables_ under reconfigure_mutex_ only.
+    // rate_, not tunables_.rate: ~set_parameters is served once the spinner below starts, and
+    // onReconfigure() writes tunables_ under reconfigure_mutex_ only.
     std::lock_guard<std::mutex> lock(world_mutex_);
     ROS_INFO_STREAM(name_ << ": monitoring " << world_->size() << " bodies in frame '"
                           << fixed_frame_ << "' at " << rate_.load() << " Hz with backend "
@@ -205,6 +205,9 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
 }
 
 Monitor::~Monitor() {
+  // A check of seconds (bodies of 1,000 parts) stops now; first, since a ~set_parameters call in
+  // progress waits for it, and the server's reset below waits for that call.
+  world_->abandonChecks();
   reconfigure_.reset();  // no change comes in while the rest stops
   {
     std::lock_guard<std::mutex> lock(loop_mutex_);
@@ -212,7 +215,6 @@ Monitor::~Monitor() {
   }
   loop_cv_.notify_all();
   diagnostics_cv_.notify_all();
-  world_->abandonChecks();  // a check of seconds (bodies of 1,000 parts) stops now
   if (loop_thread_.joinable()) loop_thread_.join();
   if (diagnostics_thread_.joinable()) diagnostics_thread_.join();
   // No callback starts from here on; one in progress finishes (no check holds the world now).
@@ -1151,6 +1153,13 @@ void Monitor::runCycle() {
       diagnostics_cv_.notify_one();
     }
   }
+  if (last_now_ > 0.0 && now < last_now_) {
+    // Any jump back: a TF frame first seen after the new time ages from it, as timed poses do
+    // (WorldModel::check). By its first sighting, still ahead, it stayed fresh for as long again
+    // as the jump after its publisher stopped (a jump of up to 1 s forgets nothing).
+    for (auto& [frame, seen] : tf_seen_)
+      seen.at = std::min(seen.at, stamp_now);
+  }
   last_now_ = now;
   // Simulated time not started yet. Once it has, checks go on at time 0 (a reset to 0, held):
   // the pairs of the poses just forgotten turn UNKNOWN now, not when the clock runs again.
@@ -1377,12 +1386,15 @@ void Monitor::setupDiagnostics() {
       stats_.cycle_time_max = 0.0;  // max over the report window
     }
     const std::size_t rejected = now.rejected - before.rejected;
-    if (!param_errors_.empty()) {
-      s.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
-                "invalid parameters: " + joined(param_errors_));
-    } else if (!robot_errors_.empty()) {
-      s.summary(diagnostic_msgs::DiagnosticStatus::ERROR,
-                "robot geometry not monitored: " + joined(robot_errors_));
+    if (!param_errors_.empty() || !robot_errors_.empty()) {
+      // Both, when both: one hid the other.
+      std::string what;
+      if (!param_errors_.empty()) what = "invalid parameters: " + joined(param_errors_);
+      if (!robot_errors_.empty()) {
+        what += (what.empty() ? "" : "; ") + std::string("robot geometry not monitored: ") +
+                joined(robot_errors_);
+      }
+      s.summary(diagnostic_msgs::DiagnosticStatus::ERROR, what);
     } else if (rejected > 0) {
       s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu inputs rejected: %s", rejected,
                  now.last_rejection.c_str());

@@ -1,7 +1,8 @@
 /// \file
-/// collision_monitor/CollisionMonitorNodelet: owns one Monitor on the nodelet's multi-threaded
-/// callback queue. The node executable (src/nodes/collision_monitor_node.cpp) loads this same
-/// class, so node and nodelet share one code path.
+/// collision_monitor/CollisionMonitorNodelet: owns one Monitor (which runs its callbacks on a
+/// queue and threads of its own, not the manager's). The node executable
+/// (src/nodes/collision_monitor_node.cpp) loads this same class, so node and nodelet share one code
+/// path.
 #include <memory>
 
 #include <nodelet/nodelet.h>

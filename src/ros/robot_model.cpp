@@ -217,45 +217,29 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
     msg.operation = collision_monitor::Body::ADD;
     msg.padding = padding;
     // Each element is a part. A refused one is reported and left out; the link keeps the others
-    // (it was left out whole: one missing mesh left its boxes unchecked too).
-    std::vector<std::size_t> element_of;  // part -> element
+    // (it was left out whole: one missing mesh left its boxes unchecked too). Each is converted
+    // alone first (a mesh is loaded once: bodyFromMsg takes it from the cache).
     for (std::size_t i = 0; i < elements.size(); ++i) {
       if (!elements[i]) continue;
       auto shape = shapeOf(*elements[i]);
       if (!shape) {
         out.errors.push_back(name + ": collision " + std::to_string(i) + ": " + shape.error());
-      } else {
-        msg.parts.push_back(*shape);
-        element_of.push_back(i);
+        continue;
       }
+      auto parts = partsFromMsg(*shape, padding, limits, load_mesh);
+      if (!parts) {
+        out.errors.push_back(name + ": collision " + std::to_string(i) + " (" +
+                             shapeTypeName(shape->type) + "): " + parts.error());
+        continue;
+      }
+      msg.parts.push_back(*shape);
     }
     if (msg.parts.empty()) continue;
     auto spec = bodyFromMsg(msg, world::BodyOrigin::Urdf, limits, load_mesh);
-    if (!spec && msg.parts.size() > 1) {
-      // Which elements: each alone (a mesh comes from the cache the second time).
-      collision_monitor::Body good = msg;
-      good.parts.clear();
-      std::vector<std::string> refused_parts;
-      for (std::size_t k = 0; k < msg.parts.size(); ++k) {
-        auto parts = partsFromMsg(msg.parts[k], msg.padding, limits, load_mesh);
-        if (parts) {
-          good.parts.push_back(msg.parts[k]);
-        } else {
-          refused_parts.push_back(name + ": collision " + std::to_string(element_of[k]) + " (" +
-                                  shapeTypeName(msg.parts[k].type) + "): " + parts.error());
-        }
-      }
-      // Every element alone is fine (too many parts together): the link's own error stands.
-      if (!refused_parts.empty()) {
-        out.errors.insert(out.errors.end(), refused_parts.begin(), refused_parts.end());
-        if (good.parts.empty()) continue;
-        spec = bodyFromMsg(good, world::BodyOrigin::Urdf, limits, load_mesh);
-      }
-    }
     if (spec) {
       out.bodies.push_back(std::move(spec).value());
     } else {
-      out.errors.push_back(name + ": " + spec.error());
+      out.errors.push_back(name + ": " + spec.error());  // the link as a whole (too many parts)
     }
   }
 

@@ -99,7 +99,8 @@ def bad_shape(rng):
         return s
     if k == 8:
         s = shape(Shape.CONVEX, [])
-        s.scale.x, s.scale.y, s.scale.z = rng.choice([(-1, 1, 1), (NAN, 1, 1), (0, 1, 1)])
+        # (-1, 1, 1) mirrors and (0, 1, 1) flattens: valid since mirrored URDF meshes are.
+        s.scale.x, s.scale.y, s.scale.z = rng.choice([(INF, 1, 1), (NAN, 1, 1), (1, -INF, 1)])
         s.vertices = [pose(x=i % 2, y=i // 2 % 2, z=i // 4).position for i in range(8)]
         return s
     if k == 9:

@@ -502,6 +502,29 @@ class SimTime(unittest.TestCase):
         self.sim.set(streams=DYNAMIC)
         self.assertTrue(self.all_fresh())
 
+    def test_9_small_jump_back_ages_from_the_jump(self):
+        # /clock goes back 0.9 s (less than the 1 s after which every pose is forgotten) as the
+        # data stops. Bug: held poses and TF aged from their arrival, still ahead of the new
+        # time: UNKNOWN only 0.9 + 0.5 s (simulated) later. Now from the jump: 0.5 s.
+        self.assertTrue(self.all_fresh())
+        with self.sim.lock:
+            for b in DYNAMIC:
+                self.sim.offset[b] = 0.0
+            self.sim.streams = set()
+            t_jump = self.sim.t - 0.9
+            self.sim.t = t_jump
+            t_wall = time.monotonic()
+            self.sim.clock_pub.publish(Clock(clock=rospy.Time.from_sec(t_jump)))
+        evs = self.unknown_events(t_wall)
+        lat = {b: e[1].header.stamp.to_sec() - t_jump for b, e in evs.items()}
+        figure('/clock 0.9 s back as the data stopped: UNKNOWN_BEGIN %s s (simulated) after the '
+               'jump' % ', '.join('%s %.3f' % (b, lat[b]) for b in DYNAMIC))
+        for b in DYNAMIC:
+            self.assertLessEqual(lat[b], self.pose_timeout + self.sim.factor / self.rate + 0.05,
+                                 b)
+        self.sim.set(streams=DYNAMIC)
+        self.assertTrue(self.all_fresh(timeout=10.0), 'no recovery after the small jump')
+
     @classmethod
     def tearDownClass(cls):
         save_figures('sim_time.txt', FIGURES)

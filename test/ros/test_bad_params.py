@@ -142,8 +142,11 @@ class BadParams(unittest.TestCase):
         # its diagnostic_period "abc" (reset to 1 on the parameter server).
         st = slow.diagnostics
         self.assertEqual(st.level, DiagnosticStatus.ERROR, st.message)
-        self.assertEqual(st.message,
-                         'invalid parameters: diagnostic_period: not a number; using 1')
+        # Both in the message (then "; no check for ... s": its min_check_interval is 20 s).
+        self.assertTrue(st.message.startswith(
+            "invalid parameters: diagnostic_period: not a number; using 1; robot geometry not "
+            "monitored: URDF link l: collision 1 (mesh): mesh 'file:///nowhere/m.stl': cannot "
+            "resolve '/nowhere/m.stl'"), st.message)
         self.assertEqual(rospy.get_param('/slow_checks/diagnostic_period'), 1.0)
         left_out = [kv.value for kv in st.values if kv.key == 'robot geometry left out']
         self.assertEqual(len(left_out), 1, left_out)

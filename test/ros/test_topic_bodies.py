@@ -213,6 +213,7 @@ class TopicBodies(unittest.TestCase):
         # A static TF chain never goes stale.
         listed = self.m.list_bodies()
         self.assertFalse(listed.stale[listed.ids.index('shelf')])
+        # Given as '/shelf_frame': listed (and drawn) as tf2 names it.
         self.assertEqual(listed.frames[listed.ids.index('shelf')], 'shelf_frame')
         # Unknown frame in the request: refused with the reason.
         r3 = self.distance('s1', 'shelf', 'no_such_frame')

@@ -63,6 +63,9 @@ struct MeshPieces {
 MeshPieces meshPieces(const std::vector<core::Vec3>& vertices,
                       const std::vector<std::array<std::size_t, 3>>& triangles);
 
+/// The largest mesh file read (bytes): assimp holds the file and its scene in memory at once.
+constexpr std::uint64_t kMaxMeshFileBytes = std::uint64_t{256} << 20;
+
 /// Triangles per allowed vertex beyond which a mesh is not split (a closed mesh has about 2).
 constexpr std::size_t kMaxTrianglesPerVertex = 8;
 

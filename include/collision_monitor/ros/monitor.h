@@ -74,6 +74,11 @@ class Monitor {
   const std::string& fixedFrame() const { return fixed_frame_; }
 
  private:
+  /// The callbacks' queue and threads (see the file comment). First of the members: destroyed
+  /// after everything that subscribes or advertises on it (the dynamic_reconfigure server too).
+  ros::CallbackQueue callback_queue_;
+  std::unique_ptr<ros::AsyncSpinner> spinner_;
+
   struct Tracked {
     std::string frame;  ///< TF frame (PoseSource::Tf) or empty
     bool from_tf = false;
@@ -186,10 +191,6 @@ class Monitor {
   /// for as long as the node runs, so /diagnostics says so in every report (ERROR).
   std::vector<std::string> robot_errors_;
 
-  /// The callbacks' queue and threads (see the file comment). Declared before everything that
-  /// subscribes or advertises on it.
-  ros::CallbackQueue callback_queue_;
-  std::unique_ptr<ros::AsyncSpinner> spinner_;
   ros::NodeHandle nh_;   ///< on callback_queue_
   ros::NodeHandle pnh_;  ///< on callback_queue_
   std::string name_;

@@ -28,8 +28,8 @@ struct RobotBodies {
   /// body's nearest ancestor that is itself a body (so panda_link7 and panda_hand are adjacent
   /// through the geometry-less panda_link8).
   std::vector<IdPair> adjacent;
-  /// Elements and links left out, each with the reason ("panda_hand: collision 1 (mesh): ...",
-  /// "base: part 0 (mesh): ..." for a link of one element). Other links load.
+  /// Elements and links left out, each with the reason ("panda_hand: collision 1 (mesh): ...";
+  /// collision elements are counted as urdfdom keeps them). Other links load.
   std::vector<std::string> errors;
 };
 
