@@ -144,21 +144,28 @@ struct Robot {
   std::vector<char> never;  ///< by body index (i * bodies + j): neverChecked()
   std::size_t parts = 0;
 
-  Robot(std::string robot_name, const std::string& urdf_path, const std::string& srdf_path,
-        rl::MeshDecomposition mode)
-      : name(std::move(robot_name)) {
-    const std::string urdf_xml = readFile(urdf_path);
+  /// The URDF to bodies as the node loads it at start-up: a fresh mesh cache (every mesh read,
+  /// parsed by assimp and hulled).
+  rl::Expected<rl::RobotBodies> load() const {
     rl::MeshCache cache(
         {}, world::Settings().max_vertices_per_part,
         [](const std::string& pkg) {
           return pkg == "example-robot-data" ? robotData + "/example-robot-data" : std::string();
         },
         mode, world::Settings().max_parts_per_body);
-    const rl::MeshLoader load = [&cache](const std::string& uri, const Vec3& scale) {
+    const rl::MeshLoader loader = [&cache](const std::string& uri, const Vec3& scale) {
       return cache.load(uri, scale);
     };
-    rl::Limits limits;
-    auto robot = rl::bodiesFromUrdf(urdf_xml, 0.0, limits, load);
+    return rl::bodiesFromUrdf(urdf_xml, 0.0, rl::Limits(), loader);
+  }
+
+  std::string urdf_xml;
+  rl::MeshDecomposition mode;
+
+  Robot(std::string robot_name, const std::string& urdf_path, const std::string& srdf_path,
+        rl::MeshDecomposition decomposition)
+      : name(std::move(robot_name)), urdf_xml(readFile(urdf_path)), mode(decomposition) {
+    auto robot = load();
     if (!robot) throw std::runtime_error(urdf_path + ": " + robot.error());
     if (!robot->errors.empty()) throw std::runtime_error(urdf_path + ": " + robot->errors[0]);
     bodies = robot->bodies;
@@ -600,6 +607,18 @@ int main(int argc, char** argv) {
   benchmark::AddCustomContext("cm_correctness", check ? (all_ok ? "OK" : "FAILED") : "not checked");
   if (!all_ok) std::fprintf(stderr, "CORRECTNESS FAILED (see the check lines above)\n");
 
+  for (const auto& r : robots) {
+    const Robot* rp = r.get();
+    benchmark::RegisterBenchmark(("BM_LoadUrdf/ours/" + rp->name).c_str(),
+                                 [rp](benchmark::State& state) {
+                                   for (auto _ : state) {
+                                     auto robot = rp->load();
+                                     if (!robot) state.SkipWithError(robot.error().c_str());
+                                     benchmark::DoNotOptimize(robot);
+                                   }
+                                 })
+        ->Unit(benchmark::kMillisecond);
+  }
   for (const auto& [lib, settings] : variants) {
     for (const auto& r : robots) {
       const Robot* rp = r.get();
