@@ -2,10 +2,14 @@
 """rostest: every invalid or wrongly typed parameter is reported once by name on /diagnostics
 (level ERROR) and the monitor runs with that parameter's default: warning_distance 0.05, the
 fixed frame world, markers published, min_distance beyond reach, the 50 Hz heartbeat."""
+import signal
+import subprocess
 import sys
 import time
 import unittest
 
+import rosgraph
+import roslib.packages
 import rospy
 import rostest
 from collision_monitor.msg import PairState
@@ -23,10 +27,6 @@ class BadParams(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('test_bad_params')
         cls.m = Monitor()
-        # Read as soon as the services exist: the node advertises them after dynamic_reconfigure
-        # wrote the checked values back (they were advertised a moment before).
-        cls.params_at_services = {k: rospy.get_param(NS + k)
-                                  for k in ('rate', 'warning_distance', 'hysteresis')}
         cls.poses = PoseStreamer(cls.m.poses_pub, 'world', rate=20.0)
         cls.m.add(sphere_body('a', 0.5))
         cls.m.add(sphere_body('b', 0.5))
@@ -65,8 +65,32 @@ class BadParams(unittest.TestCase):
         self.assertEqual(self.m.state.header.frame_id, 'world')  # fixed_frame's default
 
     def test_01b_checked_values_on_the_server_once_services_exist(self):
-        self.assertEqual(self.params_at_services,
-                         {'rate': 50.0, 'warning_distance': 0.05, 'hysteresis': 0.005})
+        # A client that waits for a service and then reads the parameters gets the checked
+        # values: the node advertises its services after dynamic_reconfigure wrote them back.
+        # They were advertised a few ms before: a client polling the master every ms read the
+        # raw rate -5. Three fresh nodes, each read the moment its service is registered.
+        master = rosgraph.Master('/test_bad_params')
+        exe = roslib.packages.find_node('collision_monitor', 'collision_monitor_node')[0]
+        seen = []
+        for k in range(3):
+            ns = '/fresh_%d' % k
+            proc = subprocess.Popen([exe, '__ns:=' + ns, '__name:=cm', '_rate:=-5.0',
+                                     '_warning_distance:=-0.1', '_publish_markers:=false'],
+                                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+            try:
+                deadline = time.monotonic() + 30.0
+                while time.monotonic() < deadline:
+                    try:
+                        master.lookupService(ns + '/cm/get_distance')
+                        break
+                    except rosgraph.MasterError:
+                        time.sleep(0.001)
+                seen.append((rospy.get_param(ns + '/cm/rate'),
+                             rospy.get_param(ns + '/cm/warning_distance')))
+            finally:
+                proc.send_signal(signal.SIGINT)
+                proc.wait(timeout=30.0)
+        self.assertEqual(seen, [(50.0, 0.05)] * 3)
 
     def test_02_defaults_in_effect(self):
         r = wait_for(lambda: (lambda r: r if r.success else None)(
