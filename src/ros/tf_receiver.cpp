@@ -131,13 +131,19 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
       const bool zero_stamp = !is_static && t.header.stamp.isZero();
       if (why.empty() && zero_stamp && now.isZero())
         why = "stamped 0 on /tf before ROS time started";
-      if (why.empty()) {
-        geometry_msgs::TransformStamped in = t;
-        // tf2 composes a chain with the conjugate, not the inverse: a rotation it takes (|q|^2
-        // within 0.01 of 1) scaled the offsets of the frames below it by |q|^2 (0.808 m for
-        // 0.8 with |q| = 1.004, as a hand-typed 0 0 0.71 0.71 gives).
-        auto& q = in.transform.rotation;
-        const double norm = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
+      // tf2 composes a chain with the conjugate, not the inverse: a rotation it takes (|q|^2
+      // within 0.01 of 1) scaled the offsets of the frames below it by |q|^2 (0.808 m for 0.8
+      // with |q| = 1.004, as a hand-typed 0 0 0.71 0.71 gives). A transform that needs nothing
+      // (unit to rounding, as robot_state_publisher sends them) goes in as it came, uncopied.
+      const auto& r = t.transform.rotation;
+      const double norm2 = r.x * r.x + r.y * r.y + r.z * r.z + r.w * r.w;
+      const geometry_msgs::TransformStamped* in = &t;
+      geometry_msgs::TransformStamped fixed;
+      if (why.empty() && (zero_stamp || std::abs(norm2 - 1.0) > 1e-12)) {
+        fixed = t;
+        in = &fixed;
+        auto& q = fixed.transform.rotation;
+        const double norm = std::sqrt(norm2);
         q.x /= norm;
         q.y /= norm;
         q.z /= norm;
@@ -145,7 +151,7 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
         if (zero_stamp) {
           // tf2 keeps stamp 0 on /tf: it looked static, and the body never went stale after its
           // publisher stopped. Taken as of its arrival, it ages like any other transform.
-          in.header.stamp = now;
+          fixed.header.stamp = now;
           ++zero_stamped_;
           if (zero_stamp_log_.ready()) {
             ROS_WARN_STREAM(name_ << ": TF: transform " << t.header.frame_id << " -> "
@@ -154,8 +160,10 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
                                   << " so far; fixed transforms go on /tf_static)");
           }
         }
+      }
+      if (why.empty()) {
         try {
-          buffer_.setTransform(in, authority, is_static);
+          buffer_.setTransform(*in, authority, is_static);
         } catch (const std::exception& e) {
           // tf2::TransformException, and std::runtime_error from ros::Time for a stamp within
           // the cache time of the largest ROS time: it escaped this thread and aborted the
