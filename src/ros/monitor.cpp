@@ -66,6 +66,18 @@ const char* typeName(const std::string&) {
   return "a string";
 }
 
+/// A tunable's value in force on /diagnostics, as a launch file would give it.
+void addValue(diagnostic_updater::DiagnosticStatusWrapper& s, const char* key, double v) {
+  s.addf(key, "%.9g", v);
+}
+void addValue(diagnostic_updater::DiagnosticStatusWrapper& s, const char* key, bool v) {
+  s.add(key, v ? "true" : "false");
+}
+void addValue(diagnostic_updater::DiagnosticStatusWrapper& s, const char* key,
+              const std::string& v) {
+  s.add(key, v);
+}
+
 collision_monitor::MonitorConfig toConfig(const Tunables& t) {
   auto c = collision_monitor::MonitorConfig::__getDefault__();
 #define CM_TO_CONFIG(field) c.field = t.field;
@@ -307,7 +319,10 @@ void Monitor::applyTunables(const Tunables& t) {
     settings_ = worldSettings(t, settings_);
     world_->setSettings(settings_);
     marker_builder_.setOptions(markerOptions(t));
-    backend_ = settings_.backend;
+  }
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    reported_tunables_ = t;
   }
   rate_ = t.rate;
   min_check_interval_ = t.min_check_interval;
@@ -1001,11 +1016,21 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
     std::vector<world::PairResult> pairs;
     double contact_distance = 0.0;
     std::size_t unknown = 0;  // listed or not (max_unknown_pairs)
+    std::string refused;
     {
       std::lock_guard<std::mutex> lock(world_mutex_);
-      pairs =
-          world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now, anonymous, &unknown);
+      // The world's own rules (an id of white space only, the limits in force): checkHypothetical
+      // answers nothing for a body they refuse, which must not read as "nothing near".
+      refused = world_->checkSpec(*spec);
+      if (refused.empty()) {
+        pairs = world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now, anonymous,
+                                          &unknown);
+      }
       contact_distance = settings_.contact_distance;
+    }
+    if (!refused.empty()) {
+      res.message = refused;
+      return true;
     }
     // Sorted by distance (then body), UNKNOWN last, by checkHypothetical.
     res.in_collision = false;
@@ -1367,12 +1392,14 @@ void Monitor::setupDiagnostics() {
   window_start_ = ros::WallTime::now();
   diagnostics_->add("inputs", [this](diagnostic_updater::DiagnosticStatusWrapper& s) {
     Stats now, before;
+    Tunables in_force;
     double dt = 1.0;
     double jumps_window = -1.0;  ///< >= 0: kJumpsWarn jumps back in that long (s), lately
     {
       std::lock_guard<std::mutex> lock(stats_mutex_);
       now = stats_;
       before = stats_window_start_;
+      in_force = reported_tunables_;
       const ros::WallTime t = ros::WallTime::now();
       dt = std::max(1e-3, (t - window_start_).toSec());
       stats_window_start_ = stats_;
@@ -1443,7 +1470,10 @@ void Monitor::setupDiagnostics() {
                       "period of rate %.6g Hz (%.3g checks/s)",
                       1e3 * mean_cycle, 1e3 / rate, rate, cycles / dt);
     }
-    s.add("backend", core::toString(backend_.load()));
+    // Every parameter dynamic_reconfigure may change, as in force (a refused value is not).
+#define CM_REPORT(field) addValue(s, #field, in_force.field);
+    CM_TUNABLES(CM_REPORT)
+#undef CM_REPORT
     s.add("mesh decomposition", toString(mesh_decomposition_));
     s.add("fixed_frame", fixed_frame_);
     s.add("bodies", now.bodies);

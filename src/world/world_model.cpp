@@ -537,8 +537,11 @@ struct WorldModel::Impl {
       if (abandoned.load(std::memory_order_relaxed)) return abandon();
       for (std::size_t j = 0; j < nb; ++j) {
         const double gap = A.part_boxes[i].distance(B.part_boxes[j]);
-        const double sphere =
+        double sphere =
             (B.part_centres[j] - A.part_centres[i]).norm() - A.part_radii[i] - B.part_radii[j];
+        // norm() squares: centres 1e308 m apart give +inf, no bound at all (the pair was skipped
+        // as beyond reach and reported CLEAR; its query fails, so it is UNKNOWN).
+        if (!(sphere < kInf)) sphere = gap > 0.0 ? gap : -kInf;
         const double lb = gap > 0.0 ? std::max(gap, sphere) : sphere;
         if (lb > cutoff) {
           skipped = std::min(skipped, lb);
@@ -750,7 +753,8 @@ struct WorldModel::Impl {
     r.body_a = bodies[a].spec.id;
     r.body_b = bodies[b].spec.id;
     r.status = status;
-    r.distance = n.exact ? n.distance : kInf;
+    // A failed query (NaN, status UNKNOWN): +inf, as for every UNKNOWN pair, never NaN.
+    r.distance = n.exact && status != PairStatus::Unknown ? n.distance : kInf;
     if (status != PairStatus::Unknown) {  // a failed query: no points, no normal
       r.point_a = n.point_a;
       r.point_b = n.point_b;
@@ -1363,6 +1367,8 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
   if (!B.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ib->second, now));
   const Narrow n = m.narrowPhase(A, B, kInf, nullptr);
   if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
+  // UNKNOWN in check() too; a NaN distance with success would read as an answer.
+  if (std::isnan(n.distance)) return fail("the query between '" + a + "' and '" + b + "' failed");
   PairStatus tracked = PairStatus::Clear;
   auto it = m.pairs.find(orderedKey(ia->second, ib->second));
   if (it != m.pairs.end()) tracked = it->second.status;

@@ -105,6 +105,12 @@ class Reconfigure(unittest.TestCase):
                       "2.000000; backend = 'bullet' (must be gjk or libccd); using gjk", last)
         self.assertEqual(rospy.get_param(NS + 'hysteresis'), 0.005)
         self.assertEqual(self.pair_ab().status, PairState.COLLISION)  # nothing changed
+        # /diagnostics shows the values in force, not the refused ones (it showed none of them:
+        # a start-up ERROR naming values since reconfigured was all an operator had).
+        in_force = ('warning_distance', 'contact_distance', 'hysteresis', 'rate', 'backend')
+        self.assertTrue(wait_for(lambda: tuple(self.m.diag_value(k) for k in in_force)
+                                 == ('0.3', '0.25', '0.005', '2', 'gjk'), 5.0),
+                        [self.m.diag_value(k) for k in in_force])
 
         since = time.monotonic()
         self.update(warning_distance=0.05, contact_distance=0.0)

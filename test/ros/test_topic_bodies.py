@@ -362,6 +362,16 @@ class TopicBodies(unittest.TestCase):
         self.assertFalse(r.success)
         self.assertIn('negative', r.message)
         self.assertNotIn('probe', self.m.ids())
+        # Bug: an id of white space only passes the message checks but not the world's; the world
+        # answered nothing and the service said success, not in collision (a false "clear"), for a
+        # probe deep in the shelf.
+        for blank in (' ', ' \t'):
+            ws = sphere_body(blank, 0.5, frame='shelf_frame', pose_from_topic=False)
+            r = self.m.check_collision(ws, pose(0, 0, 0), 10.0)
+            self.assertFalse(r.success, blank)
+            self.assertFalse(r.in_collision)
+            self.assertEqual(r.pairs, [])
+            self.assertEqual(r.message, "body '%s' refused: the id is only white space" % blank)
         # Malformed request (a 2^31 dimensions claim in ~100 bytes): refused before deserialization
         # (no 16 GB allocation), with the reason; the service keeps answering.
         req = CheckCollisionRequest(body=sphere_body('probe', 0.5, frame='world',

@@ -1538,17 +1538,42 @@ TEST(WorldModel, QueryThatCannotRunIsUnknownNotClear) {
   const CycleResult r = w.check(1.0);
   EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Unknown}}));
   EXPECT_FALSE(r.in_collision);
+  // Bug: distance() answered with status UNKNOWN and distance NaN (~get_distance: success, NaN).
+  // It fails as nearest() does, and the state's UNKNOWN pair is +inf as every UNKNOWN pair.
   std::string why;
-  const auto d = w.distance("a", "b", 1.0, &why);
-  ASSERT_TRUE(d) << why;
-  EXPECT_EQ(d->status, S::Unknown);
-  EXPECT_TRUE(std::isnan(d->distance));
-  EXPECT_EQ(d->normal, Vec3::Zero());  // no direction either (it said (1, 0, 0))
-  EXPECT_EQ(r.pairs.at(0).normal, Vec3::Zero());
+  EXPECT_FALSE(w.distance("a", "b", 1.0, &why));
+  EXPECT_EQ(why, "the query between 'a' and 'b' failed");
+  EXPECT_EQ(r.pairs.at(0).distance, std::numeric_limits<double>::infinity());
+  EXPECT_EQ(r.pairs.at(0).normal, Vec3::Zero());  // no direction either (it said (1, 0, 0))
+  ASSERT_EQ(r.events.size(), 1u);
+  EXPECT_EQ(r.events[0].pair.distance, std::numeric_limits<double>::infinity());
   const auto out = w.checkHypothetical(sphere("probe", 1e308), at(0.5), 0.0, 1.0);
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[0].status, S::Unknown);
   EXPECT_EQ(out[1].status, S::Unknown);
+}
+
+// Bug: a giant whose box overflows (a sphere of radius 1e308 centred at x = 1e308: its box
+// reaches +inf) had its failed pair UNKNOWN for one cycle, then CLEAR (UNKNOWN_END, +inf) and out
+// of the state for good, while nearest() said the query failed.
+TEST(WorldModel, PairWithAnOverflowingBoxStaysUnknown) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("o", 0.125)), "");
+  ASSERT_EQ(w.addBody(sphere("giant", 1e308)), "");
+  ASSERT_TRUE(w.setPose("o", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("giant", at(1e308), 0.0));
+  for (int cycle = 1; cycle <= 4; ++cycle) {
+    const CycleResult r = w.check(cycle);
+    EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"giant", "o"}, S::Unknown}})) << cycle;
+    const std::vector<Ev> begin = {{E::UnknownBegin, "giant", "o"}};
+    EXPECT_EQ(events(r), cycle == 1 ? begin : std::vector<Ev>()) << cycle;
+    EXPECT_FALSE(r.in_collision);
+  }
+  std::string why;
+  EXPECT_FALSE(w.nearest("o", 5.0, &why));
+  EXPECT_EQ(why, "the nearest body to 'o' is unknown: the query against 'giant' failed");
+  EXPECT_FALSE(w.distance("o", "giant", 5.0, &why));
+  EXPECT_EQ(why, "the query between 'o' and 'giant' failed");
 }
 
 // Bug: every group name ever given stayed in the model's table (a stream of bodies with new

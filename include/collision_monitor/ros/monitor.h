@@ -181,7 +181,6 @@ class Monitor {
   std::atomic<bool> check_on_pose_{true};
   std::atomic<bool> check_on_tf_{true};
   std::atomic<bool> publish_markers_{true};
-  std::atomic<core::BackendType> backend_{core::BackendType::Gjk};  ///< for /diagnostics
   bool markers_published_ = false;  ///< loop thread: arrays went out since the last clear
   double robot_padding_ = 0.0;
   std::string robot_description_param_ = "robot_description";
@@ -253,6 +252,9 @@ class Monitor {
   static constexpr std::size_t kJumpsWarn = 3;
   static constexpr double kJumpsWindow = 5.0;
   ros::WallTime window_start_;
+  /// The tunables in force, for /diagnostics (stats_mutex_; a copy, as tunables_ is written under
+  /// the reconfigure server's mutex and the report must not wait for a check).
+  Tunables reported_tunables_;
 
   // loop
   std::thread loop_thread_;
