@@ -602,6 +602,7 @@ std::string Monitor::addBody(world::BodySpec spec) {
   t.from_tf = spec.pose_source == world::PoseSource::Tf;
   t.frame = spec.frame;
   t.origin = spec.origin;
+  t.pose_topic = topic;
   {
     std::lock_guard<std::mutex> lock(world_mutex_);
     std::string err = world_->addBody(std::move(spec));
@@ -645,7 +646,9 @@ void Monitor::updatePoseSubscription(const std::string& id, const std::string& t
   }
   if (topic.empty()) return;
   boost::function<void(const geometry_msgs::PoseStamped::ConstPtr&)> cb =
-      [this, id](const geometry_msgs::PoseStamped::ConstPtr& msg) { onPoseStamped(id, msg); };
+      [this, id, topic](const geometry_msgs::PoseStamped::ConstPtr& msg) {
+        onPoseStamped(id, topic, msg);
+      };
   ros::Subscriber sub = nh_.subscribe<geometry_msgs::PoseStamped>(
       topic, 10, cb, ros::VoidConstPtr(), ros::TransportHints().tcpNoDelay());
   pose_subs_.emplace(id, std::make_pair(topic, sub));
@@ -709,8 +712,9 @@ std::optional<Transform3> Monitor::toFixed(const std::string& frame_in, const ro
 }
 
 void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time& stamp,
-                         const std::string& source) {
+                         const std::string& source, const std::string* pose_topic) {
   std::vector<std::string> unknown, attached;
+  std::size_t superseded = 0;
   {
     std::unique_lock<std::mutex> lock(world_mutex_);
     // A pose from the future of ROS time would count as fresh until the clock caught up with it:
@@ -735,6 +739,10 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time
       auto it = tracked_.find(u.id);
       if (it == tracked_.end()) {
         unknown.push_back(u.id);
+      } else if (pose_topic && it->second.pose_topic != *pose_topic) {
+        // Sent to the body this one replaced: it posed the new body with a pose nobody sent it
+        // (stamped 0, for good), or was refused as for a TF body.
+        ++superseded;
       } else if (it->second.from_tf) {
         attached.push_back(u.id + " (frame " + it->second.frame + ")");
       } else {
@@ -759,7 +767,7 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time
     }
     reject(source, what);
   }
-  if (check_on_pose_ && unknown.size() + attached.size() < updates.size()) trigger();
+  if (check_on_pose_ && unknown.size() + attached.size() + superseded < updates.size()) trigger();
 }
 
 void Monitor::onBody(const ros::MessageEvent<const Checked<collision_monitor::Body>>& event) {
@@ -836,7 +844,7 @@ void Monitor::onBodyPoses(
   }
 }
 
-void Monitor::onPoseStamped(const std::string& id,
+void Monitor::onPoseStamped(const std::string& id, const std::string& topic,
                             const geometry_msgs::PoseStamped::ConstPtr& msg) {
   try {
     {
@@ -869,7 +877,7 @@ void Monitor::onPoseStamped(const std::string& id,
       return;
     }
     applyPoses({PoseUpdate{id, *to_fixed * *pose, std::nullopt}},
-               poseStamp(msg->header.stamp, used), source);
+               poseStamp(msg->header.stamp, used), source, &topic);
   } catch (const std::exception& e) {
     reject(sourceKey("pose_topic:", id),
            "pose_topic of " + quoteInput(id) + ": internal error: " + e.what());

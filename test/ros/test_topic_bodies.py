@@ -7,6 +7,7 @@ import math
 import struct
 import subprocess
 import sys
+import threading
 import time
 import unittest
 from fractions import Fraction
@@ -792,6 +793,47 @@ class TopicBodies(unittest.TestCase):
         self.assertTrue(self.m.wait_listed('tool', present=False))
         self.assertTrue(self.m.wait_listed('swapped', present=False))
 
+    def test_20_a_replaced_body_takes_no_pose_from_its_old_topic(self):
+        # Bug: a body replaced while its pose_topic streamed could take a pose from the old
+        # subscription (a callback in flight while the replacement shut it down): stamped 0, that
+        # pose never aged, and a body with no source of poses was checked where nobody put it
+        # (7 of 100 replacements). Four bodies follow a 500 Hz stream, then become ~body_poses
+        # bodies that nobody poses, 60 times: each must stay without a pose.
+        fast = rospy.Publisher('/race/pose', PoseStamped, queue_size=100)
+        running = threading.Event()
+        running.set()
+
+        def stream():
+            p = PoseStamped()
+            p.header.frame_id = 'world'  # stamp 0: a static pose
+            p.pose = pose(0, 6, 0)
+            while running.is_set():
+                fast.publish(p)
+                time.sleep(0.002)
+        streamer = threading.Thread(target=stream, daemon=True)
+        streamer.start()
+        ids = ['race%d' % k for k in range(4)]
+
+        def posed():
+            r = self.m.list_bodies()
+            return [i for i in ids if i in r.ids and not r.stale[r.ids.index(i)]]
+        posed_after = []
+        try:
+            for round_ in range(60):
+                for i in ids:
+                    self.m.add(sphere_body(i, 0.1, pose_topic='/race/pose'))
+                self.assertTrue(wait_for(lambda: posed() == ids, 5.0), round_)
+                for i in ids:
+                    self.m.add(sphere_body(i, 0.1))  # ~body_poses now: no pose until one comes
+                time.sleep(0.15)
+                posed_after += [(round_, i) for i in posed()]
+        finally:
+            running.clear()
+            streamer.join()
+            for i in ids:
+                self.m.add(Body(id=i, operation=Body.REMOVE))
+        self.assertTrue(wait_for(lambda: not set(ids) & set(self.m.ids()), 5.0))
+        self.assertEqual(posed_after, [])
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'topic_bodies', TopicBodies, sys.argv)

@@ -83,6 +83,7 @@ class Monitor {
     std::string frame;  ///< TF frame (PoseSource::Tf) or empty
     bool from_tf = false;
     world::BodyOrigin origin = world::BodyOrigin::Topic;
+    std::string pose_topic;  ///< subscribed for its poses (resolved, not remapped), or empty
   };
 
   // start-up
@@ -112,7 +113,9 @@ class Monitor {
   // malformed message arrives with `refused` set and nothing deserialized.
   void onBody(const ros::MessageEvent<const Checked<collision_monitor::Body>>& event);
   void onBodyPoses(const ros::MessageEvent<const Checked<collision_monitor::BodyPoses>>& event);
-  void onPoseStamped(const std::string& id, const geometry_msgs::PoseStamped::ConstPtr& msg);
+  /// A pose of body `id` from `topic`, the one subscribed for it when the message came.
+  void onPoseStamped(const std::string& id, const std::string& topic,
+                     const geometry_msgs::PoseStamped::ConstPtr& msg);
   /// Adds (or replaces) a validated body and (re)subscribes its pose topic. Empty on success.
   std::string addBody(world::BodySpec spec);
   /// Removes a body added on ~bodies: true when it is gone (an unknown id is: nothing to do);
@@ -130,8 +133,11 @@ class Monitor {
   /// time of the transform taken (zero for the fixed frame and static chains).
   std::optional<core::Transform3> toFixed(const std::string& frame, const ros::Time& stamp,
                                           std::string* why, ros::Time* used = nullptr) const;
+  /// `pose_topic`: the topic the updates came from, for a body's own `pose_topic`; they apply
+  /// only while the body still follows it (a message in flight on the subscription a replacement
+  /// shut down is dropped).
   void applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time& stamp,
-                  const std::string& source);
+                  const std::string& source, const std::string* pose_topic = nullptr);
 
   // services
   bool getDistance(collision_monitor::GetDistance::Request& req,
