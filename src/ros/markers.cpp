@@ -492,7 +492,9 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
   for (const auto& p : cycle.pairs) {
     if (p.status != PairStatus::Warning && p.status != PairStatus::Collision) continue;
     if (!p.point_a.allFinite() || !p.point_b.allFinite()) continue;
-    const std::string key = p.body_a + '\n' + p.body_b;
+    // Length first: ids may hold any byte, and ("a\nb", "c") and ("a", "b\nc") joined by a
+    // newline were one key (one pair's markers drawn, the other's not).
+    const std::string key = std::to_string(p.body_a.size()) + ':' + p.body_a + p.body_b;
     const std_msgs::ColorRGBA color = statusColor(p.status, p.distance, warning_distance);
 
     Marker line;

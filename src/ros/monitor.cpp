@@ -573,6 +573,19 @@ void Monitor::reject(const std::string& key, const std::string& what) {
   }
 }
 
+void Monitor::logUnlogged() {
+  std::size_t skipped = 0;
+  std::string last;
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    if (not_logged_ == 0 || (ros::WallTime::now() - log_window_start_).toSec() < 1.0) return;
+    skipped = std::exchange(not_logged_, 0);
+    last = stats_.last_rejection;
+  }
+  ROS_ERROR_STREAM(name_ << ": " << skipped << " rejections not logged: over " << kRejectLogBudget
+                         << " lines/s (the last: " << last << ")");
+}
+
 std::string Monitor::resolvePoseTopic(const std::string& topic) const {
   if (topic.empty()) return topic;
   // Not remapped: subscribe() remaps the name it is given. Remapped here too, a swap of two
@@ -1351,6 +1364,7 @@ void Monitor::diagnosticsThread() {
     }
     const bool force = std::exchange(force_diagnostics_, false);
     lock.unlock();
+    logUnlogged();
     if (std::string e = checkDiagnosticPeriod(); !e.empty()) reject("diagnostic_period", e);
     try {
       if (force) {

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <map>
 #include <random>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -367,6 +368,28 @@ TEST(MarkerBuilder, WitnessLabelAndNormal) {
   EXPECT_GE(dx, 0.004);
   EXPECT_NEAR(arrows[0]->points[1].y - arrows[0]->points[0].y, 0.0, 1e-12);
   EXPECT_TRUE(isRed(arrows[0]->color));
+}
+
+// Bug: a pair's markers were keyed by its ids joined by a newline, which ids may contain: pairs
+// ("a\nb", "c") and ("a", "b\nc") shared one witness segment and one label.
+TEST(MarkerBuilder, PairsWhoseIdsJoinAlikeAreBothDrawn) {
+  cm::world::WorldModel world;
+  for (const char* id : {"a", "a\nb", "b\nc", "c"}) {
+    addBody(world, boxBody(id), at(0.0, 0.0, 0.0));
+  }
+  cm::world::CycleResult cycle;
+  cycle.stamp = 3.0;
+  cycle.pairs.push_back(pair("a\nb", "c", PairStatus::Warning, 0.0234));
+  cycle.pairs.push_back(pair("a", "b\nc", PairStatus::Warning, 0.0125));
+  MarkerBuilder builder(everyCycle());
+  const MarkerArray out = builder.build(world, cycle, kFrame);
+  // Two markers of one id are one in rviz: the second replaces the first.
+  for (const char* ns : {"witness", "labels"}) {
+    std::set<int> ids;
+    for (const Marker* m : find(out, ns, Marker::ADD))
+      ids.insert(m->id);
+    EXPECT_EQ(ids.size(), 2u) << ns;
+  }
 }
 
 TEST(MarkerBuilder, DeletesRemovedBodiesAndClearedPairs) {

@@ -4,6 +4,7 @@ real roscore. Exact distances, events with their latency, staleness, REMOVE, ref
 services. Run with backend:=gjk and backend:=libccd (same verdicts)."""
 import io
 import math
+import re
 import struct
 import subprocess
 import sys
@@ -19,6 +20,7 @@ from collision_monitor.msg import Body, BodyPoses, CollisionEvent, PairState, Sh
 from collision_monitor.srv import CheckCollision, CheckCollisionRequest, CheckCollisionResponse
 from geometry_msgs.msg import Point, PoseStamped, Twist
 from roscpp.srv import GetLoggers, SetLoggerLevel
+from rosgraph_msgs.msg import Log
 from visualization_msgs.msg import MarkerArray
 
 from cm_test_util import (NS, Monitor, PoseStreamer, point_close, pose, shape, sphere_body,
@@ -834,6 +836,24 @@ class TopicBodies(unittest.TestCase):
                 self.m.add(Body(id=i, operation=Body.REMOVE))
         self.assertTrue(wait_for(lambda: not set(ids) & set(self.m.ids()), 5.0))
         self.assertEqual(posed_after, [])
+    def test_21_rejections_over_the_log_budget_are_counted_in_the_log(self):
+        # Bug: rejections over the log budget (20 lines/s) were counted only in the next line
+        # logged: after a burst with nothing after it, in none (906 rejections, 20 lines).
+        lines = []
+        sub = rospy.Subscriber('/rosout', Log, lambda m: lines.append(m.msg), queue_size=1000)
+        time.sleep(1.5)  # connected, and the budget's second is a new one
+        for k in range(30):
+            self.m.add(Body(id='flood%02d' % k, operation=Body.ADD))  # no parts: refused
+        summary = wait_for(lambda: [m for m in lines if 'rejections not logged' in m], 5.0)
+        time.sleep(0.5)
+        sub.unregister()
+        self.assertIsNotNone(summary)
+        self.assertEqual(len(summary), 1, summary)
+        logged = [m for m in lines if "body 'flood" in m and 'not logged' not in m]
+        n = int(re.search(r'(\d+) rejections not logged: over 20 lines/s', summary[0]).group(1))
+        self.assertEqual((len(logged), n), (20, 10), summary)
+        self.assertIn("(the last: ~bodies: body 'flood29' refused", summary[0])
+
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'topic_bodies', TopicBodies, sys.argv)

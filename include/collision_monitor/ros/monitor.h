@@ -162,6 +162,9 @@ class Monitor {
   /// to kRejectLogBudget lines per second in all. `what` is capped at kMaxRejectionText bytes.
   void reject(const std::string& key, const std::string& what);
   void rejectAtStartup(const std::string& what);
+  /// Logs the count of rejections left out by the budget once its second has passed: they were
+  /// counted only in the next line logged, and with no rejection after them in none.
+  void logUnlogged();
   /// Counts a rejection; returns `what` capped at kMaxRejectionText bytes.
   std::string count(const std::string& what);
   static constexpr double kRejectLogPeriod = 1.0;  ///< s between two logs of one source
