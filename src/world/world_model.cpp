@@ -1306,8 +1306,10 @@ CycleResult WorldModel::check(Stamp now) {
       const int a = keyLo(it->first);
       const int b = keyHi(it->first);
       if (e.status != PairStatus::Clear) {
-        // The END event says where the pair is when both poses are fresh (+inf otherwise).
-        const Narrow* x = m.bodies[a].fresh && m.bodies[b].fresh
+        // The END event says where the pair is when both poses are fresh (+inf otherwise), and
+        // the pair is still checked: one no longer checked (a group or a disabled pair) has no
+        // distance the monitor stands behind, and an END to CLEAR at -0.05 m read as a contact.
+        const Narrow* x = m.bodies[a].fresh && m.bodies[b].fresh && m.allowed(a, b)
                               ? m.exactResult(a, b, &e, &res.num_part_checks)
                               : nullptr;
         PairResult r = x ? m.makeResult(a, b, PairStatus::Clear, *x) : m.unknownResult(a, b);

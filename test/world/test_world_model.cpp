@@ -1576,6 +1576,28 @@ TEST(WorldModel, PairWithAnOverflowingBoxStaysUnknown) {
   EXPECT_EQ(why, "the query between 'o' and 'giant' failed");
 }
 
+// Bug: a pair no longer checked (both bodies now in one group) ended with the last distance it
+// had, COLLISION_END with status CLEAR at -0.25 m: a contact by its distance. No distance is
+// given for a pair never checked (distance() refuses it), so the END carries +inf, as for a
+// removed body.
+TEST(WorldModel, PairNoLongerCheckedEndsWithoutADistance) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5, "g")), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(0.75), 0.0));
+  CycleResult r = w.check(1.0);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::CollisionBegin, "a", "b"}}));
+  ASSERT_EQ(w.addBody(sphere("b", 0.5, "g")), "");  // replaced: same place, a's group
+  r = w.check(2.0);
+  ASSERT_EQ(events(r), (std::vector<Ev>{{E::CollisionEnd, "a", "b"}}));
+  EXPECT_EQ(r.events[0].pair.status, S::Clear);
+  EXPECT_EQ(r.events[0].pair.distance, std::numeric_limits<double>::infinity());
+  EXPECT_EQ(r.events[0].pair.normal, Vec3::Zero());
+  EXPECT_TRUE(r.pairs.empty());
+  EXPECT_FALSE(r.in_collision);
+}
+
 // Bug: every group name ever given stayed in the model's table (a stream of bodies with new
 // group names grew it without bound). Names no body uses are forgotten; groups keep working.
 TEST(WorldModel, UnusedGroupNamesAreForgotten) {
