@@ -557,6 +557,7 @@ void Monitor::reject(const std::string& key, const std::string& what) {
     }
     if (logged_in_window_ >= kRejectLogBudget) {
       ++not_logged_;
+      last_not_logged_ = text;
       return;
     }
     ++logged_in_window_;
@@ -580,7 +581,7 @@ void Monitor::logUnlogged() {
     std::lock_guard<std::mutex> lock(stats_mutex_);
     if (not_logged_ == 0 || (ros::WallTime::now() - log_window_start_).toSec() < 1.0) return;
     skipped = std::exchange(not_logged_, 0);
-    last = stats_.last_rejection;
+    last = std::move(last_not_logged_);
   }
   ROS_ERROR_STREAM(name_ << ": " << skipped << " rejections not logged: over " << kRejectLogBudget
                          << " lines/s (the last: " << last << ")");
@@ -1034,29 +1035,24 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
           "cannot resolve frame " + quoteInput(body.header.frame_id) + ": " + capped(why, 512);
       return true;
     }
-    std::vector<world::PairResult> pairs;
+    std::optional<std::vector<world::PairResult>> pairs;
     double contact_distance = 0.0;
     std::size_t unknown = 0;  // listed or not (max_unknown_pairs)
-    std::string refused;
+    std::string refused;  // the world's own rules: an id of white space only, the limits in force
     {
       std::lock_guard<std::mutex> lock(world_mutex_);
-      // The world's own rules (an id of white space only, the limits in force): checkHypothetical
-      // answers nothing for a body they refuse, which must not read as "nothing near".
-      refused = world_->checkSpec(*spec);
-      if (refused.empty()) {
-        pairs = world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now, anonymous,
-                                          &unknown);
-      }
+      pairs = world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now, anonymous,
+                                        &unknown, &refused);
       contact_distance = settings_.contact_distance;
     }
-    if (!refused.empty()) {
-      res.message = refused;
+    if (!pairs) {
+      res.message = escapeInput(refused);
       return true;
     }
     // Sorted by distance (then body), UNKNOWN last, by checkHypothetical.
     res.in_collision = false;
     std::size_t listed = 0;
-    for (const auto& p : pairs) {
+    for (const auto& p : *pairs) {
       if (p.status == world::PairStatus::Collision || p.distance <= contact_distance) {
         res.in_collision = true;
       }

@@ -730,8 +730,9 @@ struct WorldModel::Impl {
       for (std::size_t i = 0; i < A.spec.parts.size(); ++i) {
         for (std::size_t j = 0; j < B.spec.parts.size(); ++j) {
           const double bound = speed + spin_a[i] + spin_b[j];  // any point pair's closing speed
-          const double gap =
+          double gap =
               (b_at.centres[j] - a_at.centres[i]).norm() - A.part_radii[i] - B.part_radii[j];
+          if (!(gap < kInf)) gap = -kInf;  // norm() overflowed: no bound (as in narrowPhase)
           if (!(bound > 0.0) || (gap - c) / bound >= step) continue;
           if (abandoned.load(std::memory_order_relaxed)) return kInf;
           const core::ContactResult x = narrow->signedDistance(
@@ -1445,14 +1446,21 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   return r;
 }
 
-std::vector<PairResult> WorldModel::checkHypothetical(const BodySpec& body, const Transform3& pose,
-                                                      double margin, Stamp now, bool anonymous,
-                                                      std::size_t* num_unknown) const {
+std::optional<std::vector<PairResult>> WorldModel::checkHypothetical(
+    const BodySpec& body, const Transform3& pose, double margin, Stamp now, bool anonymous,
+    std::size_t* num_unknown, std::string* why) const {
   const Impl& m = *impl_;
   std::vector<PairResult> out;
   std::size_t unknown = 0;
   if (num_unknown) *num_unknown = 0;
-  if (!checkSpec(body).empty() || !validTransform(pose)) return out;
+  std::string refused = checkSpec(body);
+  if (refused.empty() && !validTransform(pose)) {
+    refused = "the pose in the fixed frame is not finite (or not rigid)";
+  }
+  if (!refused.empty()) {
+    if (why) *why = std::move(refused);
+    return std::nullopt;
+  }
   // "That body, moved": its own group applies too (get_distance and the cycle skip those pairs).
   std::string tracked_group;
   if (!anonymous) {

@@ -88,6 +88,16 @@ std::vector<Ev> events(const CycleResult& r) {
   return out;
 }
 
+/// checkHypothetical() of a body it accepts.
+std::vector<PairResult> whatIf(const WorldModel& w, const BodySpec& b, const Transform3& pose,
+                               double margin, Stamp now, bool anonymous = false,
+                               std::size_t* unknown = nullptr) {
+  std::string why;
+  auto out = w.checkHypothetical(b, pose, margin, now, anonymous, unknown, &why);
+  EXPECT_TRUE(out) << why;
+  return out ? *out : std::vector<PairResult>();
+}
+
 // ---------------------------------------------------------------------------------------------
 
 TEST(WorldModel, TwoUnitSpheresThreeMetresApart) {
@@ -280,7 +290,7 @@ TEST(WorldModel, BodiesOffByDefaultMeetOnlyTheirEnabledPairs) {
   // A nameless what-if body is in no pair rule: it meets every body but those off by default.
   std::set<std::string> met;
   for (const PairResult& p :
-       w.checkHypothetical(sphere("what_if", 0.5), at(0.03), 0.0, 2.0, /*anonymous=*/true))
+       whatIf(w, sphere("what_if", 0.5), at(0.03), 0.0, 2.0, /*anonymous=*/true))
     met.insert(p.body_a == "what_if" ? p.body_b : p.body_a);
   EXPECT_EQ(met, (std::set<std::string>{"a", "b", "d", "e", "g"}));
 }
@@ -543,7 +553,7 @@ TEST(WorldModel, NegativeThresholdsStillFindOverlappingPairs) {
   EXPECT_EQ(r.min_distance, -0.25);
   // The hypothetical check too, with a margin below every distance: a probe at x = 0.8 of row 0
   // is 0.2 deep in a0 and 0.95 in deep, both beyond the contact distance.
-  const auto out = w.checkHypothetical(sphere("probe", 0.5), at(0.8), -1.0, 1.0, true);
+  const auto out = whatIf(w, sphere("probe", 0.5), at(0.8), -1.0, 1.0, true);
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[0].body_b, "deep");
   EXPECT_NEAR(out[0].distance, -0.95, 1e-12);
@@ -1452,7 +1462,7 @@ TEST(WorldModel, CheckHypotheticalSortedAndMarginFiltered) {
   ASSERT_TRUE(w.setPose("same", at(0.1), 0.0));
   ASSERT_EQ(w.addBody(sphere("stale", 0.5)), "");  // never posed
   const BodySpec probe = sphere("probe", 0.5, "probe");
-  auto out = w.checkHypothetical(probe, at(0), 2.5, 1.0);
+  auto out = whatIf(w, probe, at(0), 2.5, 1.0);
   ASSERT_EQ(out.size(), 4u);
   EXPECT_EQ(out[0].body_a, "probe");
   EXPECT_EQ(out[0].body_b, "hit");
@@ -1469,7 +1479,7 @@ TEST(WorldModel, CheckHypotheticalSortedAndMarginFiltered) {
   EXPECT_EQ(out[3].status, S::Unknown);
   EXPECT_EQ(out[3].distance, std::numeric_limits<double>::infinity());
   // A margin below every distance still reports what collides, and what is unknown.
-  out = w.checkHypothetical(probe, at(0), -1.0, 1.0);
+  out = whatIf(w, probe, at(0), -1.0, 1.0);
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[0].body_b, "hit");
   EXPECT_EQ(out[1].body_b, "stale");
@@ -1481,32 +1491,40 @@ TEST(WorldModel, CheckHypotheticalSortedAndMarginFiltered) {
   // disabled pairs apply. Anonymous (the service's empty id), the same id is only a label.
   w.disablePair("hit", "near");
   const BodySpec moved = sphere("hit", 0.5);
-  out = w.checkHypothetical(moved, at(2.5), 0.25, 1.0);
+  out = whatIf(w, moved, at(2.5), 0.25, 1.0);
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[0].body_b, "mid");
   EXPECT_EQ(out[0].distance, -0.5);
   EXPECT_EQ(out[1].body_b, "stale");
-  out = w.checkHypothetical(moved, at(2.5), 0.25, 1.0, true);
+  out = whatIf(w, moved, at(2.5), 0.25, 1.0, true);
   ASSERT_EQ(out.size(), 3u);
   EXPECT_EQ(out[0].body_b, "mid");
   EXPECT_EQ(out[1].body_b, "near");
   EXPECT_EQ(out[1].distance, -0.5);
   EXPECT_EQ(out[2].body_b, "stale");
-  out = w.checkHypothetical(moved, at(-0.75), 0.25, 1.0, true);
+  out = whatIf(w, moved, at(-0.75), 0.25, 1.0, true);
   ASSERT_EQ(out.size(), 3u);
   EXPECT_EQ(out[0].body_b, "hit");  // itself, as a label only: in collision with "hit"
   EXPECT_EQ(out[0].distance, -1.0);
   // An invalid body gives nothing (the service reports checkSpec()).
-  EXPECT_TRUE(w.checkHypothetical(body("bad", {}), at(0), 10.0, 1.0).empty());
-  EXPECT_EQ(w.checkSpec(body("bad", {})), "body 'bad' refused: it has no parts");
+  std::string why;
+  EXPECT_FALSE(w.checkHypothetical(body("bad", {}), at(0), 10.0, 1.0, false, nullptr, &why));
+  EXPECT_EQ(why, "body 'bad' refused: it has no parts");
+  // Bug: so was a pose that overflowed (a finite pose in a finite frame: 1.5e308 m on two axes
+  // turned by 45 degrees), and the service read the empty answer as "nothing near".
+  Transform3 far = at(1.5e308, 1.5e308);
+  const Transform3 turned = core::makeTransform(
+      Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 4, Vec3::UnitZ())), Vec3::Zero());
+  EXPECT_FALSE(w.checkHypothetical(probe, turned * far, 10.0, 1.0, false, nullptr, &why));
+  EXPECT_EQ(why, "the pose in the fixed frame is not finite (or not rigid)");
   // A tracked body's own group applies, whatever group the request gives: "same" (group
   // "probe") moved onto "hit" is not checked against the probe group's members.
   ASSERT_EQ(w.addBody(sphere("member", 0.5, "probe")), "");
   ASSERT_TRUE(w.setPose("member", at(0, 3), 0.0));
-  out = w.checkHypothetical(sphere("same", 0.5), at(0, 3), 0.25, 1.0);
+  out = whatIf(w, sphere("same", 0.5), at(0, 3), 0.25, 1.0);
   ASSERT_EQ(out.size(), 1u);
   EXPECT_EQ(out[0].body_b, "stale");
-  out = w.checkHypothetical(sphere("same", 0.5), at(0, 3), 0.25, 1.0, true);  // a label only
+  out = whatIf(w, sphere("same", 0.5), at(0, 3), 0.25, 1.0, true);  // a label only
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[0].body_b, "member");
 }
@@ -1520,10 +1538,10 @@ TEST(WorldModel, CheckHypotheticalCountsEveryUnknownBody) {
   for (int i = 0; i < 5; ++i)
     ASSERT_EQ(w.addBody(sphere("s" + std::to_string(i), 0.5)), "");  // never posed
   std::size_t unknown = 99;
-  const auto out = w.checkHypothetical(sphere("probe", 0.5), at(0), 1.0, 1.0, true, &unknown);
+  const auto out = whatIf(w, sphere("probe", 0.5), at(0), 1.0, 1.0, true, &unknown);
   EXPECT_EQ(out.size(), 2u);
   EXPECT_EQ(unknown, 5u);
-  EXPECT_TRUE(w.checkHypothetical(body("bad", {}), at(0), 1.0, 1.0, true, &unknown).empty());
+  EXPECT_FALSE(w.checkHypothetical(body("bad", {}), at(0), 1.0, 1.0, true, &unknown));
   EXPECT_EQ(unknown, 0u);
 }
 
@@ -1547,7 +1565,7 @@ TEST(WorldModel, QueryThatCannotRunIsUnknownNotClear) {
   EXPECT_EQ(r.pairs.at(0).normal, Vec3::Zero());  // no direction either (it said (1, 0, 0))
   ASSERT_EQ(r.events.size(), 1u);
   EXPECT_EQ(r.events[0].pair.distance, std::numeric_limits<double>::infinity());
-  const auto out = w.checkHypothetical(sphere("probe", 1e308), at(0.5), 0.0, 1.0);
+  const auto out = whatIf(w, sphere("probe", 1e308), at(0.5), 0.0, 1.0);
   ASSERT_EQ(out.size(), 2u);
   EXPECT_EQ(out[0].status, S::Unknown);
   EXPECT_EQ(out[1].status, S::Unknown);
@@ -1578,7 +1596,7 @@ TEST(WorldModel, PairWithAnOverflowingBoxStaysUnknown) {
 
 // Bug: a pair no longer checked (both bodies now in one group) ended with the last distance it
 // had, COLLISION_END with status CLEAR at -0.25 m: a contact by its distance. No distance is
-// given for a pair never checked (distance() refuses it), so the END carries +inf, as for a
+// given for a pair never checked (~get_distance refuses it), so the END carries +inf, as for a
 // removed body.
 TEST(WorldModel, PairNoLongerCheckedEndsWithoutADistance) {
   WorldModel w(dyadic());
@@ -1653,6 +1671,25 @@ TEST(WorldModel, TimeToCollisionHeadOn) {
   std::string why;
   EXPECT_EQ(w->distance("a", "b", 1.2, &why)->time_to_collision,
             std::numeric_limits<double>::infinity());
+}
+
+// Bug: the centres' distance overflowed in norm() (spheres of radius 1e155, 1e141 m apart) and
+// every part pair was skipped: +inf, "not approaching", for a contact 10 s away.
+TEST(WorldModel, TimeToCollisionOfHugeBodies) {
+  Settings s = dyadic();
+  s.warning_distance = 1e142;
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(sphere("a", 1e155)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 1e155)), "");
+  Twist tb;
+  tb.linear = Vec3(-1e140, 0, 0);
+  ASSERT_TRUE(w.setPose("a", at(0), 1.0));
+  ASSERT_TRUE(w.setPose("b", at(2e155 + 1e141), 1.0, tb));
+  std::string why;
+  const auto d = w.distance("a", "b", 1.0, &why);
+  ASSERT_TRUE(d) << why;
+  EXPECT_NEAR(d->distance / 1e141, 1.0, 1e-3);
+  EXPECT_NEAR(d->time_to_collision, 10.0, 0.05);
 }
 
 TEST(WorldModel, TimeToCollisionOfTranslatingBodiesIsExact) {

@@ -175,7 +175,8 @@ class Monitor {
   std::map<std::string, ros::WallTime> last_logged_;      ///< guarded by stats_mutex_
   ros::WallTime log_window_start_;                        ///< guarded by stats_mutex_
   std::size_t logged_in_window_ = 0;                      ///< guarded by stats_mutex_
-  std::size_t not_logged_ = 0;  ///< rejections over the budget since the last line (stats_mutex_)
+  std::size_t not_logged_ = 0;   ///< rejections over the budget since the last line (stats_mutex_)
+  std::string last_not_logged_;  ///< the last of them (stats_mutex_)
   void disablePair(const std::string& a, const std::string& b, const std::string& reason);
   world::Settings settings_;  ///< guarded by world_mutex_ once the world model exists
   Limits limits_;

@@ -137,8 +137,9 @@ struct CycleResult {
   /// neither body moved since (num_pairs_cached).
   std::size_t num_broad_phase_pairs = 0;
   std::size_t num_pairs_cached = 0;
-  std::size_t num_unknown_pairs = 0;  ///< every UNKNOWN pair, listed or not
-  std::size_t num_part_checks = 0;    ///< convex part-pair GJK runs (<= parts_a * parts_b per pair)
+  std::size_t num_unknown_pairs =
+      0;                            ///< pairs with a stale body, listed or not (not failed queries)
+  std::size_t num_part_checks = 0;  ///< convex part-pair GJK runs (<= parts_a * parts_b per pair)
   /// Warm-start caches (208 bytes each) held over every tracked pair after this check: one per
   /// part pair, at most 4,096 a pair; for a pair of more part pairs, one per part pair queried
   /// since its caches were last dropped (when 4,096 are held).
@@ -257,13 +258,16 @@ class WorldModel {
   /// disabled pairs of that id are skipped ("that body, moved to `pose`"), unless `anonymous`
   /// (the id is only a label: no pair rule of it applies, but bodies off by default, SRDF
   /// <disable_default_collisions>, are skipped for it too). Status from the thresholds without
-  /// hysteresis. Empty when checkSpec(body) refuses it or the pose is not rigid. A tracked id's
-  /// own group applies as well as `body.group`. Bodies without a fresh pose (or whose query
-  /// failed) are UNKNOWN pairs, at most max_unknown_pairs of them; `num_unknown`, if given, gets
-  /// how many there are in all.
-  std::vector<PairResult> checkHypothetical(const BodySpec& body, const Transform3& pose,
-                                            double margin, Stamp now, bool anonymous = false,
-                                            std::size_t* num_unknown = nullptr) const;
+  /// hysteresis. nullopt with `why` set when checkSpec(body) refuses it or the pose is not rigid
+  /// (a finite pose composed with a finite frame may overflow): an empty answer would read as
+  /// "nothing near". A tracked id's own group applies as well as `body.group`. Bodies without a
+  /// fresh pose (or whose query failed) are UNKNOWN pairs, at most max_unknown_pairs of them;
+  /// `num_unknown`, if given, gets how many there are in all.
+  std::optional<std::vector<PairResult>> checkHypothetical(const BodySpec& body,
+                                                           const Transform3& pose, double margin,
+                                                           Stamp now, bool anonymous = false,
+                                                           std::size_t* num_unknown = nullptr,
+                                                           std::string* why = nullptr) const;
 
   /// Current pose of a body (fixed frame) if it has one.
   std::optional<Transform3> pose(const std::string& id) const;
