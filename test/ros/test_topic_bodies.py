@@ -95,7 +95,9 @@ class TopicBodies(unittest.TestCase):
         cls.static_tf.sendTransform([
             tf_transform('shelf_frame', stamp=rospy.Time(), xyz=(0.0, 5.0, 0.0)),
             tf_transform('turned_frame', stamp=rospy.Time(),
-                         q=(math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5)))])
+                         q=(math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))),
+            # far_frame: 1e308 m along x (a finite frame in which a finite pose overflows).
+            tf_transform('far_frame', stamp=rospy.Time(), xyz=(1e308, 0.0, 0.0))])
         cls.m = Monitor()
         cls.poses = PoseStreamer(cls.m.poses_pub, 'world', rate=20.0)
         # Two unit spheres 3 m apart.
@@ -376,6 +378,12 @@ class TopicBodies(unittest.TestCase):
             self.assertEqual(r.pairs, [])
             self.assertEqual(r.message, "body '%s' refused: the id is only white space"
                              % blank.replace('\t', '\\x09'))  # escaped, as every rejection
+        # So was a placement that overflows in the fixed frame: x = 1e308 in far_frame is 2e308 =
+        # inf in world.
+        far = sphere_body('probe', 0.5, frame='far_frame', pose_from_topic=False)
+        r = self.m.check_collision(far, pose(1e308, 0, 0), 10.0)
+        self.assertFalse(r.success)
+        self.assertEqual(r.message, "the pose in the fixed frame is not finite (or not rigid)")
         # Malformed request (a 2^31 dimensions claim in ~100 bytes): refused before deserialization
         # (no 16 GB allocation), with the reason; the service keeps answering.
         req = CheckCollisionRequest(body=sphere_body('probe', 0.5, frame='world',
