@@ -66,6 +66,14 @@ std::uint64_t orderedKey(int i, int j) {
   return i < j ? pairKey(i, j) : pairKey(j, i);
 }
 
+/// A lower bound on the distance between two balls (centres, radii): the centres' distance less
+/// the radii, or -inf (no bound) when norm(), which squares, overflows (centres 1e308 m apart: a
+/// pair skipped as beyond reach was reported CLEAR where its query fails).
+double ballGap(const Vec3& ca, double ra, const Vec3& cb, double rb) {
+  const double gap = (cb - ca).norm() - ra - rb;
+  return gap < kInf ? gap : -kInf;
+}
+
 bool validTransform(const Transform3& T) {
   return core::isValidRotation<3>(T.R) && core::allFinite(T.t);
 }
@@ -537,11 +545,8 @@ struct WorldModel::Impl {
       if (abandoned.load(std::memory_order_relaxed)) return abandon();
       for (std::size_t j = 0; j < nb; ++j) {
         const double gap = A.part_boxes[i].distance(B.part_boxes[j]);
-        double sphere =
-            (B.part_centres[j] - A.part_centres[i]).norm() - A.part_radii[i] - B.part_radii[j];
-        // norm() squares: centres 1e308 m apart give +inf, no bound at all (the pair was skipped
-        // as beyond reach and reported CLEAR; its query fails, so it is UNKNOWN).
-        if (!(sphere < kInf)) sphere = gap > 0.0 ? gap : -kInf;
+        const double sphere =
+            ballGap(A.part_centres[i], A.part_radii[i], B.part_centres[j], B.part_radii[j]);
         const double lb = gap > 0.0 ? std::max(gap, sphere) : sphere;
         if (lb > cutoff) {
           skipped = std::min(skipped, lb);
@@ -730,9 +735,8 @@ struct WorldModel::Impl {
       for (std::size_t i = 0; i < A.spec.parts.size(); ++i) {
         for (std::size_t j = 0; j < B.spec.parts.size(); ++j) {
           const double bound = speed + spin_a[i] + spin_b[j];  // any point pair's closing speed
-          double gap =
-              (b_at.centres[j] - a_at.centres[i]).norm() - A.part_radii[i] - B.part_radii[j];
-          if (!(gap < kInf)) gap = -kInf;  // norm() overflowed: no bound (as in narrowPhase)
+          const double gap =
+              ballGap(a_at.centres[i], A.part_radii[i], b_at.centres[j], B.part_radii[j]);
           if (!(bound > 0.0) || (gap - c) / bound >= step) continue;
           if (abandoned.load(std::memory_order_relaxed)) return kInf;
           const core::ContactResult x = narrow->signedDistance(

@@ -137,8 +137,8 @@ struct CycleResult {
   /// neither body moved since (num_pairs_cached).
   std::size_t num_broad_phase_pairs = 0;
   std::size_t num_pairs_cached = 0;
-  std::size_t num_unknown_pairs =
-      0;                            ///< pairs with a stale body, listed or not (not failed queries)
+  /// Pairs with a stale body, listed or not (pairs whose query failed are not counted).
+  std::size_t num_unknown_pairs = 0;
   std::size_t num_part_checks = 0;  ///< convex part-pair GJK runs (<= parts_a * parts_b per pair)
   /// Warm-start caches (208 bytes each) held over every tracked pair after this check: one per
   /// part pair, at most 4,096 a pair; for a pair of more part pairs, one per part pair queried
