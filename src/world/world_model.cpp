@@ -18,6 +18,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <deque>
 #include <iterator>
 #include <sstream>
 #include <tuple>
@@ -133,34 +134,17 @@ struct Narrow {
   int gjk_runs = 0;
 };
 
-/// A body in its slot, with its placement in the fixed frame.
-struct BodyState {
-  // Hot fields first (read for every slot each cycle), the rest after.
-  bool used = false;
-  bool has_pose = false;
-  bool unresolved = false;
-  bool fresh = false;       ///< fresh at the last check()
-  bool fresh_prev = false;  ///< fresh at the check() before (and existed)
-  bool was_active = false;  ///< in the broad phase of the last check()
-  bool has_twist = false;
-  int group = 0;  ///< dense id of spec.group, 0 = none
-  Stamp stamp;    ///< isStatic(): a static pose
-  /// The time freshness is judged from: `stamp`, or when it came, if earlier (setPose).
-  Stamp fresh_from;
-  /// Bumped whenever the pose or the geometry changes: a pair result computed at the same
-  /// versions of both bodies is still exact.
-  std::uint64_t version = 0;
-  std::uint64_t swept_version = 0;  ///< version in the broad phase of the last check()
-  Transform3 pose = Transform3::Identity();
-  Twist twist;
-  core::Aabb box;  ///< union of part boxes, fixed frame
-  BodySpec spec;
-  std::vector<core::Aabb> part_boxes;  ///< fixed frame
-  std::vector<Transform3> part_poses;  ///< part frame -> fixed frame
-  std::vector<Vec3> part_centres;      ///< the cores' origins (ConvexShape::offset()), fixed frame
-  std::vector<double> part_radii;      ///< bounding radius about the part's centre, m
+/// A body's parts placed in the fixed frame at one pose of the body.
+struct Placement {
+  Transform3 pose = Transform3::Identity();  ///< body frame -> fixed frame
+  core::Aabb box;                            ///< union of part boxes, fixed frame
+  std::vector<core::Aabb> part_boxes;        ///< fixed frame
+  std::vector<Transform3> part_poses;        ///< part frame -> fixed frame
+  std::vector<Vec3> part_centres;  ///< the cores' origins (ConvexShape::offset()), fixed frame
+  std::vector<double> part_radii;  ///< bounding radius about the part's centre, m
 
-  void place() {
+  void place(const BodySpec& spec, const Transform3& at) {
+    pose = at;
     const std::size_t n = spec.parts.size();
     part_boxes.resize(n);
     part_poses.resize(n);
@@ -175,11 +159,151 @@ struct BodyState {
       box.extend(part_boxes[i]);
     }
   }
+};
+
+/// A timed pose a body had.
+struct StampedPose {
+  Stamp stamp;
+  Transform3 pose;
+};
+
+/// The pose between two of a body's poses at share `s` (0: `a`, 1: `b`): translation linear,
+/// rotation along the shortest arc (slerp).
+Transform3 interpolate(const Transform3& a, const Transform3& b, double s) {
+  Transform3 out;
+  out.t = a.t + s * (b.t - a.t);
+  const Eigen::Quaterniond qa(a.R), qb(b.R);
+  out.R = qa.slerp(s, qb).normalized().toRotationMatrix();
+  return out;
+}
+
+/// How far a point at distance `r` from a body's origin can leave the box of its positions at
+/// two poses while the body is interpolated between them (rotation by `angle` rad along the
+/// shortest arc, translation linear): the arc's sagitta r (1 - cos(angle / 2)), bounded by r.
+double arcBulge(double r, double angle) {
+  return r * (1.0 - std::cos(std::min(angle, M_PI) / 2.0));
+}
+
+/// The angle (rad, in [0, pi]) of the rotation from `a` to `b`.
+double rotationAngle(const core::Mat3& a, const core::Mat3& b) {
+  const double c = ((a.transpose() * b).trace() - 1.0) / 2.0;
+  return std::acos(std::clamp(c, -1.0, 1.0));
+}
+
+/// A body in its slot, with its placement in the fixed frame.
+struct BodyState {
+  // Hot fields first (read for every slot each cycle), the rest after.
+  bool used = false;
+  bool has_pose = false;
+  bool unresolved = false;
+  bool fresh = false;       ///< fresh at the last check()
+  bool fresh_prev = false;  ///< fresh at the check() before (and existed)
+  bool was_active = false;  ///< in the broad phase of the last check()
+  bool has_twist = false;
+  bool swept = false;  ///< its broad-phase box spans poses before the held one (check())
+  int group = 0;       ///< dense id of spec.group, 0 = none
+  Stamp stamp;         ///< isStatic(): a static pose
+  /// The time freshness is judged from: `stamp`, or when it came, if earlier (setPose).
+  Stamp fresh_from;
+  /// The stamp from which the held pose has been held (the first of its poses in `history` that
+  /// is the held pose); zero when that is all of `history` (or the pose is static): the body is
+  /// still, as far as its history tells.
+  Stamp held_since;
+  /// Bumped whenever the pose or the geometry changes: a pair result computed at the same
+  /// versions of both bodies is still exact.
+  std::uint64_t version = 0;
+  std::uint64_t swept_version = 0;  ///< version in the broad phase of the last check()
+  Placement at;                     ///< at the held (latest) pose
+  Twist twist;
+  BodySpec spec;
+  /// The timed poses of the last pose_timeout, oldest first, the held one last (at most
+  /// kMaxHistory, and one older than pose_timeout so that its start is covered): where the body
+  /// was at an older stamp (poseAt()).
+  std::deque<StampedPose> history;
+
+  void place() { at.place(spec, at.pose); }
   bool isFresh(Stamp now, double timeout) const {
     if (!has_pose || unresolved) return false;
     if (stamp.isStatic()) return true;
     return now - fresh_from <= timeout;
   }
+  /// Its pose changed within its history.
+  bool moving() const { return !held_since.isStatic(); }
+  /// Whether the history places the body elsewhere at `t` than at its held pose: it moved after
+  /// `t`, and `t` is within the history (before it, nothing is known: the held pose stands).
+  bool elsewhereAt(Stamp t) const { return t < held_since && history.front().stamp <= t; }
+  /// The body's pose at `t` from its history: between two of its poses, interpolated; the held
+  /// pose unless elsewhereAt(t).
+  Transform3 poseAt(Stamp t) const {
+    if (!elsewhereAt(t)) return at.pose;
+    auto next = std::upper_bound(history.begin(), history.end(), t,
+                                 [](Stamp x, const StampedPose& p) { return x < p.stamp; });
+    // history.front().stamp <= t < held_since <= stamp: `next` is neither end.
+    const StampedPose& before = *std::prev(next);
+    return interpolate(before.pose, next->pose, (t - before.stamp) / (next->stamp - before.stamp));
+  }
+  /// Keeps the held pose (`at.pose`, timed `stamp`) in the history, whose poses older than
+  /// `keep` s before it go but the newest of them.
+  void remember(bool moved, double keep) {
+    if (stamp.isStatic()) {
+      forget();
+      return;
+    }
+    if (!history.empty() && history.back().stamp == stamp) {
+      history.back().pose = at.pose;  // the same time again: this pose replaces it
+      if (moved) held_since = history.size() > 1 ? stamp : Stamp();
+    } else {
+      history.push_back(StampedPose{stamp, at.pose});
+      if (moved && history.size() > 1) held_since = stamp;
+    }
+    while (history.size() > kMaxHistory || (history.size() > 1 && stamp - history[1].stamp > keep))
+      history.pop_front();
+    if (held_since <= history.front().stamp) held_since = Stamp();
+  }
+  void forget() {
+    history.clear();
+    held_since = Stamp();
+  }
+  /// The farthest a point of the body is from its origin, m.
+  double reachFromOrigin() const {
+    double r = 0.0;
+    for (std::size_t i = 0; i < at.part_centres.size(); ++i)
+      r = std::max(r, (at.part_centres[i] - at.pose.t).norm() + at.part_radii[i]);
+    return r;
+  }
+  /// Whether poseAt() places the body elsewhere than its held pose at some time from `t` on.
+  bool sweeps(Stamp t) const { return moving() && std::max(t, history.front().stamp) < held_since; }
+  /// The box of every place poseAt() gives the body at `t` or later.
+  core::Aabb sweptBox(Stamp t) const {
+    core::Aabb out = at.box;
+    if (!sweeps(t)) return out;
+    t = std::max(t, history.front().stamp);
+    const double r = reachFromOrigin();
+    Placement scratch;
+    Transform3 prev = poseAt(t);
+    scratch.place(spec, prev);
+    core::Aabb step = scratch.box;
+    auto next = std::upper_bound(history.begin(), history.end(), t,
+                                 [](Stamp x, const StampedPose& p) { return x < p.stamp; });
+    for (; next != history.end(); ++next) {
+      const Transform3& pose = next->pose;  // the last one is the held pose
+      scratch.place(spec, pose);
+      core::Aabb both = step;
+      both.extend(scratch.box);
+      out.extend(both.inflated(arcBulge(r, rotationAngle(prev.R, pose.R))));
+      step = scratch.box;
+      prev = pose;
+    }
+    return out;
+  }
+
+  static constexpr std::size_t kMaxHistory = 64;
+};
+
+/// A body's geometry at one placement: its held one, or one at an older stamp (placedAt()).
+struct Placed {
+  const BodyState& body;
+  const Placement& at;
 };
 
 /// A body's part poses and centres (fixed frame) after `t` seconds under a constant twist (angular
@@ -188,17 +312,18 @@ struct MovedParts {
   std::vector<Transform3> poses;
   std::vector<Vec3> centres;
 
-  void place(const BodyState& S, const Twist& motion, double t) {
+  void place(const Placed& S, const Twist& motion, double t) {
     const double angle = motion.angular.norm() * t;
-    Transform3 pose = S.pose;
+    Transform3 pose = S.at.pose;
     pose.t += t * motion.linear;
-    if (angle > 0.0) pose.R = Eigen::AngleAxisd(angle, motion.angular.normalized()) * S.pose.R;
-    const std::size_t n = S.spec.parts.size();
+    if (angle > 0.0) pose.R = Eigen::AngleAxisd(angle, motion.angular.normalized()) * S.at.pose.R;
+    const BodySpec& spec = S.body.spec;
+    const std::size_t n = spec.parts.size();
     poses.resize(n);
     centres.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
-      poses[i] = pose * S.spec.parts[i].pose;
-      centres[i] = poses[i] * S.spec.parts[i].shape.offset();
+      poses[i] = pose * spec.parts[i].pose;
+      centres[i] = poses[i] * spec.parts[i].shape.offset();
     }
   }
 };
@@ -320,6 +445,7 @@ struct PairEntry {
   bool has_result = false;
   std::uint64_t version_a = 0;
   std::uint64_t version_b = 0;
+  Stamp aligned_at;  ///< the pair's time the result is of, when a body moved after it (pairTime())
   double cutoff_used = 0.0;
   Narrow result;
   PartCaches caches;
@@ -362,6 +488,7 @@ struct WorldModel::Impl {
     double lower;  ///< the distance is at least this: box gap (-inf: boxes touch), or a GJK cutoff
                    ///< it exceeded
     double exact;  ///< NaN while unknown
+    Stamp at;      ///< the pair's time `lower` and `exact` are of (pairTime())
   };
   HashGrid far_grid;
   double far_margin = 0.0;
@@ -386,7 +513,8 @@ struct WorldModel::Impl {
     int j;
   };
   mutable std::vector<PartPair> part_pairs;
-  std::atomic<bool> abandoned{false};  ///< abandonChecks(): from another thread
+  mutable Placement scratch_a, scratch_b;  ///< placedPair()'s bodies taken back in time
+  std::atomic<bool> abandoned{false};      ///< abandonChecks(): from another thread
 
   /// The pairs that may collide (allowed()) with at least one stale body, counted without
   /// visiting them: every pair with a stale body, less those sharing a group, less the disabled
@@ -529,11 +657,10 @@ struct WorldModel::Impl {
   /// in increasing order of a lower bound on their signed distance (box gap when the boxes are
   /// apart, bounding-sphere gap otherwise); the loop stops once the bound passes the best found
   /// or `cutoff`. `caches` may be null.
-  Narrow narrowPhase(const BodyState& A, const BodyState& B, double cutoff,
-                     PartCaches* caches) const {
+  Narrow narrowPhase(const Placed& A, const Placed& B, double cutoff, PartCaches* caches) const {
     Narrow out;
-    const std::size_t na = A.spec.parts.size();
-    const std::size_t nb = B.spec.parts.size();
+    const std::size_t na = A.body.spec.parts.size();
+    const std::size_t nb = B.body.spec.parts.size();
     part_pairs.clear();
     double skipped = kInf;  // the smallest lower bound of the part pairs left out
     const auto abandon = [&] {
@@ -544,9 +671,9 @@ struct WorldModel::Impl {
     for (std::size_t i = 0; i < na; ++i) {
       if (abandoned.load(std::memory_order_relaxed)) return abandon();
       for (std::size_t j = 0; j < nb; ++j) {
-        const double gap = A.part_boxes[i].distance(B.part_boxes[j]);
-        const double sphere =
-            ballGap(A.part_centres[i], A.part_radii[i], B.part_centres[j], B.part_radii[j]);
+        const double gap = A.at.part_boxes[i].distance(B.at.part_boxes[j]);
+        const double sphere = ballGap(A.at.part_centres[i], A.at.part_radii[i],
+                                      B.at.part_centres[j], B.at.part_radii[j]);
         const double lb = gap > 0.0 ? std::max(gap, sphere) : sphere;
         if (lb > cutoff) {
           skipped = std::min(skipped, lb);
@@ -564,8 +691,8 @@ struct WorldModel::Impl {
       if (abandoned.load(std::memory_order_relaxed)) return abandon();
       core::PairCache* cache = caches ? caches->get(pp.i * nb + pp.j, na * nb) : nullptr;
       const core::ContactResult r =
-          narrow->signedDistance(A.spec.parts[pp.i].shape, A.part_poses[pp.i],
-                                 B.spec.parts[pp.j].shape, B.part_poses[pp.j], cache);
+          narrow->signedDistance(A.body.spec.parts[pp.i].shape, A.at.part_poses[pp.i],
+                                 B.body.spec.parts[pp.j].shape, B.at.part_poses[pp.j], cache);
       ++out.gjk_runs;
       if (!std::isfinite(r.distance)) {
         // A failed query poisons the pair: UNKNOWN, never CLEAR. Shapes have finite distances;
@@ -596,7 +723,7 @@ struct WorldModel::Impl {
     const double gap = boxes[i].distance(boxes[j]);
     if (gap > far_margin) return;
     out->push_back(FarPair{orderedKey(i, j), gap > 0.0 ? gap : -kInf,
-                           std::numeric_limits<double>::quiet_NaN()});
+                           std::numeric_limits<double>::quiet_NaN(), pairTime(i, j)});
   }
 
   /// far_pairs of this cycle while far_active: the pairs of two unmoved fresh bodies from the
@@ -627,6 +754,13 @@ struct WorldModel::Impl {
       far_margin = std::max(far_margin, 2.0 * reach);
       rebuildFar();
     }
+    for (FarPair& p : far_pairs) {
+      const Stamp at = pairTime(keyLo(p.key), keyHi(p.key));
+      if (p.at == at) continue;
+      // Another time than its distance's (a stamp changed, not a box): only the box gap holds.
+      const double gap = boxes[keyLo(p.key)].distance(boxes[keyHi(p.key)]);
+      p = FarPair{p.key, gap > 0.0 ? gap : -kInf, std::numeric_limits<double>::quiet_NaN(), at};
+    }
     for (;;) {
       for (const FarPair& p : far_pairs) {
         if (p.exact < best) best = p.exact;  // NaN: false
@@ -640,7 +774,7 @@ struct WorldModel::Impl {
       for (int k : far_order) {
         FarPair& p = far_pairs[k];
         if (p.lower >= best) break;
-        const Narrow n = narrowPhase(bodies[keyLo(p.key)], bodies[keyHi(p.key)], best, nullptr);
+        const Narrow n = narrowPhase(keyLo(p.key), keyHi(p.key), best, nullptr);
         ++res->num_pairs_checked;
         res->num_part_checks += static_cast<std::size_t>(n.gjk_runs);
         if (!n.exact) {
@@ -704,21 +838,21 @@ struct WorldModel::Impl {
   /// time: the time is exact, and bodies that pass each other get +inf. With one the bound is
   /// loose and the steps shorter: a contact later than settings.ttc_horizon is +inf, and after
   /// kMaxSteps the time reached is returned (a lower bound: the contact is no earlier).
-  double timeToCollisionOf(const BodyState& A, const BodyState& B, const PairResult& r) const {
+  double timeToCollisionOf(const Placed& A, const Placed& B, const PairResult& r) const {
     const double c = settings.contact_distance;
     if (!std::isfinite(r.distance)) return kInf;
     if (r.distance <= c) return 0.0;
-    if (!A.has_twist && !B.has_twist) return kInf;
-    const Twist ta = A.has_twist ? A.twist : Twist();
-    const Twist tb = B.has_twist ? B.twist : Twist();
+    if (!A.body.has_twist && !B.body.has_twist) return kInf;
+    const Twist ta = A.body.has_twist ? A.body.twist : Twist();
+    const Twist tb = B.body.has_twist ? B.body.twist : Twist();
     const Vec3 w = tb.linear - ta.linear;
     const double speed = w.norm();
     // Per part: its angular speed times its bounding radius about the body's origin.
-    const auto spins = [](const BodyState& S, const Twist& tw) {
-      std::vector<double> out(S.spec.parts.size());
+    const auto spins = [](const Placed& S, const Twist& tw) {
+      std::vector<double> out(S.body.spec.parts.size());
       const double omega = tw.angular.norm();
       for (std::size_t i = 0; i < out.size(); ++i)
-        out[i] = omega * ((S.part_centres[i] - S.pose.t).norm() + S.part_radii[i]);
+        out[i] = omega * ((S.at.part_centres[i] - S.at.pose.t).norm() + S.at.part_radii[i]);
       return out;
     };
     const std::vector<double> spin_a = spins(A, ta);
@@ -732,15 +866,16 @@ struct WorldModel::Impl {
       a_at.place(A, ta, t);
       b_at.place(B, tb, t);
       double step = kInf;
-      for (std::size_t i = 0; i < A.spec.parts.size(); ++i) {
-        for (std::size_t j = 0; j < B.spec.parts.size(); ++j) {
+      for (std::size_t i = 0; i < A.body.spec.parts.size(); ++i) {
+        for (std::size_t j = 0; j < B.body.spec.parts.size(); ++j) {
           const double bound = speed + spin_a[i] + spin_b[j];  // any point pair's closing speed
           const double gap =
-              ballGap(a_at.centres[i], A.part_radii[i], b_at.centres[j], B.part_radii[j]);
+              ballGap(a_at.centres[i], A.at.part_radii[i], b_at.centres[j], B.at.part_radii[j]);
           if (!(bound > 0.0) || (gap - c) / bound >= step) continue;
           if (abandoned.load(std::memory_order_relaxed)) return kInf;
-          const core::ContactResult x = narrow->signedDistance(
-              A.spec.parts[i].shape, a_at.poses[i], B.spec.parts[j].shape, b_at.poses[j], nullptr);
+          const core::ContactResult x =
+              narrow->signedDistance(A.body.spec.parts[i].shape, a_at.poses[i],
+                                     B.body.spec.parts[j].shape, b_at.poses[j], nullptr);
           if (!std::isfinite(x.distance)) return t;  // the bound so far
           if (x.distance - c <= kTolerance) return t;
           const double mu = -w.dot(x.normal) + spin_a[i] + spin_b[j];
@@ -764,7 +899,10 @@ struct WorldModel::Impl {
       r.point_a = n.point_a;
       r.point_b = n.point_b;
       r.normal = n.normal;
-      if (n.exact) r.time_to_collision = timeToCollisionOf(bodies[a], bodies[b], r);
+      if (n.exact) {
+        const auto [A, B] = placedPair(a, b, pairTime(a, b));
+        r.time_to_collision = timeToCollisionOf(A, B, r);
+      }
     }
     // Report in id order so that a pair always reads the same way.
     if (r.body_b < r.body_a) flipPair(&r);
@@ -778,23 +916,25 @@ struct WorldModel::Impl {
   const Narrow* exactResult(int a, int b, PairEntry* e, std::size_t* part_checks) const {
     const BodyState& A = bodies[a];
     const BodyState& B = bodies[b];
+    const Stamp at = pairTime(a, b);
     if (e->has_result && e->result.exact && e->version_a == A.version &&
-        e->version_b == B.version) {
+        e->version_b == B.version && e->aligned_at == at) {
       return &e->result;
     }
-    const Narrow n = narrowPhase(A, B, kInf, &e->caches);
+    const Narrow n = narrowPhase(a, b, kInf, &e->caches);
     *part_checks += static_cast<std::size_t>(n.gjk_runs);
     if (!std::isfinite(n.distance)) return nullptr;
-    store(e, n, A, B, kInf);
+    store(e, n, A, B, at, kInf);
     return &e->result;
   }
 
-  /// Keeps `n` as the entry's result for the bodies' current versions.
-  static void store(PairEntry* e, const Narrow& n, const BodyState& A, const BodyState& B,
+  /// Keeps `n` as the entry's result for the bodies' current versions at pair time `at`.
+  static void store(PairEntry* e, const Narrow& n, const BodyState& A, const BodyState& B, Stamp at,
                     double cutoff) {
     e->result = n;
     e->version_a = A.version;
     e->version_b = B.version;
+    e->aligned_at = at;
     e->cutoff_used = cutoff;
     e->has_result = true;
   }
@@ -806,6 +946,39 @@ struct WorldModel::Impl {
     r.status = PairStatus::Unknown;
     if (r.body_b < r.body_a) std::swap(r.body_a, r.body_b);
     return r;
+  }
+
+  /// The time pair (a, b) is checked at when a body of it has to be taken back to it
+  /// (align_poses): the older of its two timed stamps, when the body of that one is moving and
+  /// the other's history places it elsewhere then; zero when each is checked at its held pose
+  /// (a static pose holds at any time, and a body still as far as it is known is taken to be
+  /// there since: an obstacle posed once is not met by the robot of its time).
+  Stamp pairTime(int a, int b) const {
+    if (!settings.align_poses) return Stamp();
+    const BodyState& A = bodies[a];
+    const BodyState& B = bodies[b];
+    if (A.stamp.isStatic() || B.stamp.isStatic() || A.stamp == B.stamp) return Stamp();
+    const BodyState& older = A.stamp < B.stamp ? A : B;
+    const BodyState& newer = A.stamp < B.stamp ? B : A;
+    return older.moving() && newer.elsewhereAt(older.stamp) ? older.stamp : Stamp();
+  }
+
+  /// Body `slot` at pair time `t` (pairTime()): its held placement, or `scratch` placed at its
+  /// pose at `t` when it moved after it.
+  Placed placedAt(int slot, Stamp t, Placement* scratch) const {
+    const BodyState& b = bodies[slot];
+    if (t.isStatic() || !b.elsewhereAt(t)) return Placed{b, b.at};
+    scratch->place(b.spec, b.poseAt(t));
+    return Placed{b, *scratch};
+  }
+  /// Pair (a, b) at pair time `t`; valid until the next call.
+  std::pair<Placed, Placed> placedPair(int a, int b, Stamp t) const {
+    return {placedAt(a, t, &scratch_a), placedAt(b, t, &scratch_b)};
+  }
+  /// narrowPhase() of pair (a, b) at its pair time.
+  Narrow narrowPhase(int a, int b, double cutoff, PartCaches* caches) const {
+    const auto [A, B] = placedPair(a, b, pairTime(a, b));
+    return narrowPhase(A, B, cutoff, caches);
   }
 
   /// Stamp of the poses a pair's verdict was computed from: the older non-static stamp, else
@@ -945,9 +1118,10 @@ std::string WorldModel::addBody(BodySpec spec) {
       b.has_twist = false;
       b.stamp = Stamp();
       b.fresh_from = Stamp();
-      b.box = core::Aabb();
+      b.at.box = core::Aabb();
+      b.forget();
     }
-    m.boxes[slot] = b.box;
+    m.boxes[slot] = b.at.box;
     for (auto& kv : m.pairs) {
       if (keyLo(kv.first) == slot || keyHi(kv.first) == slot) {
         kv.second.caches.clear();
@@ -974,7 +1148,7 @@ std::string WorldModel::addBody(BodySpec spec) {
   b.used = true;
   b.spec = std::move(spec);
   b.group = m.groupId(b.spec.group);
-  m.boxes[slot] = b.box;
+  m.boxes[slot] = b.at.box;
   m.slot_of.emplace(b.spec.id, slot);
   m.fast_slot_of.insert(b.spec.id, slot);
   ++m.count;
@@ -1083,7 +1257,8 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
   // Out of order: only between two timed stamps. A static pose (stamp <= 0) always applies,
   // and any timed pose may follow a static one.
   if (b.has_pose && !stamp.isStatic() && !b.stamp.isStatic() && stamp < b.stamp) return false;
-  const bool moved = !b.has_pose || !(b.pose.R == pose.R) || !(b.pose.t == pose.t);
+  const bool moved = !b.has_pose || !(b.at.pose.R == pose.R) || !(b.at.pose.t == pose.t);
+  if (!b.has_pose || b.stamp.isStatic()) b.forget();  // a first timed pose starts its history
   b.has_pose = true;
   b.unresolved = false;
   b.stamp = stamp;
@@ -1091,11 +1266,10 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
   b.has_twist = twist.has_value();
   b.twist = twist ? *twist : Twist();
   if (moved) {
-    b.pose = pose;
     ++b.version;
-    b.place();
-    m.boxes[slot] = b.box;
+    b.at.place(b.spec, pose);  // the broad phase's box follows in check()
   }
+  b.remember(moved, settings_.pose_timeout);
   return true;
 }
 
@@ -1113,6 +1287,7 @@ void WorldModel::clearPoses() {
     b.stamp = Stamp();
     b.fresh_from = Stamp();
     b.has_twist = false;
+    b.forget();
   }
 }
 
@@ -1134,7 +1309,8 @@ CycleResult WorldModel::check(Stamp now) {
   // below 0) would drop every pair, the overlapping ones too (COLLISION_END while nothing moved).
   const double reach = std::max(0.0, clearCutoffAny(s));
   m.grid.setMargin(reach);
-  std::optional<Stamp> oldest;  // of the timed poses
+  std::optional<Stamp> oldest;         // of the timed poses
+  std::optional<Stamp> oldest_moving;  // of those of a moving body (BodyState::moving())
   // The clock went back (a little: further, the node forgets every pose): a pose that arrived
   // after `now` ages from now. From its arrival it stayed fresh for as long again as the jump.
   const bool clock_back = m.last_check_now && now < *m.last_check_now;
@@ -1147,23 +1323,40 @@ CycleResult WorldModel::check(Stamp now) {
     b.fresh = b.isFresh(now, s.pose_timeout);
     if (b.fresh) {
       m.active.push_back(slot);
-      if (!b.stamp.isStatic()) oldest = oldest ? std::min(*oldest, b.stamp) : b.stamp;
-      if (!b.was_active || b.swept_version != b.version || m.sweep_all) {
-        m.moved[slot] = 1;
-        m.moved_list.push_back(slot);
-        m.grid.set(slot, m.boxes[slot]);
-        if (m.far_active) m.far_grid.set(slot, m.boxes[slot]);
+      if (!b.stamp.isStatic()) {
+        oldest = oldest ? std::min(*oldest, b.stamp) : b.stamp;
+        if (b.moving()) oldest_moving = oldest_moving ? std::min(*oldest_moving, b.stamp) : b.stamp;
       }
     } else {
       m.stale.push_back(slot);
       if (b.was_active) m.grid.remove(slot);
       if (m.far_active) m.far_grid.remove(slot);
+      b.was_active = false;
+      b.swept = false;
+      b.swept_version = b.version;
     }
-    b.was_active = b.fresh;
+  }
+  res.stamp = oldest.value_or(now);
+  // A body elsewhere at the oldest stamp of a moving body is boxed over every place it was
+  // since: a pair of such a stamp takes it back there (pairTime()).
+  const Stamp earliest = s.align_poses && oldest_moving ? *oldest_moving : Stamp();
+  for (int slot : m.active) {
+    BodyState& b = m.bodies[slot];
+    const bool swept = !earliest.isStatic() && !b.stamp.isStatic() && b.sweeps(earliest);
+    const core::Aabb box = swept ? b.sweptBox(earliest) : b.at.box;
+    if (!b.was_active || b.swept_version != b.version || m.sweep_all ||
+        ((b.swept || swept) && !(box.min == m.boxes[slot].min && box.max == m.boxes[slot].max))) {
+      m.boxes[slot] = box;
+      m.moved[slot] = 1;
+      m.moved_list.push_back(slot);
+      m.grid.set(slot, m.boxes[slot]);
+      if (m.far_active) m.far_grid.set(slot, m.boxes[slot]);
+    }
+    b.swept = swept;
+    b.was_active = true;
     b.swept_version = b.version;
   }
   m.sweep_all = false;
-  res.stamp = oldest.value_or(now);
 
   m.refreshRanks();
   m.pair_keys.clear();
@@ -1201,12 +1394,13 @@ CycleResult WorldModel::check(Stamp now) {
     PairEntry& e = m.pairs[key];
     e.last_seen = cycle;
     const double cutoff = clearCutoff(e.status, s);
+    const Stamp at = m.pairTime(a, b);
     const bool reusable = e.has_result && e.version_a == A.version && e.version_b == B.version &&
-                          (e.result.exact || e.cutoff_used >= cutoff);
+                          e.aligned_at == at && (e.result.exact || e.cutoff_used >= cutoff);
     if (reusable) {
       ++res.num_pairs_cached;
     } else {
-      Impl::store(&e, m.narrowPhase(A, B, cutoff, &e.caches), A, B, cutoff);
+      Impl::store(&e, m.narrowPhase(a, b, cutoff, &e.caches), A, B, at, cutoff);
       ++res.num_pairs_checked;
       res.num_part_checks += static_cast<std::size_t>(e.result.gjk_runs);
     }
@@ -1372,7 +1566,7 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
   const BodyState& B = m.bodies[ib->second];
   if (!A.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ia->second, now));
   if (!B.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ib->second, now));
-  const Narrow n = m.narrowPhase(A, B, kInf, nullptr);
+  const Narrow n = m.narrowPhase(ia->second, ib->second, kInf, nullptr);
   if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
   // UNKNOWN in check() too; a NaN distance with success would read as an answer.
   if (std::isnan(n.distance)) return fail("the query between '" + a + "' and '" + b + "' failed");
@@ -1411,7 +1605,8 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
       stale.push_back(o);
       continue;
     }
-    const double gap = A.box.distance(O.box);
+    const auto [pa, po] = m.placedPair(sa, o, m.pairTime(sa, o));  // as the pair is checked
+    const double gap = pa.at.box.distance(po.at.box);
     order.emplace_back(gap > 0.0 ? gap : -kInf, o);
   }
   if (!stale.empty()) {
@@ -1427,7 +1622,7 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   Narrow best;
   for (const auto& [lb, o] : order) {
     if (best_slot >= 0 && lb >= best.distance) break;
-    const Narrow n = m.narrowPhase(A, m.bodies[o], kInf, nullptr);
+    const Narrow n = m.narrowPhase(sa, o, kInf, nullptr);
     if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
     if (std::isnan(n.distance)) {
       // A failed query may hide the nearest, as a stale pose does (the pair is UNKNOWN in
@@ -1477,9 +1672,8 @@ std::optional<std::vector<PairResult>> WorldModel::checkHypothetical(
   if (std::isnan(margin)) margin = 0.0;
   BodyState H;
   H.spec = body;
-  H.pose = pose;
   H.has_pose = true;
-  H.place();
+  H.at.place(H.spec, pose);
   // Report every body closer than `margin`, and every one in COLLISION whatever the margin; a body
   // without a fresh pose (or whose query failed) as UNKNOWN, as in ~state: never left out as if
   // clear. UNKNOWN pairs sort last (distance +inf).
@@ -1501,8 +1695,9 @@ std::optional<std::vector<PairResult>> WorldModel::checkHypothetical(
       addUnknown(O);
       continue;
     }
-    if (H.box.distance(O.box) > std::max(0.0, reach)) continue;  // never negative, as in check()
-    const Narrow n = m.narrowPhase(H, O, reach, nullptr);
+    // Every body at its held pose: the hypothetical one has no time.
+    if (H.at.box.distance(O.at.box) > std::max(0.0, reach)) continue;  // never negative
+    const Narrow n = m.narrowPhase(Placed{H, H.at}, Placed{O, O.at}, reach, nullptr);
     if (n.exact && std::isnan(n.distance)) {
       addUnknown(O);
       continue;
@@ -1516,7 +1711,7 @@ std::optional<std::vector<PairResult>> WorldModel::checkHypothetical(
     r.point_a = n.point_a;
     r.point_b = n.point_b;
     r.normal = n.normal;
-    r.time_to_collision = m.timeToCollisionOf(H, O, r);
+    r.time_to_collision = m.timeToCollisionOf(Placed{H, H.at}, Placed{O, O.at}, r);
     out.push_back(std::move(r));
   }
   std::sort(out.begin(), out.end(), [](const PairResult& x, const PairResult& y) {
@@ -1529,7 +1724,7 @@ std::optional<std::vector<PairResult>> WorldModel::checkHypothetical(
 std::optional<Transform3> WorldModel::pose(const std::string& id) const {
   auto it = impl_->slot_of.find(id);
   if (it == impl_->slot_of.end() || !impl_->bodies[it->second].has_pose) return std::nullopt;
-  return impl_->bodies[it->second].pose;
+  return impl_->bodies[it->second].at.pose;
 }
 
 const BodySpec* WorldModel::body(const std::string& id) const {

@@ -119,6 +119,12 @@ struct Settings {
   /// CycleResult::min_distance over every pair however far (true), or only over the pairs within
   /// max(warning, contact) + hysteresis, +inf beyond (false: no search past the broad phase).
   bool exact_min_distance = true;
+  /// Each pair at one time (true): of two timed poses of different stamps, the body with the
+  /// newer one is taken back to the older stamp along its recent poses (interpolated: translation
+  /// linear, rotation along the shortest arc), so the verdict is the pair's at the stamp it
+  /// carries. false: each body at its held (latest) pose, which mixes times when the sources'
+  /// rates or lags differ.
+  bool align_poses = true;
 };
 
 /// Everything one check cycle produced.
