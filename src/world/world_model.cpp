@@ -497,6 +497,34 @@ struct WorldModel::Impl {
   std::vector<FarPair> far_next;
   std::vector<int> far_order;
 
+  /// CycleResult::stamp: the oldest pairStamp() over the pairs of fresh bodies (`oldest`, the
+  /// oldest timed stamp, without align_poses or when nothing sooner is found).
+  Stamp cycleStamp(Stamp oldest) const {
+    if (!settings.align_poses) return oldest;
+    std::optional<Stamp> moving, still[2];  // the oldest moving stamp, the two oldest still ones
+    bool fixed = false;                     // a fresh static pose
+    for (int slot : active) {
+      const BodyState& b = bodies[slot];
+      if (b.stamp.isStatic()) {
+        fixed = true;
+      } else if (b.moving()) {
+        moving = moving ? std::min(*moving, b.stamp) : b.stamp;
+      } else if (!still[0] || b.stamp < *still[0]) {
+        still[1] = still[0];
+        still[0] = b.stamp;
+      } else if (!still[1] || b.stamp < *still[1]) {
+        still[1] = b.stamp;
+      }
+    }
+    // Pairs of a moving body carry its stamp or a later one; of two still ones, the later; of a
+    // still one and a static one, the still one's.
+    std::optional<Stamp> out = moving;
+    for (const std::optional<Stamp>& s : {still[1], fixed ? still[0] : std::nullopt}) {
+      if (s) out = out ? std::min(*out, *s) : *s;
+    }
+    return out.value_or(oldest);
+  }
+
   // Scratch, reused across cycles.
   std::vector<int> active;
   std::vector<int> stale;
@@ -986,7 +1014,12 @@ struct WorldModel::Impl {
   Stamp pairStamp(int a, int b, Stamp now) const {
     const Stamp sa = bodies[a].stamp, sb = bodies[b].stamp;
     if (sa.isStatic()) return sb.isStatic() ? now : sb;
-    return sb.isStatic() ? sa : std::min(sa, sb);
+    if (sb.isStatic()) return sa;
+    // A body still as far as it is known holds its pose since (pairTime()): the verdict is the
+    // newer pose's.
+    const BodyState& older = sa < sb ? bodies[a] : bodies[b];
+    if (settings.align_poses && !older.moving()) return std::max(sa, sb);
+    return std::min(sa, sb);
   }
 
   static void emit(PairStatus from, PairStatus to, const PairResult& r, Stamp stamp,
@@ -1336,7 +1369,7 @@ CycleResult WorldModel::check(Stamp now) {
       b.swept_version = b.version;
     }
   }
-  res.stamp = oldest.value_or(now);
+  res.stamp = m.cycleStamp(oldest.value_or(now));
   // A body elsewhere at the oldest stamp of a moving body is boxed over every place it was
   // since: a pair of such a stamp takes it back there (pairTime()).
   const Stamp earliest = s.align_poses && oldest_moving ? *oldest_moving : Stamp();

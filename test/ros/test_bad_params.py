@@ -43,11 +43,11 @@ class BadParams(unittest.TestCase):
         errors = [kv.value for kv in d.values if kv.key == 'invalid parameter']
         for key in ('rate', 'fixed_frame', 'warning_distance', 'hysteresis', 'pose_timeout',
                     'ttc_horizon', 'marker_rate', 'publish_markers', 'marker_frame_locked',
-                    'check_on_pose', 'exact_min_distance', 'backend',
+                    'check_on_pose', 'exact_min_distance', 'align_poses', 'backend',
                     'max_bodies', 'max_vertices_per_part', 'max_parts_per_body',
                     'robot_description_param', 'mesh_decomposition', 'diagnostic_period'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
-        self.assertEqual(len(errors), 18, errors)  # max_unknown_pairs = 1.0 is valid
+        self.assertEqual(len(errors), 19, errors)  # max_unknown_pairs = 1.0 is valid
         self.assertIn('diagnostic_period = 1e+300 (must be finite and within +-1e+06 s); using 1',
                       errors)
         self.assertEqual(rospy.get_param(NS + 'diagnostic_period'), 1.0)
@@ -56,6 +56,7 @@ class BadParams(unittest.TestCase):
                       "private); using robot_description", errors)
         self.assertIn('publish_markers: not a boolean', ' | '.join(errors))
         self.assertIn('marker_frame_locked: not a boolean', ' | '.join(errors))
+        self.assertIn('align_poses: not a boolean', ' | '.join(errors))
         self.assertIn('max_bodies: not an integer', ' | '.join(errors))
         # Not rounded to 3 (roscpp's getParam(int) would): refused, the default (1000) used.
         self.assertIn('max_parts_per_body = 2.5 (must be a whole number > 0); using 1000', errors)

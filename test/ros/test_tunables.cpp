@@ -99,6 +99,7 @@ TEST(Tunables, WorldSettingsKeepTheLimits) {
   t.pose_timeout = 2.0;
   t.ttc_horizon = 3.0;
   t.exact_min_distance = false;
+  t.align_poses = false;
   t.backend = "libccd";
   const world::Settings s = worldSettings(t, limits);
   EXPECT_EQ(s.max_bodies, 7u);
@@ -109,6 +110,7 @@ TEST(Tunables, WorldSettingsKeepTheLimits) {
   EXPECT_EQ(s.pose_timeout, 2.0);
   EXPECT_EQ(s.ttc_horizon, 3.0);
   EXPECT_FALSE(s.exact_min_distance);
+  EXPECT_FALSE(s.align_poses);
   EXPECT_EQ(s.backend, core::BackendType::Libccd);
 }
 
