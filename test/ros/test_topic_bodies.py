@@ -16,7 +16,8 @@ from fractions import Fraction
 import rospy
 import rostest
 import tf2_ros
-from collision_monitor.msg import Body, BodyPoses, CollisionEvent, PairState, Shape
+from collision_monitor.msg import (Body, BodyPoses, CollisionEvent, CollisionState, PairState,
+                                   Shape)
 from collision_monitor.srv import CheckCollision, CheckCollisionRequest, CheckCollisionResponse
 from geometry_msgs.msg import Point, PoseStamped, Twist
 from roscpp.srv import GetLoggers, SetLoggerLevel
@@ -869,6 +870,58 @@ class TopicBodies(unittest.TestCase):
                       for n in re.findall(r'(\d+) (?:other )?rejections not logged', m))
         self.assertEqual(len(logged) + counted, 30, lines)
         self.assertIn("(the last: ~bodies: body 'flood29' refused", summary[-1])
+
+    def test_22_sources_of_different_rates_are_checked_at_one_time(self):
+        # Two spheres (r 0.1) moving together at 1 m/s, 0.03 m apart: 'tfball' on TF at 100 Hz,
+        # 'posedball' on ~body_poses at 10 Hz. Each was checked at its latest pose: TF up to
+        # 0.1 s ahead, 0.03 m reported as -0.07 to 0.03 m, COLLISION flapping every 100 ms. Now
+        # the TF sphere is taken back to the other's stamp: 0.03 m in every verdict once the
+        # posed sphere has moved (its second pose), WARNING throughout.
+        pair = frozenset(('tfball', 'posedball'))
+        states = []
+
+        def on_state(msg):
+            states.extend((msg.header.stamp, p.distance, p.status) for p in msg.pairs
+                          if frozenset((p.body_a, p.body_b)) == pair)
+        sub = rospy.Subscriber(NS + 'state', CollisionState, on_state, queue_size=1000)
+        br = tf2_ros.TransformBroadcaster()
+        t0 = rospy.Time.now()
+
+        def x_of(stamp):  # tfball's centre; posedball's is 0.23 m ahead
+            return -1.0 + (stamp - t0).to_sec()
+        br.sendTransform(tf_transform('ball_frame', stamp=t0, xyz=(x_of(t0), 20.0, 0.0)))
+        self.m.add(sphere_body('tfball', 0.1, frame='ball_frame', pose_from_topic=False))
+        self.m.add(sphere_body('posedball', 0.1))
+        self.assertTrue(self.m.wait_listed('tfball') and self.m.wait_listed('posedball'))
+        start = time.monotonic()
+        try:
+            for k in range(200):  # 2 s
+                now = rospy.Time.now()
+                br.sendTransform(tf_transform('ball_frame', stamp=now, xyz=(x_of(now), 20.0, 0.0)))
+                if k % 10 == 0 or k == 1:  # moving from its second pose on
+                    msg = BodyPoses()
+                    msg.header.frame_id = 'world'
+                    msg.header.stamp = now
+                    msg.ids = ['posedball']
+                    msg.poses = [pose(x_of(now) + 0.23, 20.0, 0.0)]
+                    self.m.poses_pub.publish(msg)
+                    if k == 1:
+                        second = now
+                time.sleep(max(0.0, start + (k + 1) * 0.01 - time.monotonic()))
+            time.sleep(0.3)
+        finally:
+            sub.unregister()
+            for i in pair:
+                self.m.add(Body(id=i, operation=Body.REMOVE))
+        checked = [(st, d, status) for st, d, status in states if st >= second]
+        self.assertGreater(len(checked), 100, len(checked))
+        worst = max(abs(d - 0.03) for _, d, _ in checked)
+        self.assertLess(worst, 1e-6, sorted(checked, key=lambda c: -abs(c[1] - 0.03))[:3])
+        self.assertEqual({status for _, _, status in checked}, {PairState.WARNING})
+        # No flapping: at most the first WARNING_BEGIN, and the removal's WARNING_END.
+        self.assertIsNotNone(self.m.wait_event(E.WARNING_END, 'tfball', 'posedball', 3.0))
+        kinds = [e.type for e in self.m.events_for({pair}) if e.header.stamp >= second]
+        self.assertIn(kinds, ([E.WARNING_END], [E.WARNING_BEGIN, E.WARNING_END]), kinds)
 
 
 if __name__ == '__main__':
