@@ -21,6 +21,9 @@
 ///   BM_Cycle/<lib>/n<N>      arm moves every cycle, 10 % of the obstacles move per cycle
 ///                            (obstacle i moves when (cycle + i) % 10 == 0);
 ///   BM_CycleAll/<lib>/n<N>   arm and every obstacle move every cycle;
+///   BM_Cycle/ours_aligned/n<N>  BM_Cycle with align_poses (the node's default): each arm-obstacle
+///                            pair at the obstacle's older stamp, the arm taken back along its
+///                            poses (the other rows check each body at its latest pose, as FCL);
 ///   BM_TimeToCollision/ours/<motion>  one pair in warning reach (a 0.4 x 0.3 x 0.2 m box on a
 ///                            2 m lever, a cylinder 2 m away), posed anew and checked each
 ///                            iteration: the cost of time_to_collision (conservative advancement)
@@ -366,7 +369,8 @@ using PairMap = std::map<std::uint64_t, double>;
 
 class Ours {
  public:
-  Ours(const Scene& scene, bool all) : scene_(scene), all_(all), world_(settings()) {
+  Ours(const Scene& scene, bool all, bool aligned = false)
+      : scene_(scene), all_(all), world_(settings(aligned)) {
     for (int b = 0; b < scene.size(); ++b) {
       const BodyDesc& d = scene.bodies[b];
       world::BodySpec s;
@@ -383,12 +387,16 @@ class Ours {
     cycle(0);
   }
 
-  static world::Settings settings() {
+  /// `aligned`: align_poses as the node's default. Off, each body is checked at its latest pose,
+  /// as the FCL pipeline places it: an obstacle posed every tenth cycle keeps its older stamp,
+  /// and aligned, the arm would be taken back to it.
+  static world::Settings settings(bool aligned = false) {
     world::Settings s;  // warning 0.05, contact 0, hysteresis 0.005, GJK
     s.max_bodies = 100000;
     // The FCL pipeline answers the pairs within reach only: the same work (min_distance beyond
     // reach costs 2.4 us per cycle at n = 10, docs/benchmarks.md, thirteenth session).
     s.exact_min_distance = false;
+    s.align_poses = aligned;
     return s;
   }
 
@@ -792,8 +800,15 @@ P& pipeline(const Scene& scene, bool all) {
   return *p;
 }
 
+/// Ours with align_poses (BM_Cycle/ours_aligned): the arm, posed every cycle, taken back to the
+/// stamps of the obstacles posed every tenth.
+struct OursAligned : Ours {
+  OursAligned(const Scene& scene, bool all) : Ours(scene, all, true) {}
+};
+
+template <class P = Ours>
 void oursCycle(benchmark::State& state, const Scene* scene, bool all) {
-  Ours& p = pipeline<Ours>(*scene, all);
+  P& p = pipeline<P>(*scene, all);
   double broad = 0, checked = 0, warn = 0;
   for (auto _ : state) {
     const world::CycleResult& r = p.cycle(p.next++);
@@ -916,6 +931,12 @@ int main(int argc, char** argv) {
                                                                         all](benchmark::State& st) {
         oursCycle(st, sp, all);
       })->Unit(benchmark::kMicrosecond);
+      if (!all) {  // every body posed every cycle: nothing to align
+        benchmark::RegisterBenchmark(
+            (query + "/ours_aligned" + suffix).c_str(),
+            [sp](benchmark::State& st) { oursCycle<OursAligned>(st, sp, false); })
+            ->Unit(benchmark::kMicrosecond);
+      }
 #ifdef CM_BENCH_HAVE_FCL
       benchmark::RegisterBenchmark((query + "/fcl" + suffix).c_str(), [sp,
                                                                        all](benchmark::State& st) {

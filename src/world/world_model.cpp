@@ -18,7 +18,6 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
-#include <deque>
 #include <iterator>
 #include <sstream>
 #include <tuple>
@@ -167,6 +166,40 @@ struct StampedPose {
   Transform3 pose;
 };
 
+/// A body's recent timed poses, oldest first: a vector whose dropped front is erased in one go
+/// once it is half of it (a deque took 21 ns more per setPose).
+class PoseHistory {
+ public:
+  bool empty() const { return first_ == poses_.size(); }
+  std::size_t size() const { return poses_.size() - first_; }
+  const StampedPose* begin() const { return poses_.data() + first_; }
+  const StampedPose* end() const { return poses_.data() + poses_.size(); }
+  const StampedPose& front() const { return poses_[first_]; }
+  const StampedPose& operator[](std::size_t k) const { return poses_[first_ + k]; }
+  StampedPose& back() { return poses_.back(); }
+  /// The last pose at or before `t`, else the first.
+  const StampedPose* at(Stamp t) const {
+    const StampedPose* next = std::upper_bound(
+        begin(), end(), t, [](Stamp x, const StampedPose& p) { return x < p.stamp; });
+    return next == begin() ? next : next - 1;
+  }
+  void push(Stamp stamp, const Transform3& pose) { poses_.push_back(StampedPose{stamp, pose}); }
+  void dropFront() {
+    if (++first_ >= 16 && 2 * first_ >= poses_.size()) {
+      poses_.erase(poses_.begin(), poses_.begin() + static_cast<std::ptrdiff_t>(first_));
+      first_ = 0;
+    }
+  }
+  void clear() {
+    poses_.clear();
+    first_ = 0;
+  }
+
+ private:
+  std::vector<StampedPose> poses_;
+  std::size_t first_ = 0;
+};
+
 /// The pose between two of a body's poses at share `s` (0: `a`, 1: `b`): translation linear,
 /// rotation along the shortest arc (slerp).
 Transform3 interpolate(const Transform3& a, const Transform3& b, double s) {
@@ -205,21 +238,22 @@ struct BodyState {
   Stamp stamp;         ///< isStatic(): a static pose
   /// The time freshness is judged from: `stamp`, or when it came, if earlier (setPose).
   Stamp fresh_from;
-  /// The stamp from which the held pose has been held (the first of its poses in `history` that
-  /// is the held pose); zero when that is all of `history` (or the pose is static): the body is
-  /// still, as far as its history tells.
-  Stamp held_since;
   /// Bumped whenever the pose or the geometry changes: a pair result computed at the same
   /// versions of both bodies is still exact.
   std::uint64_t version = 0;
   std::uint64_t swept_version = 0;  ///< version in the broad phase of the last check()
-  Placement at;                     ///< at the held (latest) pose
+  /// The stamp from which the held pose has been held (the first of its poses in `history` that
+  /// is the held pose); zero when that is all of `history` (or the pose is static): the body is
+  /// still, as far as its history tells.
+  Stamp held_since;
+  Stamp swept_from;  ///< while `swept`: the stamp of the first pose it spans
+  Placement at;      ///< at the held (latest) pose
   Twist twist;
   BodySpec spec;
-  /// The timed poses of the last pose_timeout, oldest first, the held one last (at most
-  /// kMaxHistory, and one older than pose_timeout so that its start is covered): where the body
-  /// was at an older stamp (poseAt()).
-  std::deque<StampedPose> history;
+  /// The timed poses of the last pose_timeout, oldest first, the held one last (and one older
+  /// than pose_timeout so that its start is covered; at most kMaxHistory): where the body was at
+  /// an older stamp (poseAt()). A pair's older stamp is fresh, so within pose_timeout of now.
+  PoseHistory history;
 
   void place() { at.place(spec, at.pose); }
   bool isFresh(Stamp now, double timeout) const {
@@ -230,21 +264,21 @@ struct BodyState {
   /// Its pose changed within its history.
   bool moving() const { return !held_since.isStatic(); }
   /// Whether the history places the body elsewhere at `t` than at its held pose: it moved after
-  /// `t`, and `t` is within the history (before it, nothing is known: the held pose stands).
-  bool elsewhereAt(Stamp t) const { return t < held_since && history.front().stamp <= t; }
-  /// The body's pose at `t` from its history: between two of its poses, interpolated; the held
-  /// pose unless elsewhereAt(t).
+  /// `t`.
+  bool elsewhereAt(Stamp t) const { return t < held_since; }
+  /// The body's pose at `t` from its history: between two of its poses, interpolated; before the
+  /// first one kept, that one (the nearest known); the held pose unless elsewhereAt(t).
   Transform3 poseAt(Stamp t) const {
     if (!elsewhereAt(t)) return at.pose;
-    auto next = std::upper_bound(history.begin(), history.end(), t,
-                                 [](Stamp x, const StampedPose& p) { return x < p.stamp; });
-    // history.front().stamp <= t < held_since <= stamp: `next` is neither end.
-    const StampedPose& before = *std::prev(next);
-    return interpolate(before.pose, next->pose, (t - before.stamp) / (next->stamp - before.stamp));
+    const StampedPose& before = *history.at(t);
+    if (t < before.stamp) return before.pose;
+    // t < held_since <= stamp: a pose follows the one before `t`.
+    const StampedPose& after = *(&before + 1);
+    return interpolate(before.pose, after.pose, (t - before.stamp) / (after.stamp - before.stamp));
   }
   /// Keeps the held pose (`at.pose`, timed `stamp`) in the history, whose poses older than
-  /// `keep` s before it go but the newest of them.
-  void remember(bool moved, double keep) {
+  /// `keep` s before it go but the newest of them, and all but the last `most`.
+  void remember(bool moved, double keep, std::size_t most) {
     if (stamp.isStatic()) {
       forget();
       return;
@@ -253,11 +287,11 @@ struct BodyState {
       history.back().pose = at.pose;  // the same time again: this pose replaces it
       if (moved) held_since = history.size() > 1 ? stamp : Stamp();
     } else {
-      history.push_back(StampedPose{stamp, at.pose});
+      history.push(stamp, at.pose);
       if (moved && history.size() > 1) held_since = stamp;
     }
-    while (history.size() > kMaxHistory || (history.size() > 1 && stamp - history[1].stamp > keep))
-      history.pop_front();
+    while (history.size() > most || (history.size() > 1 && stamp - history[1].stamp > keep))
+      history.dropFront();
     if (held_since <= history.front().stamp) held_since = Stamp();
   }
   void forget() {
@@ -272,20 +306,21 @@ struct BodyState {
     return r;
   }
   /// Whether poseAt() places the body elsewhere than its held pose at some time from `t` on.
-  bool sweeps(Stamp t) const { return moving() && std::max(t, history.front().stamp) < held_since; }
-  /// The box of every place poseAt() gives the body at `t` or later.
-  core::Aabb sweptBox(Stamp t) const {
+  bool sweeps(Stamp t) const { return t < held_since; }
+  /// The stamp of the pose sweptBox() starts from for `t`: the last one at or before it (else
+  /// the first). The box changes only when this does (or the body moves).
+  Stamp sweepStart(Stamp t) const { return history.at(t)->stamp; }
+  /// The box of every place poseAt() gives the body from stamp `from` (sweepStart()) on: the
+  /// boxes of its poses from there, each two neighbours' with the bulge of the turn between.
+  core::Aabb sweptBox(Stamp from) const {
     core::Aabb out = at.box;
-    if (!sweeps(t)) return out;
-    t = std::max(t, history.front().stamp);
     const double r = reachFromOrigin();
     Placement scratch;
-    Transform3 prev = poseAt(t);
+    const StampedPose* first = history.at(from);
+    Transform3 prev = first->pose;
     scratch.place(spec, prev);
     core::Aabb step = scratch.box;
-    auto next = std::upper_bound(history.begin(), history.end(), t,
-                                 [](Stamp x, const StampedPose& p) { return x < p.stamp; });
-    for (; next != history.end(); ++next) {
+    for (const StampedPose* next = first + 1; next != history.end(); ++next) {
       const Transform3& pose = next->pose;  // the last one is the held pose
       scratch.place(spec, pose);
       core::Aabb both = step;
@@ -297,7 +332,8 @@ struct BodyState {
     return out;
   }
 
-  static constexpr std::size_t kMaxHistory = 64;
+  /// 0.5 s (pose_timeout's default) of poses at 1 kHz, 53 kB.
+  static constexpr std::size_t kMaxHistory = 512;
 };
 
 /// A body's geometry at one placement: its held one, or one at an older stamp (placedAt()).
@@ -450,6 +486,7 @@ struct PairEntry {
   Narrow result;
   PartCaches caches;
   std::uint64_t last_seen = 0;  ///< cycle
+  Stamp last_event;             ///< the stamp of its last event (Impl::eventStamp())
 };
 
 }  // namespace
@@ -473,6 +510,10 @@ struct WorldModel::Impl {
   std::uint64_t cycle = 0;
   std::optional<Stamp> last_check_now;  ///< the time the last check() was given
   bool sweep_all = false;  ///< the next check() takes every body as moved (new reach, backend)
+  /// A check() within pose_timeout found fresh timed poses of different stamps: setPose() keeps
+  /// poses (BodyState::history) only then.
+  bool mixed_stamps = false;
+  std::optional<Stamp> mixed_seen;  ///< the last check() that found them
   std::size_t count = 0;
   std::vector<Event> pending;  ///< END events of removed bodies' pairs, for the next check()
 
@@ -1022,6 +1063,14 @@ struct WorldModel::Impl {
     return std::min(sa, sb);
   }
 
+  /// The stamp of an event of the pair of `e` whose poses are of `stamp`: never before its last
+  /// event's, so that a pair's events stay in stamp order. A body taken as still (pairStamp(),
+  /// the newer stamp) that turns out to have moved puts the pair back to its own older stamp.
+  static Stamp eventStamp(PairEntry* e, Stamp stamp) {
+    e->last_event = std::max(e->last_event, stamp);
+    return e->last_event;
+  }
+
   static void emit(PairStatus from, PairStatus to, const PairResult& r, Stamp stamp,
                    std::vector<Event>* events, std::vector<std::uint64_t>* keys = nullptr,
                    std::uint64_t key = 0) {
@@ -1302,7 +1351,12 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
     ++b.version;
     b.at.place(b.spec, pose);  // the broad phase's box follows in check()
   }
-  b.remember(moved, settings_.pose_timeout);
+  // Poses are kept only while checks find fresh timed poses of different stamps: a world posed
+  // at one time (one robot_state_publisher, one BodyPoses stream) never takes a body back, and
+  // keeping them cost 21 ns a pose (a world of 1,000 bodies posed together: 332 to 404 us a
+  // cycle). Else the last two are, which tell whether the body moves.
+  const bool keep_all = m.mixed_stamps && settings_.align_poses;
+  b.remember(moved, settings_.pose_timeout, keep_all ? BodyState::kMaxHistory : 2);
   return true;
 }
 
@@ -1344,6 +1398,7 @@ CycleResult WorldModel::check(Stamp now) {
   m.grid.setMargin(reach);
   std::optional<Stamp> oldest;         // of the timed poses
   std::optional<Stamp> oldest_moving;  // of those of a moving body (BodyState::moving())
+  std::optional<Stamp> newest;
   // The clock went back (a little: further, the node forgets every pose): a pose that arrived
   // after `now` ages from now. From its arrival it stayed fresh for as long again as the jump.
   const bool clock_back = m.last_check_now && now < *m.last_check_now;
@@ -1359,6 +1414,7 @@ CycleResult WorldModel::check(Stamp now) {
       if (!b.stamp.isStatic()) {
         oldest = oldest ? std::min(*oldest, b.stamp) : b.stamp;
         if (b.moving()) oldest_moving = oldest_moving ? std::min(*oldest_moving, b.stamp) : b.stamp;
+        newest = newest ? std::max(*newest, b.stamp) : b.stamp;
       }
     } else {
       m.stale.push_back(slot);
@@ -1366,9 +1422,13 @@ CycleResult WorldModel::check(Stamp now) {
       if (m.far_active) m.far_grid.remove(slot);
       b.was_active = false;
       b.swept = false;
+      b.swept_from = Stamp();
       b.swept_version = b.version;
     }
   }
+  if (oldest && *oldest < *newest) m.mixed_seen = now;
+  // Sources whose stamps meet now and then (10 Hz and 100 Hz ones at every tenth) stay mixed.
+  m.mixed_stamps = m.mixed_seen && now - *m.mixed_seen <= s.pose_timeout;
   res.stamp = m.cycleStamp(oldest.value_or(now));
   // A body elsewhere at the oldest stamp of a moving body is boxed over every place it was
   // since: a pair of such a stamp takes it back there (pairTime()).
@@ -1376,16 +1436,17 @@ CycleResult WorldModel::check(Stamp now) {
   for (int slot : m.active) {
     BodyState& b = m.bodies[slot];
     const bool swept = !earliest.isStatic() && !b.stamp.isStatic() && b.sweeps(earliest);
-    const core::Aabb box = swept ? b.sweptBox(earliest) : b.at.box;
-    if (!b.was_active || b.swept_version != b.version || m.sweep_all ||
-        ((b.swept || swept) && !(box.min == m.boxes[slot].min && box.max == m.boxes[slot].max))) {
-      m.boxes[slot] = box;
+    const Stamp from = swept ? b.sweepStart(earliest) : Stamp();
+    if (!b.was_active || b.swept_version != b.version || m.sweep_all || swept != b.swept ||
+        from != b.swept_from) {
+      m.boxes[slot] = swept ? b.sweptBox(from) : b.at.box;
       m.moved[slot] = 1;
       m.moved_list.push_back(slot);
       m.grid.set(slot, m.boxes[slot]);
       if (m.far_active) m.far_grid.set(slot, m.boxes[slot]);
     }
     b.swept = swept;
+    b.swept_from = from;
     b.was_active = true;
     b.swept_version = b.version;
   }
@@ -1450,7 +1511,8 @@ CycleResult WorldModel::check(Stamp now) {
       const PairResult r = m.makeResult(a, b, next, e.result);
       const std::uint64_t rk = m.rankKey(a, b);
       if (next != e.status) {
-        Impl::emit(e.status, next, r, m.pairStamp(a, b, now), &res.events, &m.event_keys, rk);
+        Impl::emit(e.status, next, r, Impl::eventStamp(&e, m.pairStamp(a, b, now)), &res.events,
+                   &m.event_keys, rk);
       }
       if (next != PairStatus::Clear) {
         res.pairs.push_back(r);
@@ -1500,7 +1562,8 @@ CycleResult WorldModel::check(Stamp now) {
         PairEntry& e = it->second;
         e.last_seen = cycle;
         if (e.status != PairStatus::Unknown) {
-          Impl::emit(e.status, PairStatus::Unknown, r, now, &res.events, &m.event_keys, rk);
+          Impl::emit(e.status, PairStatus::Unknown, r, Impl::eventStamp(&e, now), &res.events,
+                     &m.event_keys, rk);
           e.status = PairStatus::Unknown;
         }
       } else {
@@ -1508,6 +1571,7 @@ CycleResult WorldModel::check(Stamp now) {
         PairEntry& e = m.pairs[key];
         e.status = PairStatus::Unknown;
         e.last_seen = cycle;
+        e.last_event = now;
       }
       if (listed) {
         res.pairs.push_back(std::move(r));
@@ -1524,8 +1588,8 @@ CycleResult WorldModel::check(Stamp now) {
       }
       e.last_seen = cycle;
       if (e.status != PairStatus::Unknown) {
-        Impl::emit(e.status, PairStatus::Unknown, m.unknownResult(a, b), now, &res.events,
-                   &m.event_keys, m.rankKey(a, b));
+        Impl::emit(e.status, PairStatus::Unknown, m.unknownResult(a, b), Impl::eventStamp(&e, now),
+                   &res.events, &m.event_keys, m.rankKey(a, b));
         e.status = PairStatus::Unknown;
       }
     }
@@ -1546,8 +1610,8 @@ CycleResult WorldModel::check(Stamp now) {
                               : nullptr;
         PairResult r = x ? m.makeResult(a, b, PairStatus::Clear, *x) : m.unknownResult(a, b);
         r.status = PairStatus::Clear;
-        Impl::emit(e.status, PairStatus::Clear, r, m.pairStamp(a, b, now), &res.events,
-                   &m.event_keys, m.rankKey(a, b));
+        Impl::emit(e.status, PairStatus::Clear, r, Impl::eventStamp(&e, m.pairStamp(a, b, now)),
+                   &res.events, &m.event_keys, m.rankKey(a, b));
         e.status = PairStatus::Clear;
       }
       if (cycle - e.last_seen > kForgetAfterCycles) {

@@ -315,7 +315,9 @@ TEST(WorldModel, DistanceAndNearestReportThePosesTime) {
   // b posed once is still as far as it is known: it holds its pose at c's time.
   ASSERT_TRUE(w.distance("c", "b", 2.8, &why, &stamp)) << why;
   EXPECT_EQ(stamp, Stamp(2.75));
-  // b moving: the verdict is of b's time (c has no pose that old: it stays where it is).
+  // b moving: the verdict is of b's time (c has no pose that old: it stays where it is). The
+  // world keeps poses once a check has found stamps apart, as the node's checks do at once.
+  w.check(2.8);
   ASSERT_TRUE(w.setPose("b", at(1.75), 2.625));
   ASSERT_TRUE(w.setPose("b", at(2), 2.7));
   ASSERT_TRUE(w.distance("c", "b", 2.8, &why, &stamp)) << why;
@@ -1398,10 +1400,11 @@ TEST(WorldModel, ARotatingBodyIsTakenBackAlongTheArc) {
 }
 
 TEST(WorldModel, ThePairNearAtTheOlderStampIsFoundThoughApartNow) {
-  // A fast body (10 m/s) passes a slow one between the slow one's poses: at the slow one's stamp
-  // they overlap, at the fast one's latest pose they are 0.6 m apart. The broad phase boxes the
-  // fast body over where it was since: COLLISION at the exact depth. Each at its latest pose,
-  // the pair was beyond the broad phase's reach: never checked.
+  // A fast body (10 m/s, posed at 100 Hz) passes a slow one (10 Hz) while the slow one's pose is
+  // 0.1 s old: at the slow one's stamp they overlap, at the fast one's latest pose they are up to
+  // 0.8 m apart. The broad phase boxes the fast body over where it was since: COLLISION at the
+  // exact depth of the slow one's stamp until its next pose. Each at its latest pose, the pair
+  // was beyond the broad phase's reach 10 ms after the overlap: COLLISION_END.
   for (const bool align : {true, false}) {
     SCOPED_TRACE(align ? "aligned" : "each at its latest pose");
     Settings s = dyadic();
@@ -1414,21 +1417,34 @@ TEST(WorldModel, ThePairNearAtTheOlderStampIsFoundThoughApartNow) {
     fast.v = Vec3(10, 0, 0);
     slow.p0 = Vec3(0, 0.05, 0);
     slow.v = Vec3(0, 0.01, 0);
-    ASSERT_TRUE(w.setPose("slow", slow.at(0.0), 1.0));
-    ASSERT_TRUE(w.setPose("slow", slow.at(0.1), 1.1));  // fast is at x = 0 then
-    for (int k = 0; k <= 18; ++k) {
-      ASSERT_TRUE(w.setPose("fast", fast.at(k * 0.01), 1.0 + k * 0.01));
+    std::vector<std::pair<int, Event>> events;  // (k, event)
+    ASSERT_TRUE(w.setPose("slow", slow.at(-0.1), 0.9));  // moving when the pass begins
+    ASSERT_TRUE(w.setPose("fast", fast.at(-0.1), 0.9));
+    CycleResult r = w.check(0.9);
+    for (int k = 0; k <= 18; ++k) {  // fast is at x = 0 at k = 10
+      const double t = k * 0.01;
+      ASSERT_TRUE(w.setPose("fast", fast.at(t), 1.0 + t));
+      if (k % 10 == 0) {
+        ASSERT_TRUE(w.setPose("slow", slow.at(t), 1.0 + t));
+      }
+      r = w.check(1.0 + t);
+      for (const Event& e : r.events)
+        events.emplace_back(k, e);
     }
-    const CycleResult r = w.check(1.18);
+    ASSERT_EQ(events.size(), align ? 1u : 2u);
+    EXPECT_EQ(events[0].first, 10);
+    EXPECT_EQ(events[0].second.type, E::CollisionBegin);
     if (!align) {
+      EXPECT_EQ(events[1].second.type, E::CollisionEnd);
+      EXPECT_EQ(events[1].first, 11);
       EXPECT_TRUE(r.pairs.empty());
       continue;
     }
     ASSERT_EQ(r.pairs.size(), 1u);
     EXPECT_EQ(r.pairs[0].status, S::Collision);
     EXPECT_NEAR(r.pairs[0].distance, (slow.at(0.1).t - fast.at(0.1).t).norm() - 0.2, 1e-12);
-    ASSERT_EQ(r.events.size(), 1u);
-    EXPECT_EQ(r.events[0].stamp, Stamp(1.1));
+    EXPECT_EQ(r.stamp, Stamp(1.1));
+    EXPECT_GT((fast.at(0.18).t - slow.at(0.1).t).norm() - 0.2, 0.5);  // apart now
   }
 }
 
