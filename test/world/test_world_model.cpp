@@ -1404,7 +1404,7 @@ TEST(WorldModel, ThePairNearAtTheOlderStampIsFoundThoughApartNow) {
   // 0.1 s old: at the slow one's stamp they overlap, at the fast one's latest pose they are up to
   // 0.8 m apart. The broad phase boxes the fast body over where it was since: COLLISION at the
   // exact depth of the slow one's stamp until its next pose. Each at its latest pose, the pair
-  // was beyond the broad phase's reach 10 ms after the overlap: COLLISION_END.
+  // collided before the pass and was beyond reach 30 ms after it: COLLISION_END.
   for (const bool align : {true, false}) {
     SCOPED_TRACE(align ? "aligned" : "each at its latest pose");
     Settings s = dyadic();
@@ -1417,7 +1417,7 @@ TEST(WorldModel, ThePairNearAtTheOlderStampIsFoundThoughApartNow) {
     fast.v = Vec3(10, 0, 0);
     slow.p0 = Vec3(0, 0.05, 0);
     slow.v = Vec3(0, 0.01, 0);
-    std::vector<std::pair<int, Event>> events;  // (k, event)
+    std::vector<std::pair<int, Event>> events;           // (k, event)
     ASSERT_TRUE(w.setPose("slow", slow.at(-0.1), 0.9));  // moving when the pass begins
     ASSERT_TRUE(w.setPose("fast", fast.at(-0.1), 0.9));
     CycleResult r = w.check(0.9);
@@ -1431,21 +1431,90 @@ TEST(WorldModel, ThePairNearAtTheOlderStampIsFoundThoughApartNow) {
       for (const Event& e : r.events)
         events.emplace_back(k, e);
     }
-    ASSERT_EQ(events.size(), align ? 1u : 2u);
-    EXPECT_EQ(events[0].first, 10);
-    EXPECT_EQ(events[0].second.type, E::CollisionBegin);
     if (!align) {
-      EXPECT_EQ(events[1].second.type, E::CollisionEnd);
-      EXPECT_EQ(events[1].first, 11);
+      // Seen early (k = 8 and 9: the fast body at its latest, the slow one at 1.0) and gone at
+      // k = 13 while the slow one's stamp still says 1.1.
+      ASSERT_EQ(events.size(), 4u);
+      EXPECT_EQ(events[2].first, 9);
+      EXPECT_EQ(events[2].second.type, E::CollisionBegin);
+      EXPECT_EQ(events[2].second.stamp, Stamp(1.0));
+      EXPECT_EQ(events[3].first, 13);
+      EXPECT_EQ(events[3].second.type, E::CollisionEnd);
       EXPECT_TRUE(r.pairs.empty());
       continue;
     }
+    ASSERT_EQ(events.size(), 1u);
+    EXPECT_EQ(events[0].first, 10);
+    EXPECT_EQ(events[0].second.type, E::CollisionBegin);
+    EXPECT_EQ(events[0].second.stamp, Stamp(1.1));
     ASSERT_EQ(r.pairs.size(), 1u);
     EXPECT_EQ(r.pairs[0].status, S::Collision);
     EXPECT_NEAR(r.pairs[0].distance, (slow.at(0.1).t - fast.at(0.1).t).norm() - 0.2, 1e-12);
     EXPECT_EQ(r.stamp, Stamp(1.1));
     EXPECT_GT((fast.at(0.18).t - slow.at(0.1).t).norm() - 0.2, 0.5);  // apart now
   }
+}
+
+TEST(WorldModel, APairsEventsStayInStampOrderWhenAStillBodyTurnsOutToMove) {
+  // An obstacle re-posed at the same pose every 0.5 s with stamps 0.2 s late is still as far as
+  // the monitor knows: its pair with a moving arm carries the arm's stamp. Then it jumps away,
+  // in a pose stamped before the pair's WARNING_BEGIN: the WARNING_END carried that older stamp
+  // (the pair's events went back in time, 3 of 3 in the audit). It carries the BEGIN's now.
+  Settings s = dyadic();
+  s.warning_distance = 0.1;
+  s.pose_timeout = 1.0;
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(sphere("arm", 0.1)), "");
+  ASSERT_EQ(w.addBody(sphere("obstacle", 0.1)), "");
+  std::vector<Event> events;
+  for (int k = 0; k <= 200; ++k) {  // 10 ms steps
+    const double t = 1.0 + k * 0.01;
+    ASSERT_TRUE(w.setPose("arm", at(0.5 * k * 0.01), t));  // 0.8 - 0.5 t apart
+    if (k % 50 == 0 && k < 155) {
+      ASSERT_TRUE(w.setPose("obstacle", at(1.0), t - 0.2));
+    }
+    if (k == 155) {
+      ASSERT_TRUE(w.setPose("obstacle", at(5.0), t - 0.2));  // stamped 2.35
+    }
+    const CycleResult r = w.check(t);
+    events.insert(events.end(), r.events.begin(), r.events.end());
+  }
+  ASSERT_EQ(events.size(), 2u);
+  EXPECT_EQ(events[0].type, E::WarningBegin);
+  EXPECT_EQ(events[1].type, E::WarningEnd);
+  EXPECT_GT(events[0].stamp, Stamp(2.35));
+  EXPECT_EQ(events[1].stamp, events[0].stamp);
+  EXPECT_NEAR(events[1].pair.distance, 5.0 - 0.5 * 1.35 - 0.2, 1e-12);  // the arm at 2.35
+}
+
+TEST(WorldModel, ABodyIsTakenBackAsFarAsPoseTimeoutAllows) {
+  // A body posed at 200 Hz, another at 10 Hz with stamps 0.35 s late, moving together 0.25 m
+  // apart: the first is taken back up to 0.45 s, 90 poses (64 were kept, 0.32 s, and beyond
+  // them the pair was checked with the first at its latest pose: 0.25 m reported as -0.15 m).
+  Settings s = dyadic();
+  s.warning_distance = 0.3;
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(sphere("fast", 0.1)), "");
+  ASSERT_EQ(w.addBody(sphere("late", 0.1)), "");
+  Path pf, pl;
+  pf.v = pl.v = Vec3(1, 0, 0);
+  pl.p0 = Vec3(0.45, 0, 0);
+  int checked = 0;
+  for (int k = 0; k <= 400; ++k) {  // 5 ms steps, 2 s
+    const double t = k * 0.005;
+    ASSERT_TRUE(w.setPose("fast", pf.at(t), 1.0 + t));
+    if (k % 20 == 0 && t >= 0.35) {
+      ASSERT_TRUE(w.setPose("late", pl.at(t - 0.35), 1.0 + t - 0.35));
+    }
+    const CycleResult r = w.check(1.0 + t);
+    // Poses are kept from the first check that finds stamps apart (t = 0.35): taken back that
+    // far once the late body's stamps are past it and it has moved (its second pose).
+    if (t < 0.8) continue;
+    ASSERT_EQ(r.pairs.size(), 1u) << "at " << t;
+    EXPECT_NEAR(r.pairs[0].distance, 0.25, 1e-9) << "at " << t;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 241);
 }
 
 TEST(WorldModel, AlignedPairsMatchTheirPathsAtTheirStamps) {
