@@ -167,7 +167,8 @@ struct StampedPose {
 };
 
 /// A body's recent timed poses, oldest first: a vector whose dropped front is erased in one go
-/// once it is half of it (a deque took 21 ns more per setPose).
+/// once it is half of it (a deque took 21 ns more per setPose; a vector of two live poses in 32
+/// slots 140 us more a cycle of 1,000 bodies).
 class PoseHistory {
  public:
   bool empty() const { return first_ == poses_.size(); }
@@ -185,7 +186,8 @@ class PoseHistory {
   }
   void push(Stamp stamp, const Transform3& pose) { poses_.push_back(StampedPose{stamp, pose}); }
   void dropFront() {
-    if (++first_ >= 16 && 2 * first_ >= poses_.size()) {
+    ++first_;
+    if (first_ >= poses_.size() - first_) {  // as many dropped as kept: O(1) a pose
       poses_.erase(poses_.begin(), poses_.begin() + static_cast<std::ptrdiff_t>(first_));
       first_ = 0;
     }
