@@ -497,7 +497,7 @@ struct WorldModel::Impl {
   Settings settings;
   std::unique_ptr<core::NarrowPhase> narrow;
   std::vector<BodyState> bodies;  ///< by slot
-  std::vector<core::Aabb> boxes;  ///< by slot (mirror of BodyState::box)
+  std::vector<core::Aabb> boxes;  ///< by slot: the broad phase's (the held pose's, or swept)
   std::vector<int> free_slots;
   std::unordered_map<std::string, int> slot_of;  ///< id -> slot
   SlotIndex fast_slot_of;                        ///< the same, for setPose
@@ -1020,8 +1020,9 @@ struct WorldModel::Impl {
   }
 
   /// The time pair (a, b) is checked at when a body of it has to be taken back to it
-  /// (align_poses): the older of its two timed stamps, when the body of that one is moving and
-  /// the other's history places it elsewhere then; zero when each is checked at its held pose
+  /// (align_poses): the older of its two timed stamps (or the newer body's first kept pose's,
+  /// if later), when the body of that one is moving and the other's history places it
+  /// elsewhere then; zero when each is checked at its held pose
   /// (a static pose holds at any time, and a body still as far as it is known is taken to be
   /// there since: an obstacle posed once is not met by the robot of its time).
   Stamp pairTime(int a, int b) const {
@@ -1031,7 +1032,10 @@ struct WorldModel::Impl {
     if (A.stamp.isStatic() || B.stamp.isStatic() || A.stamp == B.stamp) return Stamp();
     const BodyState& older = A.stamp < B.stamp ? A : B;
     const BodyState& newer = A.stamp < B.stamp ? B : A;
-    return older.moving() && newer.elsewhereAt(older.stamp) ? older.stamp : Stamp();
+    if (!older.moving() || !newer.elsewhereAt(older.stamp)) return Stamp();
+    // Before its first kept pose the newer body is at that pose (poseAt()): the time that places
+    // it, so that a result kept under it is of the same placement however far back the stamp.
+    return std::max(older.stamp, newer.history.front().stamp);
   }
 
   /// Body `slot` at pair time `t` (pairTime()): its held placement, or `scratch` placed at its
@@ -1042,7 +1046,8 @@ struct WorldModel::Impl {
     scratch->place(b.spec, b.poseAt(t));
     return Placed{b, *scratch};
   }
-  /// Pair (a, b) at pair time `t`; valid until the next call.
+  /// Pair (a, b) at pair time `t`. The placements taken back live in scratch_a and scratch_b:
+  /// valid until the next call (the callers use them at once and keep nothing).
   std::pair<Placed, Placed> placedPair(int a, int b, Stamp t) const {
     return {placedAt(a, t, &scratch_a), placedAt(b, t, &scratch_b)};
   }
@@ -1065,9 +1070,10 @@ struct WorldModel::Impl {
     return std::min(sa, sb);
   }
 
-  /// The stamp of an event of the pair of `e` whose poses are of `stamp`: never before its last
-  /// event's, so that a pair's events stay in stamp order. A body taken as still (pairStamp(),
-  /// the newer stamp) that turns out to have moved puts the pair back to its own older stamp.
+  /// The stamp of an event of the pair of `e` whose poses are of `stamp`: never before the last
+  /// such event's, so that a pair's verdicts stay in stamp order. A body taken as still
+  /// (pairStamp(), the newer stamp) that turns out to have moved puts the pair back to its own
+  /// older stamp. (UNKNOWN and removal events carry the check's time and are not compared.)
   static Stamp eventStamp(PairEntry* e, Stamp stamp) {
     e->last_event = std::max(e->last_event, stamp);
     return e->last_event;
@@ -1378,6 +1384,11 @@ void WorldModel::clearPoses() {
     b.has_twist = false;
     b.forget();
   }
+  // Time went back: the stamps of the last events and of mixed poses are of the future now.
+  for (auto& kv : impl_->pairs)
+    kv.second.last_event = Stamp();
+  impl_->mixed_seen.reset();
+  impl_->mixed_stamps = false;
 }
 
 CycleResult WorldModel::check(Stamp now) {
@@ -1428,7 +1439,7 @@ CycleResult WorldModel::check(Stamp now) {
       b.swept_version = b.version;
     }
   }
-  if (oldest && *oldest < *newest) m.mixed_seen = now;
+  if ((oldest && *oldest < *newest) || (m.mixed_seen && now < *m.mixed_seen)) m.mixed_seen = now;
   // Sources whose stamps meet now and then (10 Hz and 100 Hz ones at every tenth) stay mixed.
   m.mixed_stamps = m.mixed_seen && now - *m.mixed_seen <= s.pose_timeout;
   res.stamp = m.cycleStamp(oldest.value_or(now));
@@ -1564,8 +1575,7 @@ CycleResult WorldModel::check(Stamp now) {
         PairEntry& e = it->second;
         e.last_seen = cycle;
         if (e.status != PairStatus::Unknown) {
-          Impl::emit(e.status, PairStatus::Unknown, r, Impl::eventStamp(&e, now), &res.events,
-                     &m.event_keys, rk);
+          Impl::emit(e.status, PairStatus::Unknown, r, now, &res.events, &m.event_keys, rk);
           e.status = PairStatus::Unknown;
         }
       } else {
@@ -1573,7 +1583,6 @@ CycleResult WorldModel::check(Stamp now) {
         PairEntry& e = m.pairs[key];
         e.status = PairStatus::Unknown;
         e.last_seen = cycle;
-        e.last_event = now;
       }
       if (listed) {
         res.pairs.push_back(std::move(r));
@@ -1590,8 +1599,8 @@ CycleResult WorldModel::check(Stamp now) {
       }
       e.last_seen = cycle;
       if (e.status != PairStatus::Unknown) {
-        Impl::emit(e.status, PairStatus::Unknown, m.unknownResult(a, b), Impl::eventStamp(&e, now),
-                   &res.events, &m.event_keys, m.rankKey(a, b));
+        Impl::emit(e.status, PairStatus::Unknown, m.unknownResult(a, b), now, &res.events,
+                   &m.event_keys, m.rankKey(a, b));
         e.status = PairStatus::Unknown;
       }
     }

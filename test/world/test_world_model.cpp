@@ -1459,7 +1459,7 @@ TEST(WorldModel, APairsEventsStayInStampOrderWhenAStillBodyTurnsOutToMove) {
   // An obstacle re-posed at the same pose every 0.5 s with stamps 0.2 s late is still as far as
   // the monitor knows: its pair with a moving arm carries the arm's stamp. Then it jumps away,
   // in a pose stamped before the pair's WARNING_BEGIN: the WARNING_END carried that older stamp
-  // (the pair's events went back in time, 3 of 3 in the audit). It carries the BEGIN's now.
+  // (the pair's events went back in time, 3 of 3 in the audit). It carries the BEGIN's stamp.
   Settings s = dyadic();
   s.warning_distance = 0.1;
   s.pose_timeout = 1.0;
@@ -1515,6 +1515,58 @@ TEST(WorldModel, ABodyIsTakenBackAsFarAsPoseTimeoutAllows) {
     ++checked;
   }
   EXPECT_EQ(checked, 241);
+}
+
+TEST(WorldModel, AnEventAfterAnUnknownSpellCarriesItsPosesStamp) {
+  // A source 0.3 s late: UNKNOWN_BEGIN carries the check's time (10.05), and the pair's next
+  // verdict the stamp of its poses (9.75). Bounded below by the UNKNOWN event's time, it carried
+  // 10.05 (review of this session's first version, with align_poses on and off).
+  for (const bool align : {true, false}) {
+    SCOPED_TRACE(align ? "aligned" : "each at its latest pose");
+    Settings s = dyadic();
+    s.warning_distance = 0.3;
+    s.align_poses = align;
+    WorldModel w(s);
+    ASSERT_EQ(w.addBody(sphere("a", 0.25)), "");
+    ASSERT_EQ(w.addBody(sphere("b", 0.25)), "");
+    ASSERT_TRUE(w.setPose("a", at(0), 9.7));
+    ASSERT_TRUE(w.setPose("b", at(0.7), 9.7));
+    CycleResult r = w.check(10.0);
+    ASSERT_EQ(r.events.size(), 1u);
+    EXPECT_EQ(r.events[0].stamp, Stamp(9.7));
+    w.markUnresolved("a");
+    r = w.check(10.05);
+    ASSERT_EQ(r.events.size(), 2u);  // WARNING_END, UNKNOWN_BEGIN
+    EXPECT_EQ(r.events[1].stamp, Stamp(10.05));
+    ASSERT_TRUE(w.setPose("a", at(0), 9.75));
+    ASSERT_TRUE(w.setPose("b", at(0.7), 9.75));
+    r = w.check(10.1);
+    ASSERT_EQ(r.events.size(), 2u);  // UNKNOWN_END, WARNING_BEGIN
+    for (const Event& e : r.events)
+      EXPECT_EQ(e.stamp, Stamp(9.75));
+  }
+}
+
+TEST(WorldModel, ForgottenPosesTakeTheirEventStampsAlong) {
+  // Time jumps back (the node forgets the poses): the next verdicts carry the new poses' stamps.
+  // They carried the last event's stamp from before the jump, 100 s, until the clock passed it
+  // again (review of this session's first version).
+  Settings s = dyadic();
+  s.warning_distance = 0.3;
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(sphere("a", 0.25)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.25)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 100.0));
+  ASSERT_TRUE(w.setPose("b", at(0.7), 100.0));
+  ASSERT_EQ(w.check(100.0).events.size(), 1u);
+  w.clearPoses();
+  w.check(5.0);
+  ASSERT_TRUE(w.setPose("a", at(0), 5.05));
+  ASSERT_TRUE(w.setPose("b", at(0.7), 5.05));
+  const CycleResult r = w.check(5.05);
+  ASSERT_EQ(r.events.size(), 2u);  // UNKNOWN_END, WARNING_BEGIN
+  for (const Event& e : r.events)
+    EXPECT_EQ(e.stamp, Stamp(5.05));
 }
 
 TEST(WorldModel, AlignedPairsMatchTheirPathsAtTheirStamps) {

@@ -129,7 +129,10 @@ struct Settings {
 
 /// Everything one check cycle produced.
 struct CycleResult {
-  Stamp stamp;  ///< oldest pose stamp used (the time the verdict holds for)
+  /// The time the verdict holds for: the oldest of the pairs' stamps (Settings::align_poses: a
+  /// pair of a still older body carries the newer stamp; every fresh body counted, groups and
+  /// disabled pairs alike); the oldest timed pose stamp without align_poses.
+  Stamp stamp;
   bool in_collision = false;
   double min_distance = std::numeric_limits<double>::infinity();
   std::vector<PairResult> pairs;  ///< every pair in WARNING, COLLISION or UNKNOWN
@@ -238,7 +241,9 @@ class WorldModel {
   /// pair whose bodies both kept their pose and geometry reuses its previous result (counted in
   /// num_pairs_cached, not in num_pairs_checked). Pairs and events are sorted by (body_a,
   /// body_b), with body_a < body_b; a pair's END comes before its BEGIN. Event stamps: the older
-  /// timed pose stamp of the pair, or `now` when both are static or for UNKNOWN and removal.
+  /// timed pose stamp of the pair (the newer when the older body is still, align_poses), never
+  /// before the pair's last such event's; `now` when both are static, and for UNKNOWN and
+  /// removal.
   CycleResult check(Stamp now);
 
   /// For shutdown: the check running in another thread, and every later one, stops within one
