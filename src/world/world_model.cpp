@@ -1057,8 +1057,8 @@ struct WorldModel::Impl {
     return narrowPhase(A, B, cutoff, caches);
   }
 
-  /// Stamp of the poses a pair's verdict was computed from: the older non-static stamp, else
-  /// `now` (static poses hold at any time).
+  /// Stamp of the poses a pair's verdict was computed from: the older non-static stamp (the newer
+  /// when the older body is still, align_poses), else `now` (static poses hold at any time).
   Stamp pairStamp(int a, int b, Stamp now) const {
     const Stamp sa = bodies[a].stamp, sb = bodies[b].stamp;
     if (sa.isStatic()) return sb.isStatic() ? now : sb;
