@@ -540,18 +540,23 @@ struct WorldModel::Impl {
   std::vector<FarPair> far_next;
   std::vector<int> far_order;
 
-  /// CycleResult::stamp: the oldest pairStamp() over the pairs of fresh bodies (`oldest`, the
-  /// oldest timed stamp, without align_poses or when nothing sooner is found).
-  Stamp cycleStamp(Stamp oldest) const {
-    if (!settings.align_poses) return oldest;
-    std::optional<Stamp> moving, still[2];  // the oldest moving stamp, the two oldest still ones
-    bool fixed = false;                     // a fresh static pose
-    for (int slot : active) {
-      const BodyState& b = bodies[slot];
+  /// The fresh bodies' stamps of one check(), gathered in its pass over the slots.
+  struct Stamps {
+    std::optional<Stamp> oldest;         ///< of the timed poses
+    std::optional<Stamp> newest;         ///< of the timed poses
+    std::optional<Stamp> oldest_moving;  ///< of those of a moving body (BodyState::moving())
+    std::optional<Stamp> still[2];       ///< the two oldest of those of a still body
+    bool fixed = false;                  ///< a static pose
+
+    void add(const BodyState& b) {
       if (b.stamp.isStatic()) {
         fixed = true;
-      } else if (b.moving()) {
-        moving = moving ? std::min(*moving, b.stamp) : b.stamp;
+        return;
+      }
+      oldest = oldest ? std::min(*oldest, b.stamp) : b.stamp;
+      newest = newest ? std::max(*newest, b.stamp) : b.stamp;
+      if (b.moving()) {
+        oldest_moving = oldest_moving ? std::min(*oldest_moving, b.stamp) : b.stamp;
       } else if (!still[0] || b.stamp < *still[0]) {
         still[1] = still[0];
         still[0] = b.stamp;
@@ -559,14 +564,19 @@ struct WorldModel::Impl {
         still[1] = b.stamp;
       }
     }
-    // Pairs of a moving body carry its stamp or a later one; of two still ones, the later; of a
-    // still one and a static one, the still one's.
-    std::optional<Stamp> out = moving;
-    for (const std::optional<Stamp>& s : {still[1], fixed ? still[0] : std::nullopt}) {
-      if (s) out = out ? std::min(*out, *s) : *s;
+    /// CycleResult::stamp: the oldest pairStamp() over the pairs of fresh bodies (the oldest
+    /// timed stamp without align_poses or when no pair says sooner; `now` without one).
+    Stamp verdict(bool align_poses, Stamp now) const {
+      if (!align_poses) return oldest.value_or(now);
+      // Pairs of a moving body carry its stamp or a later one; of two still ones, the later; of
+      // a still one and a static one, the still one's.
+      std::optional<Stamp> out = oldest_moving;
+      for (const std::optional<Stamp>& s : {still[1], fixed ? still[0] : std::nullopt}) {
+        if (s) out = out ? std::min(*out, *s) : *s;
+      }
+      return out ? *out : oldest.value_or(now);
     }
-    return out.value_or(oldest);
-  }
+  };
 
   // Scratch, reused across cycles.
   std::vector<int> active;
@@ -845,7 +855,7 @@ struct WorldModel::Impl {
       for (int k : far_order) {
         FarPair& p = far_pairs[k];
         if (p.lower >= best) break;
-        const Narrow n = narrowPhase(keyLo(p.key), keyHi(p.key), best, nullptr);
+        const Narrow n = narrowPhase(keyLo(p.key), keyHi(p.key), p.at, best, nullptr);
         ++res->num_pairs_checked;
         res->num_part_checks += static_cast<std::size_t>(n.gjk_runs);
         if (!n.exact) {
@@ -971,7 +981,10 @@ struct WorldModel::Impl {
       r.point_b = n.point_b;
       r.normal = n.normal;
       if (n.exact) {
-        const auto [A, B] = placedPair(a, b, pairTime(a, b));
+        // Without a twist the time comes from the distance alone (0 or +inf) and reads no
+        // placement: the held ones, not placed again.
+        const bool twist = bodies[a].has_twist || bodies[b].has_twist;
+        const auto [A, B] = placedPair(a, b, twist ? pairTime(a, b) : Stamp());
         r.time_to_collision = timeToCollisionOf(A, B, r);
       }
     }
@@ -992,7 +1005,7 @@ struct WorldModel::Impl {
         e->version_b == B.version && e->aligned_at == at) {
       return &e->result;
     }
-    const Narrow n = narrowPhase(a, b, kInf, &e->caches);
+    const Narrow n = narrowPhase(a, b, at, kInf, &e->caches);
     *part_checks += static_cast<std::size_t>(n.gjk_runs);
     if (!std::isfinite(n.distance)) return nullptr;
     store(e, n, A, B, at, kInf);
@@ -1051,9 +1064,9 @@ struct WorldModel::Impl {
   std::pair<Placed, Placed> placedPair(int a, int b, Stamp t) const {
     return {placedAt(a, t, &scratch_a), placedAt(b, t, &scratch_b)};
   }
-  /// narrowPhase() of pair (a, b) at its pair time.
-  Narrow narrowPhase(int a, int b, double cutoff, PartCaches* caches) const {
-    const auto [A, B] = placedPair(a, b, pairTime(a, b));
+  /// narrowPhase() of pair (a, b) at its pair time `t` (pairTime()).
+  Narrow narrowPhase(int a, int b, Stamp t, double cutoff, PartCaches* caches) const {
+    const auto [A, B] = placedPair(a, b, t);
     return narrowPhase(A, B, cutoff, caches);
   }
 
@@ -1409,9 +1422,7 @@ CycleResult WorldModel::check(Stamp now) {
   // below 0) would drop every pair, the overlapping ones too (COLLISION_END while nothing moved).
   const double reach = std::max(0.0, clearCutoffAny(s));
   m.grid.setMargin(reach);
-  std::optional<Stamp> oldest;         // of the timed poses
-  std::optional<Stamp> oldest_moving;  // of those of a moving body (BodyState::moving())
-  std::optional<Stamp> newest;
+  Impl::Stamps stamps;  // of the fresh bodies
   // The clock went back (a little: further, the node forgets every pose): a pose that arrived
   // after `now` ages from now. From its arrival it stayed fresh for as long again as the jump.
   const bool clock_back = m.last_check_now && now < *m.last_check_now;
@@ -1424,11 +1435,7 @@ CycleResult WorldModel::check(Stamp now) {
     b.fresh = b.isFresh(now, s.pose_timeout);
     if (b.fresh) {
       m.active.push_back(slot);
-      if (!b.stamp.isStatic()) {
-        oldest = oldest ? std::min(*oldest, b.stamp) : b.stamp;
-        if (b.moving()) oldest_moving = oldest_moving ? std::min(*oldest_moving, b.stamp) : b.stamp;
-        newest = newest ? std::max(*newest, b.stamp) : b.stamp;
-      }
+      stamps.add(b);
     } else {
       m.stale.push_back(slot);
       if (b.was_active) m.grid.remove(slot);
@@ -1439,13 +1446,14 @@ CycleResult WorldModel::check(Stamp now) {
       b.swept_version = b.version;
     }
   }
-  if ((oldest && *oldest < *newest) || (m.mixed_seen && now < *m.mixed_seen)) m.mixed_seen = now;
+  if ((stamps.oldest && *stamps.oldest < *stamps.newest) || (m.mixed_seen && now < *m.mixed_seen))
+    m.mixed_seen = now;
   // Sources whose stamps meet now and then (10 Hz and 100 Hz ones at every tenth) stay mixed.
   m.mixed_stamps = m.mixed_seen && now - *m.mixed_seen <= s.pose_timeout;
-  res.stamp = m.cycleStamp(oldest.value_or(now));
+  res.stamp = stamps.verdict(s.align_poses, now);
   // A body elsewhere at the oldest stamp of a moving body is boxed over every place it was
   // since: a pair of such a stamp takes it back there (pairTime()).
-  const Stamp earliest = s.align_poses && oldest_moving ? *oldest_moving : Stamp();
+  const Stamp earliest = s.align_poses && stamps.oldest_moving ? *stamps.oldest_moving : Stamp();
   for (int slot : m.active) {
     BodyState& b = m.bodies[slot];
     const bool swept = !earliest.isStatic() && !b.stamp.isStatic() && b.sweeps(earliest);
@@ -1507,7 +1515,7 @@ CycleResult WorldModel::check(Stamp now) {
     if (reusable) {
       ++res.num_pairs_cached;
     } else {
-      Impl::store(&e, m.narrowPhase(a, b, cutoff, &e.caches), A, B, at, cutoff);
+      Impl::store(&e, m.narrowPhase(a, b, at, cutoff, &e.caches), A, B, at, cutoff);
       ++res.num_pairs_checked;
       res.num_part_checks += static_cast<std::size_t>(e.result.gjk_runs);
     }
@@ -1674,7 +1682,8 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
   const BodyState& B = m.bodies[ib->second];
   if (!A.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ia->second, now));
   if (!B.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ib->second, now));
-  const Narrow n = m.narrowPhase(ia->second, ib->second, kInf, nullptr);
+  const Narrow n =
+      m.narrowPhase(ia->second, ib->second, m.pairTime(ia->second, ib->second), kInf, nullptr);
   if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
   // UNKNOWN in check() too; a NaN distance with success would read as an answer.
   if (std::isnan(n.distance)) return fail("the query between '" + a + "' and '" + b + "' failed");
@@ -1730,7 +1739,7 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   Narrow best;
   for (const auto& [lb, o] : order) {
     if (best_slot >= 0 && lb >= best.distance) break;
-    const Narrow n = m.narrowPhase(sa, o, kInf, nullptr);
+    const Narrow n = m.narrowPhase(sa, o, m.pairTime(sa, o), kInf, nullptr);
     if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
     if (std::isnan(n.distance)) {
       // A failed query may hide the nearest, as a stale pose does (the pair is UNKNOWN in
