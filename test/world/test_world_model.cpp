@@ -1274,6 +1274,15 @@ struct Path {
   }
 };
 
+/// A world of `settings` with two spheres of `radius` named `a` and `b`.
+std::unique_ptr<WorldModel> twoSpheres(const Settings& settings, const std::string& a,
+                                       const std::string& b, double radius) {
+  auto w = std::make_unique<WorldModel>(settings);
+  EXPECT_EQ(w->addBody(sphere(a, radius)), "");
+  EXPECT_EQ(w->addBody(sphere(b, radius)), "");
+  return w;
+}
+
 TEST(WorldModel, PairsOfDifferentRatesAreCheckedAtTheOlderStamp) {
   // Two spheres (r 0.25) moving together at 1 m/s, 0.25 m apart: "a" posed at 100 Hz (as a TF
   // frame is), "b" at 10 Hz. Each was checked at its latest pose: 0.25 to 0.35 m. Now "a" is
@@ -1283,9 +1292,7 @@ TEST(WorldModel, PairsOfDifferentRatesAreCheckedAtTheOlderStamp) {
     Settings s = dyadic();
     s.warning_distance = 0.3;
     s.align_poses = align;
-    WorldModel w(s);
-    ASSERT_EQ(w.addBody(sphere("a", 0.25)), "");
-    ASSERT_EQ(w.addBody(sphere("b", 0.25)), "");
+    const auto w = twoSpheres(s, "a", "b", 0.25);
     Path pa, pb;
     pa.v = pb.v = Vec3(1, 0, 0);
     pb.p0 = Vec3(0.75, 0, 0);
@@ -1293,11 +1300,11 @@ TEST(WorldModel, PairsOfDifferentRatesAreCheckedAtTheOlderStamp) {
     int checks = 0;
     for (int k = 0; k <= 100; ++k) {  // ms: 10 ms steps for 1 s
       const double t = 10.0 + k * 0.01;
-      ASSERT_TRUE(w.setPose("a", pa.at(t), t));
+      ASSERT_TRUE(w->setPose("a", pa.at(t), t));
       if (k % 10 == 0) {
-        ASSERT_TRUE(w.setPose("b", pb.at(t), t));
+        ASSERT_TRUE(w->setPose("b", pb.at(t), t));
       }
-      const CycleResult r = w.check(t);
+      const CycleResult r = w->check(t);
       ASSERT_EQ(r.pairs.size(), 1u);
       const double b_stamp = 10.0 + (k / 10) * 0.1;
       if (k >= 10) {
@@ -1310,7 +1317,7 @@ TEST(WorldModel, PairsOfDifferentRatesAreCheckedAtTheOlderStamp) {
         EXPECT_EQ(r.stamp, Stamp(b_stamp));
         std::string why;
         Stamp stamp;
-        const auto d = w.distance("a", "b", t, &why, &stamp);
+        const auto d = w->distance("a", "b", t, &why, &stamp);
         ASSERT_TRUE(d) << why;
         EXPECT_EQ(d->distance, r.pairs[0].distance);
         EXPECT_EQ(stamp, Stamp(b_stamp));
@@ -1334,19 +1341,17 @@ TEST(WorldModel, ABodyStillAsFarAsKnownIsNotMetInThePast) {
   // it (taken back to the obstacle's stamp, it was reported 0.5 s late).
   Settings s = dyadic();
   s.warning_distance = 0.3;
-  WorldModel w(s);
-  ASSERT_EQ(w.addBody(sphere("arm", 0.25)), "");
-  ASSERT_EQ(w.addBody(sphere("obstacle", 0.25)), "");
-  ASSERT_TRUE(w.setPose("obstacle", at(1.0), 10.0));
+  const auto w = twoSpheres(s, "arm", "obstacle", 0.25);
+  ASSERT_TRUE(w->setPose("obstacle", at(1.0), 10.0));
   Path arm;
   arm.v = Vec3(1, 0, 0);  // contact at t = 0.5 s: arm at 0.5
   for (int k = 0; k <= 45; ++k) {
     const double t = 10.0 + k * 0.01;
-    ASSERT_TRUE(w.setPose("arm", arm.at(k * 0.01), t));
+    ASSERT_TRUE(w->setPose("arm", arm.at(k * 0.01), t));
     if (k == 20) {
-      ASSERT_TRUE(w.setPose("obstacle", at(1.0), 10.2));  // the same pose again
+      ASSERT_TRUE(w->setPose("obstacle", at(1.0), 10.2));  // the same pose again
     }
-    const CycleResult r = w.check(t);
+    const CycleResult r = w->check(t);
     const double d = 0.5 - k * 0.01;
     if (d < 0.3) {
       ASSERT_EQ(r.pairs.size(), 1u) << "at " << t;
@@ -1409,25 +1414,23 @@ TEST(WorldModel, ThePairNearAtTheOlderStampIsFoundThoughApartNow) {
     SCOPED_TRACE(align ? "aligned" : "each at its latest pose");
     Settings s = dyadic();
     s.align_poses = align;
-    WorldModel w(s);
-    ASSERT_EQ(w.addBody(sphere("fast", 0.1)), "");
-    ASSERT_EQ(w.addBody(sphere("slow", 0.1)), "");
+    const auto w = twoSpheres(s, "fast", "slow", 0.1);
     Path fast, slow;
     fast.p0 = Vec3(-1.0, 0, 0);
     fast.v = Vec3(10, 0, 0);
     slow.p0 = Vec3(0, 0.05, 0);
     slow.v = Vec3(0, 0.01, 0);
-    std::vector<std::pair<int, Event>> events;           // (k, event)
-    ASSERT_TRUE(w.setPose("slow", slow.at(-0.1), 0.9));  // moving when the pass begins
-    ASSERT_TRUE(w.setPose("fast", fast.at(-0.1), 0.9));
-    CycleResult r = w.check(0.9);
+    std::vector<std::pair<int, Event>> events;            // (k, event)
+    ASSERT_TRUE(w->setPose("slow", slow.at(-0.1), 0.9));  // moving when the pass begins
+    ASSERT_TRUE(w->setPose("fast", fast.at(-0.1), 0.9));
+    CycleResult r = w->check(0.9);
     for (int k = 0; k <= 18; ++k) {  // fast is at x = 0 at k = 10
       const double t = k * 0.01;
-      ASSERT_TRUE(w.setPose("fast", fast.at(t), 1.0 + t));
+      ASSERT_TRUE(w->setPose("fast", fast.at(t), 1.0 + t));
       if (k % 10 == 0) {
-        ASSERT_TRUE(w.setPose("slow", slow.at(t), 1.0 + t));
+        ASSERT_TRUE(w->setPose("slow", slow.at(t), 1.0 + t));
       }
-      r = w.check(1.0 + t);
+      r = w->check(1.0 + t);
       for (const Event& e : r.events)
         events.emplace_back(k, e);
     }
@@ -1463,20 +1466,18 @@ TEST(WorldModel, APairsEventsStayInStampOrderWhenAStillBodyTurnsOutToMove) {
   Settings s = dyadic();
   s.warning_distance = 0.1;
   s.pose_timeout = 1.0;
-  WorldModel w(s);
-  ASSERT_EQ(w.addBody(sphere("arm", 0.1)), "");
-  ASSERT_EQ(w.addBody(sphere("obstacle", 0.1)), "");
+  const auto w = twoSpheres(s, "arm", "obstacle", 0.1);
   std::vector<Event> events;
   for (int k = 0; k <= 200; ++k) {  // 10 ms steps
     const double t = 1.0 + k * 0.01;
-    ASSERT_TRUE(w.setPose("arm", at(0.5 * k * 0.01), t));  // 0.8 - 0.5 t apart
+    ASSERT_TRUE(w->setPose("arm", at(0.5 * k * 0.01), t));  // 0.8 - 0.5 t apart
     if (k % 50 == 0 && k < 155) {
-      ASSERT_TRUE(w.setPose("obstacle", at(1.0), t - 0.2));
+      ASSERT_TRUE(w->setPose("obstacle", at(1.0), t - 0.2));
     }
     if (k == 155) {
-      ASSERT_TRUE(w.setPose("obstacle", at(5.0), t - 0.2));  // stamped 2.35
+      ASSERT_TRUE(w->setPose("obstacle", at(5.0), t - 0.2));  // stamped 2.35
     }
-    const CycleResult r = w.check(t);
+    const CycleResult r = w->check(t);
     events.insert(events.end(), r.events.begin(), r.events.end());
   }
   ASSERT_EQ(events.size(), 2u);
@@ -1493,20 +1494,18 @@ TEST(WorldModel, ABodyIsTakenBackAsFarAsPoseTimeoutAllows) {
   // them the pair was checked with the first at its latest pose: 0.25 m reported as -0.15 m).
   Settings s = dyadic();
   s.warning_distance = 0.3;
-  WorldModel w(s);
-  ASSERT_EQ(w.addBody(sphere("fast", 0.1)), "");
-  ASSERT_EQ(w.addBody(sphere("late", 0.1)), "");
+  const auto w = twoSpheres(s, "fast", "late", 0.1);
   Path pf, pl;
   pf.v = pl.v = Vec3(1, 0, 0);
   pl.p0 = Vec3(0.45, 0, 0);
   int checked = 0;
   for (int k = 0; k <= 400; ++k) {  // 5 ms steps, 2 s
     const double t = k * 0.005;
-    ASSERT_TRUE(w.setPose("fast", pf.at(t), 1.0 + t));
+    ASSERT_TRUE(w->setPose("fast", pf.at(t), 1.0 + t));
     if (k % 20 == 0 && t >= 0.35) {
-      ASSERT_TRUE(w.setPose("late", pl.at(t - 0.35), 1.0 + t - 0.35));
+      ASSERT_TRUE(w->setPose("late", pl.at(t - 0.35), 1.0 + t - 0.35));
     }
-    const CycleResult r = w.check(1.0 + t);
+    const CycleResult r = w->check(1.0 + t);
     // Poses are kept from the first check that finds stamps apart (t = 0.35): taken back that
     // far once the late body's stamps are past it and it has moved (its second pose).
     if (t < 0.8) continue;
@@ -1526,21 +1525,19 @@ TEST(WorldModel, AnEventAfterAnUnknownSpellCarriesItsPosesStamp) {
     Settings s = dyadic();
     s.warning_distance = 0.3;
     s.align_poses = align;
-    WorldModel w(s);
-    ASSERT_EQ(w.addBody(sphere("a", 0.25)), "");
-    ASSERT_EQ(w.addBody(sphere("b", 0.25)), "");
-    ASSERT_TRUE(w.setPose("a", at(0), 9.7));
-    ASSERT_TRUE(w.setPose("b", at(0.7), 9.7));
-    CycleResult r = w.check(10.0);
+    const auto w = twoSpheres(s, "a", "b", 0.25);
+    ASSERT_TRUE(w->setPose("a", at(0), 9.7));
+    ASSERT_TRUE(w->setPose("b", at(0.7), 9.7));
+    CycleResult r = w->check(10.0);
     ASSERT_EQ(r.events.size(), 1u);
     EXPECT_EQ(r.events[0].stamp, Stamp(9.7));
-    w.markUnresolved("a");
-    r = w.check(10.05);
+    w->markUnresolved("a");
+    r = w->check(10.05);
     ASSERT_EQ(r.events.size(), 2u);  // WARNING_END, UNKNOWN_BEGIN
     EXPECT_EQ(r.events[1].stamp, Stamp(10.05));
-    ASSERT_TRUE(w.setPose("a", at(0), 9.75));
-    ASSERT_TRUE(w.setPose("b", at(0.7), 9.75));
-    r = w.check(10.1);
+    ASSERT_TRUE(w->setPose("a", at(0), 9.75));
+    ASSERT_TRUE(w->setPose("b", at(0.7), 9.75));
+    r = w->check(10.1);
     ASSERT_EQ(r.events.size(), 2u);  // UNKNOWN_END, WARNING_BEGIN
     for (const Event& e : r.events)
       EXPECT_EQ(e.stamp, Stamp(9.75));
@@ -1553,17 +1550,15 @@ TEST(WorldModel, ForgottenPosesTakeTheirEventStampsAlong) {
   // again (review of this session's first version).
   Settings s = dyadic();
   s.warning_distance = 0.3;
-  WorldModel w(s);
-  ASSERT_EQ(w.addBody(sphere("a", 0.25)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.25)), "");
-  ASSERT_TRUE(w.setPose("a", at(0), 100.0));
-  ASSERT_TRUE(w.setPose("b", at(0.7), 100.0));
-  ASSERT_EQ(w.check(100.0).events.size(), 1u);
-  w.clearPoses();
-  w.check(5.0);
-  ASSERT_TRUE(w.setPose("a", at(0), 5.05));
-  ASSERT_TRUE(w.setPose("b", at(0.7), 5.05));
-  const CycleResult r = w.check(5.05);
+  const auto w = twoSpheres(s, "a", "b", 0.25);
+  ASSERT_TRUE(w->setPose("a", at(0), 100.0));
+  ASSERT_TRUE(w->setPose("b", at(0.7), 100.0));
+  ASSERT_EQ(w->check(100.0).events.size(), 1u);
+  w->clearPoses();
+  w->check(5.0);
+  ASSERT_TRUE(w->setPose("a", at(0), 5.05));
+  ASSERT_TRUE(w->setPose("b", at(0.7), 5.05));
+  const CycleResult r = w->check(5.05);
   ASSERT_EQ(r.events.size(), 2u);  // UNKNOWN_END, WARNING_BEGIN
   for (const Event& e : r.events)
     EXPECT_EQ(e.stamp, Stamp(5.05));
