@@ -249,7 +249,15 @@ struct BodyState {
   /// still, as far as its history tells.
   Stamp held_since;
   Stamp swept_from;  ///< while `swept`: the stamp of the first pose it spans
-  Placement at;      ///< at the held (latest) pose
+  /// Catch-up (WorldModel::Impl::catchUp()) never goes back before this: the stamp of its pose at
+  /// the first check that found it fresh after a spell without a fresh pose (or after its pose
+  /// turned static or timed: `renewed`); `now` then for a static pose. Where it was before is
+  /// not known: its history's first pose stands in for it there (poseAt()).
+  Stamp known_from;
+  bool renewed = false;         ///< its pose turned static or timed since the last check()
+  bool checked_moving = false;  ///< moving() at the last check()
+  Stamp checked_stamp;          ///< `stamp` at the last check()
+  Placement at;                 ///< at the held (latest) pose
   Twist twist;
   BodySpec spec;
   /// The timed poses of the last pose_timeout, oldest first, the held one last (and one older
@@ -489,6 +497,9 @@ struct PairEntry {
   PartCaches caches;
   std::uint64_t last_seen = 0;  ///< cycle
   Stamp last_event;             ///< the stamp of its last event (Impl::eventStamp())
+  /// The latest pair stamp (Impl::pairStamp()) it was checked at: catch-up (Impl::catchUp())
+  /// starts after it.
+  Stamp checked_to;
 };
 
 }  // namespace
@@ -516,6 +527,10 @@ struct WorldModel::Impl {
   /// poses (BodyState::history) only then.
   bool mixed_stamps = false;
   std::optional<Stamp> mixed_seen;  ///< the last check() that found them
+  /// The last check()'s CycleResult::stamp: no pair was checked at an older stamp then. While
+  /// catching up, the broad phase sweeps the bodies' boxes from it too, so that every pair's
+  /// stretch since its last check is boxed.
+  Stamp last_verdict;
   std::size_t count = 0;
   std::vector<Event> pending;  ///< END events of removed bodies' pairs, for the next check()
 
@@ -587,6 +602,7 @@ struct WorldModel::Impl {
   std::vector<std::uint64_t> next_candidates;  ///< built from the previous cycle's
   std::vector<std::uint64_t> pair_keys;        ///< rankKey per output pair
   std::vector<std::uint64_t> event_keys;       ///< rankKey per output event
+  std::vector<Stamp> catch_stamps;             ///< catchUp()'s
   std::vector<std::pair<std::uint64_t, std::uint32_t>> order;
   struct PartPair {
     double lower_bound;
@@ -969,7 +985,8 @@ struct WorldModel::Impl {
     return t;
   }
 
-  PairResult makeResult(int a, int b, PairStatus status, const Narrow& n) const {
+  /// The pair's result from `n`, of the bodies placed at pair time `at` (placedPair()).
+  PairResult makeResult(int a, int b, PairStatus status, const Narrow& n, Stamp at) const {
     PairResult r;
     r.body_a = bodies[a].spec.id;
     r.body_b = bodies[b].spec.id;
@@ -984,7 +1001,7 @@ struct WorldModel::Impl {
         // Without a twist the time comes from the distance alone (0 or +inf) and reads no
         // placement: the held ones, not placed again.
         const bool twist = bodies[a].has_twist || bodies[b].has_twist;
-        const auto [A, B] = placedPair(a, b, twist ? pairTime(a, b) : Stamp());
+        const auto [A, B] = placedPair(a, b, twist ? at : Stamp());
         r.time_to_collision = timeToCollisionOf(A, B, r);
       }
     }
@@ -1090,6 +1107,45 @@ struct WorldModel::Impl {
   static Stamp eventStamp(PairEntry* e, Stamp stamp) {
     e->last_event = std::max(e->last_event, stamp);
     return e->last_event;
+  }
+
+  /// Catch-up (align_poses, while poses of different stamps are kept): pair (a, b), whose stamp
+  /// moves on from `from` to `to` (pairStamp()) in this check, is checked at every stamp in
+  /// between of the kept poses of a body of it that moved after `from`, both bodies placed there
+  /// (poseAt(): the other one interpolated, or held). A pass between two poses of the slower
+  /// body, which neither of its stamps sees, turns into its events, stamped when it happened.
+  /// The statuses step with hysteresis as at the live checks; an END to CLEAR says where the
+  /// pair is then, however far. Stops at a failed query (the live check that follows reports
+  /// it) and when checks are abandoned.
+  void catchUp(int a, int b, PairEntry* e, Stamp from, Stamp to, CycleResult* res) {
+    catch_stamps.clear();
+    for (const int slot : {a, b}) {
+      const BodyState& X = bodies[slot];
+      if (!X.elsewhereAt(from)) continue;  // held since before `from`: at the live check's pose
+      for (const StampedPose* p = X.history.at(from); p != X.history.end(); ++p) {
+        if (from < p->stamp && p->stamp < to) catch_stamps.push_back(p->stamp);
+      }
+    }
+    std::sort(catch_stamps.begin(), catch_stamps.end());
+    catch_stamps.erase(std::unique(catch_stamps.begin(), catch_stamps.end()), catch_stamps.end());
+    for (const Stamp t : catch_stamps) {
+      if (abandoned.load(std::memory_order_relaxed)) return;
+      Narrow n = narrowPhase(a, b, t, clearCutoff(e->status, settings), &e->caches);
+      ++res->num_pairs_checked;
+      ++res->num_pairs_caught_up;
+      res->num_part_checks += static_cast<std::size_t>(n.gjk_runs);
+      if (n.exact && !std::isfinite(n.distance)) return;
+      const PairStatus next = nextStatus(e->status, n.exact ? n.distance : kInf, settings);
+      if (next == e->status) continue;
+      if (next == PairStatus::Clear && !n.exact) {  // the END event says where the pair is
+        const Narrow x = narrowPhase(a, b, t, kInf, &e->caches);
+        res->num_part_checks += static_cast<std::size_t>(x.gjk_runs);
+        if (std::isfinite(x.distance)) n = x;
+      }
+      emit(e->status, next, makeResult(a, b, next, n, t), eventStamp(e, t), &res->events,
+           &event_keys, rankKey(a, b));
+      e->status = next;
+    }
   }
 
   static void emit(PairStatus from, PairStatus to, const PairResult& r, Stamp stamp,
@@ -1361,6 +1417,7 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
   // and any timed pose may follow a static one.
   if (b.has_pose && !stamp.isStatic() && !b.stamp.isStatic() && stamp < b.stamp) return false;
   const bool moved = !b.has_pose || !(b.at.pose.R == pose.R) || !(b.at.pose.t == pose.t);
+  if (b.has_pose && stamp.isStatic() != b.stamp.isStatic()) b.renewed = true;
   if (!b.has_pose || b.stamp.isStatic()) b.forget();  // a first timed pose starts its history
   b.has_pose = true;
   b.unresolved = false;
@@ -1398,8 +1455,11 @@ void WorldModel::clearPoses() {
     b.forget();
   }
   // Time went back: the stamps of the last events and of mixed poses are of the future now.
-  for (auto& kv : impl_->pairs)
+  for (auto& kv : impl_->pairs) {
     kv.second.last_event = Stamp();
+    kv.second.checked_to = Stamp();
+  }
+  impl_->last_verdict = Stamp();
   impl_->mixed_seen.reset();
   impl_->mixed_stamps = false;
 }
@@ -1427,6 +1487,9 @@ CycleResult WorldModel::check(Stamp now) {
   // after `now` ages from now. From its arrival it stayed fresh for as long again as the jump.
   const bool clock_back = m.last_check_now && now < *m.last_check_now;
   m.last_check_now = now;
+  // The last check's stamp of a body still then and moving now: the pairs it meets are caught
+  // up from there (its stretch since was checked with it held).
+  std::optional<Stamp> turned;
   for (int slot = 0; slot < static_cast<int>(m.bodies.size()); ++slot) {
     BodyState& b = m.bodies[slot];
     if (!b.used) continue;
@@ -1436,6 +1499,14 @@ CycleResult WorldModel::check(Stamp now) {
     if (b.fresh) {
       m.active.push_back(slot);
       stamps.add(b);
+      if (!b.fresh_prev || b.renewed) {
+        b.known_from = b.stamp.isStatic() ? now : b.stamp;
+      } else if (!b.checked_moving && b.moving() && !b.checked_stamp.isStatic()) {
+        turned = turned ? std::min(*turned, b.checked_stamp) : b.checked_stamp;
+      }
+      b.renewed = false;
+      b.checked_moving = b.moving();
+      b.checked_stamp = b.stamp;
     } else {
       m.stale.push_back(slot);
       if (b.was_active) m.grid.remove(slot);
@@ -1452,12 +1523,21 @@ CycleResult WorldModel::check(Stamp now) {
   m.mixed_stamps = m.mixed_seen && now - *m.mixed_seen <= s.pose_timeout;
   res.stamp = stamps.verdict(s.align_poses, now);
   // A body elsewhere at the oldest stamp of a moving body is boxed over every place it was
-  // since: a pair of such a stamp takes it back there (pairTime()).
+  // since: a pair of such a stamp takes it back there (pairTime()). Catching up, from the last
+  // check's oldest pair stamp too (or a turned body's), so that the stretch since is boxed.
   const Stamp earliest = s.align_poses && stamps.oldest_moving ? *stamps.oldest_moving : Stamp();
+  const bool catch_up = s.align_poses && m.mixed_stamps;
+  Stamp caught_from = earliest;
+  if (catch_up) {
+    for (const std::optional<Stamp>& t : {std::optional<Stamp>(m.last_verdict), turned}) {
+      if (t && !t->isStatic() && (caught_from.isStatic() || *t < caught_from)) caught_from = *t;
+    }
+  }
+  m.last_verdict = res.stamp;
   for (int slot : m.active) {
     BodyState& b = m.bodies[slot];
-    const bool swept = !earliest.isStatic() && !b.stamp.isStatic() && b.sweeps(earliest);
-    const Stamp from = swept ? b.sweepStart(earliest) : Stamp();
+    const bool swept = !caught_from.isStatic() && !b.stamp.isStatic() && b.sweeps(caught_from);
+    const Stamp from = swept ? b.sweepStart(caught_from) : Stamp();
     if (!b.was_active || b.swept_version != b.version || m.sweep_all || swept != b.swept ||
         from != b.swept_from) {
       m.boxes[slot] = swept ? b.sweptBox(from) : b.at.box;
@@ -1508,6 +1588,15 @@ CycleResult WorldModel::check(Stamp now) {
     const BodyState& B = m.bodies[b];
     PairEntry& e = m.pairs[key];
     e.last_seen = cycle;
+    const Stamp to = m.pairStamp(a, b, now);
+    if (catch_up && e.status != PairStatus::Unknown) {
+      // Not before a time already checked, an event of the pair, the stretch the broad phase
+      // boxed, or a body's first known pose.
+      const Stamp from =
+          std::max({e.checked_to, e.last_event, caught_from, A.known_from, B.known_from});
+      if (from < to) m.catchUp(a, b, &e, from, to, &res);
+    }
+    e.checked_to = std::max(e.checked_to, to);
     const double cutoff = clearCutoff(e.status, s);
     const Stamp at = m.pairTime(a, b);
     const bool reusable = e.has_result && e.version_a == A.version && e.version_b == B.version &&
@@ -1529,11 +1618,10 @@ CycleResult WorldModel::check(Stamp now) {
       if (next == PairStatus::Clear && !e.result.exact) {
         m.exactResult(a, b, &e, &res.num_part_checks);  // the END event says where the pair is
       }
-      const PairResult r = m.makeResult(a, b, next, e.result);
+      const PairResult r = m.makeResult(a, b, next, e.result, at);
       const std::uint64_t rk = m.rankKey(a, b);
       if (next != e.status) {
-        Impl::emit(e.status, next, r, Impl::eventStamp(&e, m.pairStamp(a, b, now)), &res.events,
-                   &m.event_keys, rk);
+        Impl::emit(e.status, next, r, Impl::eventStamp(&e, to), &res.events, &m.event_keys, rk);
       }
       if (next != PairStatus::Clear) {
         res.pairs.push_back(r);
@@ -1627,13 +1715,17 @@ CycleResult WorldModel::check(Stamp now) {
         const Narrow* x = m.bodies[a].fresh && m.bodies[b].fresh && m.allowed(a, b)
                               ? m.exactResult(a, b, &e, &res.num_part_checks)
                               : nullptr;
-        PairResult r = x ? m.makeResult(a, b, PairStatus::Clear, *x) : m.unknownResult(a, b);
+        PairResult r =
+            x ? m.makeResult(a, b, PairStatus::Clear, *x, m.pairTime(a, b)) : m.unknownResult(a, b);
         r.status = PairStatus::Clear;
         Impl::emit(e.status, PairStatus::Clear, r, Impl::eventStamp(&e, m.pairStamp(a, b, now)),
                    &res.events, &m.event_keys, m.rankKey(a, b));
         e.status = PairStatus::Clear;
       }
-      if (cycle - e.last_seen > kForgetAfterCycles) {
+      // Kept while catch-up may come back to its times: its last event and check bound it.
+      const bool recent =
+          catch_up && now - std::max(e.checked_to, e.last_event) <= 2.0 * s.pose_timeout;
+      if (cycle - e.last_seen > kForgetAfterCycles && !recent) {
         it = m.pairs.erase(it);
         continue;
       }
@@ -1682,8 +1774,8 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
   const BodyState& B = m.bodies[ib->second];
   if (!A.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ia->second, now));
   if (!B.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ib->second, now));
-  const Narrow n =
-      m.narrowPhase(ia->second, ib->second, m.pairTime(ia->second, ib->second), kInf, nullptr);
+  const Stamp at = m.pairTime(ia->second, ib->second);
+  const Narrow n = m.narrowPhase(ia->second, ib->second, at, kInf, nullptr);
   if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
   // UNKNOWN in check() too; a NaN distance with success would read as an answer.
   if (std::isnan(n.distance)) return fail("the query between '" + a + "' and '" + b + "' failed");
@@ -1691,7 +1783,7 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
   auto it = m.pairs.find(orderedKey(ia->second, ib->second));
   if (it != m.pairs.end()) tracked = it->second.status;
   PairResult r =
-      m.makeResult(ia->second, ib->second, nextStatus(tracked, n.distance, settings_), n);
+      m.makeResult(ia->second, ib->second, nextStatus(tracked, n.distance, settings_), n, at);
   // Keep the caller's order.
   if (r.body_a != a) flipPair(&r);
   if (stamp) *stamp = m.pairStamp(ia->second, ib->second, Stamp());
@@ -1756,7 +1848,8 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   PairStatus tracked = PairStatus::Clear;
   auto it = m.pairs.find(orderedKey(sa, best_slot));
   if (it != m.pairs.end()) tracked = it->second.status;
-  PairResult r = m.makeResult(sa, best_slot, nextStatus(tracked, best.distance, settings_), best);
+  PairResult r = m.makeResult(sa, best_slot, nextStatus(tracked, best.distance, settings_), best,
+                              m.pairTime(sa, best_slot));
   if (r.body_a != a) flipPair(&r);
   if (stamp) *stamp = m.pairStamp(sa, best_slot, Stamp());
   return r;

@@ -923,6 +923,63 @@ class TopicBodies(unittest.TestCase):
         kinds = [e.type for e in self.m.events_for({pair}) if e.header.stamp >= second]
         self.assertIn(kinds, ([E.WARNING_END], [E.WARNING_BEGIN, E.WARNING_END]), kinds)
 
+    def test_23_a_pass_between_two_poses_of_a_slower_body_is_caught_up(self):
+        # A dart on TF at 100 Hz (5 m/s) flies through a target posed on ~body_poses at 5 Hz,
+        # between two of the target's poses (the dart 0.5 m off at both). The pair's time moves
+        # from one of the target's stamps to the next; in between it is checked at the dart's
+        # poses, the target interpolated: COLLISION_BEGIN and COLLISION_END come, stamped between
+        # the two poses, each with the distance at its stamp. Checked only at the target's
+        # stamps, the pass was not seen.
+        pair = frozenset(('dart', 'target'))
+        br = tf2_ros.TransformBroadcaster()
+        t0 = rospy.Time.now()
+
+        def dart_x(stamp):  # at 0 at t0 + 1.1 s, between the target's poses of 1.0 and 1.2 s
+            return -5.5 + 5.0 * (stamp - t0).to_sec()
+
+        def target_y(stamp):  # moving slowly across the dart's line
+            return 30.0 + 0.05 * (stamp - t0).to_sec()
+
+        def gap(stamp):
+            return math.hypot(dart_x(stamp), target_y(stamp) - 30.0) - 0.2
+        br.sendTransform(tf_transform('dart_frame', stamp=t0, xyz=(dart_x(t0), 30.0, 0.0)))
+        self.m.add(sphere_body('dart', 0.1, frame='dart_frame', pose_from_topic=False))
+        self.m.add(sphere_body('target', 0.1))
+        self.assertTrue(self.m.wait_listed('dart') and self.m.wait_listed('target'))
+        start = time.monotonic()
+        posed = []
+        try:
+            for k in range(160):  # 1.6 s
+                now = rospy.Time.now()
+                br.sendTransform(tf_transform('dart_frame', stamp=now, xyz=(dart_x(now), 30.0, 0.0)))
+                if k % 20 == 0:
+                    msg = BodyPoses()
+                    msg.header.frame_id = 'world'
+                    msg.header.stamp = now
+                    msg.ids = ['target']
+                    msg.poses = [pose(0.0, target_y(now), 0.0)]
+                    self.m.poses_pub.publish(msg)
+                    posed.append(now)
+                time.sleep(max(0.0, start + (k + 1) * 0.01 - time.monotonic()))
+            self.assertIsNotNone(self.m.wait_event(E.COLLISION_END, 'dart', 'target', 3.0))
+        finally:
+            for i in pair:
+                self.m.add(Body(id=i, operation=Body.REMOVE))
+        # The target's two poses around the pass, with the dart 0.5 m off at both.
+        before = max(p for p in posed if dart_x(p) < 0.0)
+        after = min(p for p in posed if dart_x(p) > 0.0)
+        self.assertGreater(gap(before), 0.2)
+        self.assertGreater(gap(after), 0.2)
+        hits = [e for e in self.m.events_for({pair})
+                if e.type in (E.COLLISION_BEGIN, E.COLLISION_END)]
+        self.assertEqual([e.type for e in hits], [E.COLLISION_BEGIN, E.COLLISION_END], hits)
+        for e in hits:
+            stamp = e.header.stamp
+            self.assertTrue(before < stamp < after, (before, stamp, after))
+            self.assertAlmostEqual(e.pair.distance, gap(stamp), delta=1e-6)
+        self.assertLessEqual(hits[0].pair.distance, 0.0)
+        self.assertGreater(hits[1].pair.distance, 0.0)
+
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'topic_bodies', TopicBodies, sys.argv)

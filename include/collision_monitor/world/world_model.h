@@ -123,7 +123,10 @@ struct Settings {
   /// newer one is taken back to the older stamp along its recent poses (interpolated: translation
   /// linear, rotation along the shortest arc), so the verdict is the pair's at the stamp it
   /// carries. false: each body at its held (latest) pose, which mixes times when the sources'
-  /// rates or lags differ.
+  /// rates or lags differ. While poses are kept (fresh timed poses of different stamps within
+  /// pose_timeout), a pair whose stamp moves on is also checked at every kept stamp in between
+  /// of a body of it that moved (catch-up): a pass between two poses of the slower body gets its
+  /// events, stamped when it happened.
   bool align_poses = true;
 };
 
@@ -140,7 +143,10 @@ struct CycleResult {
   std::vector<std::string> stale_bodies;
   std::size_t num_bodies = 0;
   std::size_t num_pairs_checked = 0;  ///< narrow-phase (GJK) pair checks this cycle
-  double compute_time = 0.0;          ///< s, wall time of check()
+  /// Of num_pairs_checked, those at stamps between a pair's last check and this one (catch-up,
+  /// Settings::align_poses).
+  std::size_t num_pairs_caught_up = 0;
+  double compute_time = 0.0;  ///< s, wall time of check()
   /// Pairs the broad phase handed on (may collide, boxes within warning_distance + hysteresis);
   /// each is either checked (num_pairs_checked) or answered from its previous result because
   /// neither body moved since (num_pairs_cached).
