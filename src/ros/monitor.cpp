@@ -1337,6 +1337,7 @@ void Monitor::runCycle() {
     stats_.bodies = cycle.num_bodies;
     stats_.pairs_checked = cycle.num_pairs_checked;
     stats_.pairs_checked_sum += cycle.num_pairs_checked;
+    stats_.pairs_caught_up_sum += cycle.num_pairs_caught_up;
     stats_.pose_msgs_applied = pose_msgs_applied;
     stats_.checks_with_new_poses = checks_with_new_poses;
   }
@@ -1514,6 +1515,8 @@ void Monitor::setupDiagnostics() {
            cycles ? static_cast<double>(now.pairs_checked_sum - before.pairs_checked_sum) /
                         static_cast<double>(cycles)
                   : 0.0);
+    s.add("pair checks caught up (since last report)",
+          now.pairs_caught_up_sum - before.pairs_caught_up_sum);
     s.add("checks (total)", now.cycles);
     s.add("ROS time jumps back (total)", now.time_jumps_back);
     s.add("~body_poses messages (total)", now.poses_msgs);

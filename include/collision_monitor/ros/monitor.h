@@ -254,6 +254,7 @@ class Monitor {
     std::string last_rejection;
     double cycle_time_max = 0.0, cycle_time_sum = 0.0;
     std::size_t stale = 0, bodies = 0, pairs_checked = 0, pairs_checked_sum = 0;
+    std::size_t pairs_caught_up_sum = 0;  ///< of pairs_checked_sum: catch-up checks
     std::vector<std::string> stale_ids;
   } stats_, stats_window_start_;
   /// Wall times of the last kJumpsWarn jumps back of ROS time (stats_mutex_): that many within
