@@ -1115,15 +1115,16 @@ struct WorldModel::Impl {
   /// (poseAt(): the other one interpolated, or held). A pass between two poses of the slower
   /// body, which neither of its stamps sees, turns into its events, stamped when it happened.
   /// The statuses step with hysteresis as at the live checks; an END to CLEAR says where the
-  /// pair is then, however far. Stops at a failed query (the live check that follows reports
-  /// it) and when checks are abandoned.
+  /// pair is then, however far. Stops at a failed query (the stretch after it is not gone over;
+  /// the live check that follows reports the pair UNKNOWN if its query fails too) and when checks
+  /// are abandoned.
   void catchUp(int a, int b, PairEntry* e, Stamp from, Stamp to, CycleResult* res) {
     catch_stamps.clear();
     for (const int slot : {a, b}) {
       const BodyState& X = bodies[slot];
       if (!X.elsewhereAt(from)) continue;  // held since before `from`: at the live check's pose
-      for (const StampedPose* p = X.history.at(from); p != X.history.end(); ++p) {
-        if (from < p->stamp && p->stamp < to) catch_stamps.push_back(p->stamp);
+      for (const StampedPose* p = X.history.at(from); p != X.history.end() && p->stamp < to; ++p) {
+        if (from < p->stamp) catch_stamps.push_back(p->stamp);
       }
     }
     std::sort(catch_stamps.begin(), catch_stamps.end());
@@ -1279,6 +1280,7 @@ std::string WorldModel::addBody(BodySpec spec) {
       b.fresh_from = Stamp();
       b.at.box = core::Aabb();
       b.forget();
+      b.renewed = true;  // a first pose of the new source, perhaps before the next check
     }
     m.boxes[slot] = b.at.box;
     for (auto& kv : m.pairs) {
@@ -1417,7 +1419,11 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
   // and any timed pose may follow a static one.
   if (b.has_pose && !stamp.isStatic() && !b.stamp.isStatic() && stamp < b.stamp) return false;
   const bool moved = !b.has_pose || !(b.at.pose.R == pose.R) || !(b.at.pose.t == pose.t);
-  if (b.has_pose && stamp.isStatic() != b.stamp.isStatic()) b.renewed = true;
+  // Where it was before is not known from here on: a static pose moved, one turned timed or
+  // static (a first pose is a fresh one's).
+  if (b.has_pose && (stamp.isStatic() != b.stamp.isStatic() || (stamp.isStatic() && moved))) {
+    b.renewed = true;
+  }
   if (!b.has_pose || b.stamp.isStatic()) b.forget();  // a first timed pose starts its history
   b.has_pose = true;
   b.unresolved = false;
@@ -1446,6 +1452,7 @@ void WorldModel::markUnresolved(const std::string& id) {
 void WorldModel::clearPoses() {
   for (BodyState& b : impl_->bodies) {
     if (!b.used) continue;
+    b.renewed = true;  // its first known stamp is of the time before the jump
     if (b.has_pose && !b.unresolved && b.stamp.isStatic()) continue;  // holds at any time
     b.has_pose = false;
     b.unresolved = false;

@@ -247,9 +247,10 @@ class WorldModel {
   /// pair whose bodies both kept their pose and geometry reuses its previous result (counted in
   /// num_pairs_cached, not in num_pairs_checked). Pairs and events are sorted by (body_a,
   /// body_b), with body_a < body_b; a pair's END comes before its BEGIN. Event stamps: the older
-  /// timed pose stamp of the pair (the newer when the older body is still, align_poses), never
-  /// before the pair's last such event's; `now` when both are static, and for UNKNOWN and
-  /// removal.
+  /// timed pose stamp of the pair (the newer when the older body is still, align_poses), or a
+  /// stamp between the pair's last check and this one (catch-up, Settings::align_poses: such
+  /// events come first, in stamp order, and may be older than CycleResult::stamp), never before
+  /// the pair's last such event's; `now` when both are static, and for UNKNOWN and removal.
   CycleResult check(Stamp now);
 
   /// For shutdown: the check running in another thread, and every later one, stops within one
