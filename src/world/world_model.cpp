@@ -255,8 +255,8 @@ struct BodyState {
   /// not known: its history's first pose stands in for it there (poseAt()).
   Stamp known_from;
   bool renewed = false;         ///< its pose turned static or timed since the last check()
-  bool checked_moving = false;  ///< moving() at the last check()
-  Stamp checked_stamp;          ///< `stamp` at the last check()
+  bool checked_moving = false;  ///< moving() at the last check() that found it fresh
+  Stamp checked_stamp;          ///< `stamp` at the last check() that found it fresh
   Placement at;                 ///< at the held (latest) pose
   Twist twist;
   BodySpec spec;
@@ -1090,13 +1090,27 @@ struct WorldModel::Impl {
   /// Stamp of the poses a pair's verdict was computed from: the older non-static stamp (the newer
   /// when the older body is still, align_poses), else `now` (static poses hold at any time).
   Stamp pairStamp(int a, int b, Stamp now) const {
-    const Stamp sa = bodies[a].stamp, sb = bodies[b].stamp;
+    const BodyState& A = bodies[a];
+    const BodyState& B = bodies[b];
+    return pairStampOf(A.stamp, A.moving(), B.stamp, B.moving(), now);
+  }
+  /// pairStamp() at the last check(), from the stamps and stillness the bodies had then; zero
+  /// unless both were fresh then, or when both are static.
+  Stamp lastPairStamp(int a, int b) const {
+    const BodyState& A = bodies[a];
+    const BodyState& B = bodies[b];
+    if (!A.fresh_prev || !B.fresh_prev) return Stamp();
+    return pairStampOf(A.checked_stamp, A.checked_moving, B.checked_stamp, B.checked_moving,
+                       Stamp());
+  }
+  /// pairStamp() of bodies of stamps `sa`, `sb`, moving (BodyState::moving()) or not.
+  Stamp pairStampOf(Stamp sa, bool moving_a, Stamp sb, bool moving_b, Stamp now) const {
     if (sa.isStatic()) return sb.isStatic() ? now : sb;
     if (sb.isStatic()) return sa;
     // A body still as far as it is known holds its pose since (pairTime()): the verdict is the
     // newer pose's.
-    const BodyState& older = sa < sb ? bodies[a] : bodies[b];
-    if (settings.align_poses && !older.moving()) return std::max(sa, sb);
+    const bool older_moving = sa < sb ? moving_a : moving_b;
+    if (settings.align_poses && !older_moving) return std::max(sa, sb);
     return std::min(sa, sb);
   }
 
@@ -1494,9 +1508,6 @@ CycleResult WorldModel::check(Stamp now) {
   // after `now` ages from now. From its arrival it stayed fresh for as long again as the jump.
   const bool clock_back = m.last_check_now && now < *m.last_check_now;
   m.last_check_now = now;
-  // The last check's stamp of a body still then and moving now: the pairs it meets are caught
-  // up from there (its stretch since was checked with it held).
-  std::optional<Stamp> turned;
   for (int slot = 0; slot < static_cast<int>(m.bodies.size()); ++slot) {
     BodyState& b = m.bodies[slot];
     if (!b.used) continue;
@@ -1506,14 +1517,8 @@ CycleResult WorldModel::check(Stamp now) {
     if (b.fresh) {
       m.active.push_back(slot);
       stamps.add(b);
-      if (!b.fresh_prev || b.renewed) {
-        b.known_from = b.stamp.isStatic() ? now : b.stamp;
-      } else if (!b.checked_moving && b.moving() && !b.checked_stamp.isStatic()) {
-        turned = turned ? std::min(*turned, b.checked_stamp) : b.checked_stamp;
-      }
+      if (!b.fresh_prev || b.renewed) b.known_from = b.stamp.isStatic() ? now : b.stamp;
       b.renewed = false;
-      b.checked_moving = b.moving();
-      b.checked_stamp = b.stamp;
     } else {
       m.stale.push_back(slot);
       if (b.was_active) m.grid.remove(slot);
@@ -1531,14 +1536,13 @@ CycleResult WorldModel::check(Stamp now) {
   res.stamp = stamps.verdict(s.align_poses, now);
   // A body elsewhere at the oldest stamp of a moving body is boxed over every place it was
   // since: a pair of such a stamp takes it back there (pairTime()). Catching up, from the last
-  // check's oldest pair stamp too (or a turned body's), so that the stretch since is boxed.
+  // check's oldest pair stamp too, so that every pair's stretch since is boxed.
   const Stamp earliest = s.align_poses && stamps.oldest_moving ? *stamps.oldest_moving : Stamp();
   const bool catch_up = s.align_poses && m.mixed_stamps;
   Stamp caught_from = earliest;
-  if (catch_up) {
-    for (const std::optional<Stamp>& t : {std::optional<Stamp>(m.last_verdict), turned}) {
-      if (t && !t->isStatic() && (caught_from.isStatic() || *t < caught_from)) caught_from = *t;
-    }
+  if (catch_up && !m.last_verdict.isStatic() &&
+      (caught_from.isStatic() || m.last_verdict < caught_from)) {
+    caught_from = m.last_verdict;
   }
   m.last_verdict = res.stamp;
   for (int slot : m.active) {
@@ -1597,10 +1601,11 @@ CycleResult WorldModel::check(Stamp now) {
     e.last_seen = cycle;
     const Stamp to = m.pairStamp(a, b, now);
     if (catch_up && e.status != PairStatus::Unknown) {
-      // Not before a time already checked, an event of the pair, the stretch the broad phase
-      // boxed, or a body's first known pose.
+      // Not before a time already checked (at the last check: by the broad phase alone, too),
+      // an event of the pair, or a body's first known pose. A body taken as still there that
+      // turns out to have moved is not gone over again: those verdicts stand as reported.
       const Stamp from =
-          std::max({e.checked_to, e.last_event, caught_from, A.known_from, B.known_from});
+          std::max({e.checked_to, e.last_event, m.lastPairStamp(a, b), A.known_from, B.known_from});
       if (from < to) m.catchUp(a, b, &e, from, to, &res);
     }
     e.checked_to = std::max(e.checked_to, to);
@@ -1729,10 +1734,7 @@ CycleResult WorldModel::check(Stamp now) {
                    &res.events, &m.event_keys, m.rankKey(a, b));
         e.status = PairStatus::Clear;
       }
-      // Kept while catch-up may come back to its times: its last event and check bound it.
-      const bool recent =
-          catch_up && now - std::max(e.checked_to, e.last_event) <= 2.0 * s.pose_timeout;
-      if (cycle - e.last_seen > kForgetAfterCycles && !recent) {
+      if (cycle - e.last_seen > kForgetAfterCycles) {
         it = m.pairs.erase(it);
         continue;
       }
@@ -1760,6 +1762,11 @@ CycleResult WorldModel::check(Stamp now) {
   }
   std::sort(res.stale_bodies.begin(), res.stale_bodies.end());
 
+  for (int slot : m.active) {  // what lastPairStamp() reads at the next check
+    BodyState& b = m.bodies[slot];
+    b.checked_stamp = b.stamp;
+    b.checked_moving = b.moving();
+  }
   res.abandoned = m.abandoned.load(std::memory_order_relaxed);
   res.compute_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return res;
