@@ -1601,9 +1601,9 @@ CycleResult WorldModel::check(Stamp now) {
     e.last_seen = cycle;
     const Stamp to = m.pairStamp(a, b, now);
     if (catch_up && e.status != PairStatus::Unknown) {
-      // Not before a time already checked (at the last check: by the broad phase alone, too),
-      // an event of the pair, or a body's first known pose. A body taken as still there that
-      // turns out to have moved is not gone over again: those verdicts stand as reported.
+      // Not before a time already checked (at the last check, by the broad phase alone too; the
+      // pair's stamp may go back when a body taken as still turns out to have moved), an event
+      // of the pair, or a body's first known pose: those verdicts stand as reported.
       const Stamp from =
           std::max({e.checked_to, e.last_event, m.lastPairStamp(a, b), A.known_from, B.known_from});
       if (from < to) m.catchUp(a, b, &e, from, to, &res);
