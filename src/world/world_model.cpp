@@ -236,8 +236,12 @@ struct BodyState {
   bool was_active = false;  ///< in the broad phase of the last check()
   bool has_twist = false;
   bool swept = false;  ///< its broad-phase box spans poses before the held one (check())
-  int group = 0;       ///< dense id of spec.group, 0 = none
-  Stamp stamp;         ///< isStatic(): a static pose
+  /// moving() and `stamp` at the check() before the last one and at the last one that found it
+  /// fresh ([0] is what Impl::lastPairStamp() reads during a check: the previous one's).
+  bool checked_moving[2] = {false, false};
+  Stamp checked_stamp[2];
+  int group = 0;  ///< dense id of spec.group, 0 = none
+  Stamp stamp;    ///< isStatic(): a static pose
   /// The time freshness is judged from: `stamp`, or when it came, if earlier (setPose).
   Stamp fresh_from;
   /// Bumped whenever the pose or the geometry changes: a pair result computed at the same
@@ -254,10 +258,8 @@ struct BodyState {
   /// turned static or timed: `renewed`); `now` then for a static pose. Where it was before is
   /// not known: its history's first pose stands in for it there (poseAt()).
   Stamp known_from;
-  bool renewed = false;         ///< its pose turned static or timed since the last check()
-  bool checked_moving = false;  ///< moving() at the last check() that found it fresh
-  Stamp checked_stamp;          ///< `stamp` at the last check() that found it fresh
-  Placement at;                 ///< at the held (latest) pose
+  bool renewed = false;  ///< its pose turned static or timed since the last check()
+  Placement at;          ///< at the held (latest) pose
   Twist twist;
   BodySpec spec;
   /// The timed poses of the last pose_timeout, oldest first, the held one last (and one older
@@ -1100,8 +1102,8 @@ struct WorldModel::Impl {
     const BodyState& A = bodies[a];
     const BodyState& B = bodies[b];
     if (!A.fresh_prev || !B.fresh_prev) return Stamp();
-    return pairStampOf(A.checked_stamp, A.checked_moving, B.checked_stamp, B.checked_moving,
-                       Stamp());
+    return pairStampOf(A.checked_stamp[0], A.checked_moving[0], B.checked_stamp[0],
+                       B.checked_moving[0], Stamp());
   }
   /// pairStamp() of bodies of stamps `sa`, `sb`, moving (BodyState::moving()) or not.
   Stamp pairStampOf(Stamp sa, bool moving_a, Stamp sb, bool moving_b, Stamp now) const {
@@ -1519,6 +1521,10 @@ CycleResult WorldModel::check(Stamp now) {
       stamps.add(b);
       if (!b.fresh_prev || b.renewed) b.known_from = b.stamp.isStatic() ? now : b.stamp;
       b.renewed = false;
+      b.checked_stamp[0] = b.checked_stamp[1];  // lastPairStamp()'s, when fresh_prev
+      b.checked_moving[0] = b.checked_moving[1];
+      b.checked_stamp[1] = b.stamp;
+      b.checked_moving[1] = b.moving();
     } else {
       m.stale.push_back(slot);
       if (b.was_active) m.grid.remove(slot);
@@ -1762,11 +1768,6 @@ CycleResult WorldModel::check(Stamp now) {
   }
   std::sort(res.stale_bodies.begin(), res.stale_bodies.end());
 
-  for (int slot : m.active) {  // what lastPairStamp() reads at the next check
-    BodyState& b = m.bodies[slot];
-    b.checked_stamp = b.stamp;
-    b.checked_moving = b.moving();
-  }
   res.abandoned = m.abandoned.load(std::memory_order_relaxed);
   res.compute_time = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return res;
