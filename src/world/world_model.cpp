@@ -235,11 +235,11 @@ struct BodyState {
   bool fresh_prev = false;  ///< fresh at the check() before (and existed)
   bool was_active = false;  ///< in the broad phase of the last check()
   bool has_twist = false;
-  bool swept = false;  ///< its broad-phase box spans poses before the held one (check())
+  bool swept = false;    ///< its broad-phase box spans poses before the held one (check())
+  bool renewed = false;  ///< its pose turned static or timed since the last check()
   /// moving() and `stamp` at the check() before the last one and at the last one that found it
   /// fresh ([0] is what Impl::lastPairStamp() reads during a check: the previous one's).
   bool checked_moving[2] = {false, false};
-  Stamp checked_stamp[2];
   int group = 0;  ///< dense id of spec.group, 0 = none
   Stamp stamp;    ///< isStatic(): a static pose
   /// The time freshness is judged from: `stamp`, or when it came, if earlier (setPose).
@@ -252,14 +252,14 @@ struct BodyState {
   /// is the held pose); zero when that is all of `history` (or the pose is static): the body is
   /// still, as far as its history tells.
   Stamp held_since;
-  Stamp swept_from;  ///< while `swept`: the stamp of the first pose it spans
+  Stamp swept_from;        ///< while `swept`: the stamp of the first pose it spans
+  Stamp checked_stamp[2];  ///< see checked_moving
   /// Catch-up (WorldModel::Impl::catchUp()) never goes back before this: the stamp of its pose at
   /// the first check that found it fresh after a spell without a fresh pose (or after its pose
   /// turned static or timed: `renewed`); `now` then for a static pose. Where it was before is
   /// not known: its history's first pose stands in for it there (poseAt()).
   Stamp known_from;
-  bool renewed = false;  ///< its pose turned static or timed since the last check()
-  Placement at;          ///< at the held (latest) pose
+  Placement at;  ///< at the held (latest) pose
   Twist twist;
   BodySpec spec;
   /// The timed poses of the last pose_timeout, oldest first, the held one last (and one older
@@ -1519,8 +1519,10 @@ CycleResult WorldModel::check(Stamp now) {
     if (b.fresh) {
       m.active.push_back(slot);
       stamps.add(b);
-      if (!b.fresh_prev || b.renewed) b.known_from = b.stamp.isStatic() ? now : b.stamp;
-      b.renewed = false;
+      if (!b.fresh_prev || b.renewed) {
+        b.known_from = b.stamp.isStatic() ? now : b.stamp;
+        b.renewed = false;
+      }
       b.checked_stamp[0] = b.checked_stamp[1];  // lastPairStamp()'s, when fresh_prev
       b.checked_moving[0] = b.checked_moving[1];
       b.checked_stamp[1] = b.stamp;
