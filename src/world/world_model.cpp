@@ -235,8 +235,10 @@ struct BodyState {
   bool fresh_prev = false;  ///< fresh at the check() before (and existed)
   bool was_active = false;  ///< in the broad phase of the last check()
   bool has_twist = false;
-  bool swept = false;    ///< its broad-phase box spans poses before the held one (check())
-  bool renewed = false;  ///< its pose turned static or timed since the last check()
+  bool swept = false;  ///< its broad-phase box spans poses before the held one (check())
+  /// Since the last check(), where it was before stopped being known: its static pose moved, its
+  /// pose turned static or timed, it was given a new pose source, or poses were forgotten.
+  bool renewed = false;
   /// moving() and `stamp` at the check() before the last one and at the last one that found it
   /// fresh ([0] is what Impl::lastPairStamp() reads during a check: the previous one's).
   bool checked_moving[2] = {false, false};
@@ -255,9 +257,9 @@ struct BodyState {
   Stamp swept_from;        ///< while `swept`: the stamp of the first pose it spans
   Stamp checked_stamp[2];  ///< see checked_moving
   /// Catch-up (WorldModel::Impl::catchUp()) never goes back before this: the stamp of its pose at
-  /// the first check that found it fresh after a spell without a fresh pose (or after its pose
-  /// turned static or timed: `renewed`); `now` then for a static pose. Where it was before is
-  /// not known: its history's first pose stands in for it there (poseAt()).
+  /// the first check that found it fresh after a spell without a fresh pose, or `renewed`; `now`
+  /// then for a static pose. Where it was before is not known: its history's first pose stands
+  /// in for it there (poseAt()).
   Stamp known_from;
   Placement at;  ///< at the held (latest) pose
   Twist twist;
