@@ -242,6 +242,9 @@ struct BodyState {
   /// moving() and `stamp` at the check() before the last one and at the last one that found it
   /// fresh ([0] is what Impl::lastPairStamp() reads during a check: the previous one's).
   bool checked_moving[2] = {false, false};
+  /// Timed poses of new stamps since the last check() (at most 255): sources of different rates
+  /// whose stamps meet at every check are told apart by it (Impl::mixed_stamps).
+  std::uint8_t new_stamps = 0;
   int group = 0;  ///< dense id of spec.group, 0 = none
   Stamp stamp;    ///< isStatic(): a static pose
   /// The time freshness is judged from: `stamp`, or when it came, if earlier (setPose).
@@ -527,8 +530,9 @@ struct WorldModel::Impl {
   std::uint64_t cycle = 0;
   std::optional<Stamp> last_check_now;  ///< the time the last check() was given
   bool sweep_all = false;  ///< the next check() takes every body as moved (new reach, backend)
-  /// A check() within pose_timeout found fresh timed poses of different stamps: setPose() keeps
-  /// poses (BodyState::history) only then.
+  /// A check() within pose_timeout found fresh timed poses of different stamps, or bodies posed
+  /// at different rates since the check before (BodyState::new_stamps): setPose() keeps poses
+  /// (BodyState::history) only then.
   bool mixed_stamps = false;
   std::optional<Stamp> mixed_seen;  ///< the last check() that found them
   /// The last check()'s CycleResult::stamp: no pair was checked at an older stamp then. While
@@ -566,12 +570,17 @@ struct WorldModel::Impl {
     std::optional<Stamp> oldest_moving;  ///< of those of a moving body (BodyState::moving())
     std::optional<Stamp> still[2];       ///< the two oldest of those of a still body
     bool fixed = false;                  ///< a static pose
+    /// The fewest and most BodyState::new_stamps of a body with a timed pose.
+    std::uint8_t fewest_new = 255;
+    std::uint8_t most_new = 0;
 
     void add(const BodyState& b) {
       if (b.stamp.isStatic()) {
         fixed = true;
         return;
       }
+      fewest_new = std::min(fewest_new, b.new_stamps);
+      most_new = std::max(most_new, b.new_stamps);
       oldest = oldest ? std::min(*oldest, b.stamp) : b.stamp;
       newest = newest ? std::max(*newest, b.stamp) : b.stamp;
       if (b.moving()) {
@@ -1436,6 +1445,7 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
   // Out of order: only between two timed stamps. A static pose (stamp <= 0) always applies,
   // and any timed pose may follow a static one.
   if (b.has_pose && !stamp.isStatic() && !b.stamp.isStatic() && stamp < b.stamp) return false;
+  if (!stamp.isStatic() && stamp != b.stamp && b.new_stamps < 255) ++b.new_stamps;
   const bool moved = !b.has_pose || !(b.at.pose.R == pose.R) || !(b.at.pose.t == pose.t);
   // Where it was before is not known from here on: a static pose moved, one turned timed or
   // static (a first pose is a fresh one's).
@@ -1521,6 +1531,7 @@ CycleResult WorldModel::check(Stamp now) {
     if (b.fresh) {
       m.active.push_back(slot);
       stamps.add(b);
+      b.new_stamps = 0;
       if (!b.fresh_prev || b.renewed) {
         b.known_from = b.stamp.isStatic() ? now : b.stamp;
         b.renewed = false;
@@ -1530,6 +1541,7 @@ CycleResult WorldModel::check(Stamp now) {
       b.checked_stamp[1] = b.stamp;
       b.checked_moving[1] = b.moving();
     } else {
+      b.new_stamps = 0;
       m.stale.push_back(slot);
       if (b.was_active) m.grid.remove(slot);
       if (m.far_active) m.far_grid.remove(slot);
@@ -1539,8 +1551,13 @@ CycleResult WorldModel::check(Stamp now) {
       b.swept_version = b.version;
     }
   }
-  if ((stamps.oldest && *stamps.oldest < *stamps.newest) || (m.mixed_seen && now < *m.mixed_seen))
+  // Stamps apart now, or since the last check one body posed more often than another (a 100 Hz
+  // and a 5 Hz source checked just after each 5 Hz pose: equal stamps at every check).
+  const bool rates_apart = stamps.most_new >= 2 && stamps.fewest_new < stamps.most_new;
+  if ((stamps.oldest && *stamps.oldest < *stamps.newest) || rates_apart ||
+      (m.mixed_seen && now < *m.mixed_seen)) {
     m.mixed_seen = now;
+  }
   // Sources whose stamps meet now and then (10 Hz and 100 Hz ones at every tenth) stay mixed.
   m.mixed_stamps = m.mixed_seen && now - *m.mixed_seen <= s.pose_timeout;
   res.stamp = stamps.verdict(s.align_poses, now);
