@@ -1735,7 +1735,7 @@ TEST(WorldModel, APassBetweenTwoPosesOfTheSlowerBodyIsCaughtUp) {
     const auto dart = [](int k) { return Vec3(-1.0 + 0.1 * k, 0, 0); };
     const auto slow = [&](int k) { return Vec3(0, 0.05 + (k <= 0 ? 0.1 : v_after) * k * 0.01, 0); };
     Timeline events;
-    std::size_t caught_up = 0;
+    std::size_t caught_up = 0, skipped = 0;
     for (int k = -20; k <= 40; ++k) {
       ASSERT_TRUE(w->setPose("dart", at(dart(k).x()), step(k)));
       if (k % 20 == 0) {
@@ -1747,6 +1747,7 @@ TEST(WorldModel, APassBetweenTwoPosesOfTheSlowerBodyIsCaughtUp) {
         events.emplace_back(e.type, e.stamp);
       }
       caught_up += r.num_pairs_caught_up;
+      skipped += r.num_catch_up_skips;
     }
     std::vector<std::pair<Stamp, double>> steps;  // the pair's checks from k = 0 on
     for (int k = 0; k <= 40; ++k)
@@ -1759,8 +1760,40 @@ TEST(WorldModel, APassBetweenTwoPosesOfTheSlowerBodyIsCaughtUp) {
     ASSERT_EQ(expected.size(), v_after > 0 ? 6u : 4u);
     EXPECT_EQ(expected[2], std::make_pair(E::CollisionBegin, step(9)));
     EXPECT_EQ(expected[3], std::make_pair(E::CollisionEnd, step(v_after > 0 ? 12 : 13)));
-    EXPECT_EQ(caught_up, 19u);  // the dart's stamps between the slow body's
+    // Of the dart's 19 stamps between the slow body's, those where the pair may have changed
+    // status since the last one checked (the bodies move 0.1 m and up to 1 mm a stamp): 1
+    // (0.70 m), 8 (0.70 - 7 x 0.101 < 0.0625 m), 9, 10 (colliding), 12 (0.0094 or 0.0062 m),
+    // 13, 14 and 16 (0.205 - 2 x 0.101 < 0.0625 m). The rest are passed over.
+    EXPECT_EQ(caught_up, 8u);
+    EXPECT_EQ(skipped, 11u);
   }
+}
+
+TEST(WorldModel, CatchUpPassesOverStampsWhereThePairCannotHaveComeNear) {
+  // A body posed at 1 kHz and one posed at 10 Hz, both moving at 0.1 m/s along z, their centres
+  // offset diagonally: their boxes are 0.042 m apart (the broad phase hands the pair on), the
+  // spheres 0.2495 m. Each time the slow body's stamp moves on, catch-up checks the pair at the
+  // fast body's first stamp in between; the other 98 cannot be nearer than 0.2495 - 2 x 0.01 m
+  // (both move at most 10 mm in 0.1 s), far beyond the warning distance, and are passed over.
+  const Settings s = dyadic();
+  const auto w = twoSpheres(s, "fast", "slow", 0.25);
+  const auto stampAt = [](int ms) { return Stamp::fromNanoseconds(1000000000LL + ms * 1000000LL); };
+  int stretches = 0;
+  for (int ms = 0; ms <= 1000; ++ms) {
+    ASSERT_TRUE(w->setPose("fast", at(0, 0, 1e-4 * ms), stampAt(ms)));
+    if (ms % 100 == 0) {
+      ASSERT_TRUE(w->setPose("slow", at(0.53, 0.53, 1e-4 * ms), stampAt(ms)));
+    }
+    const CycleResult r = w->check(stampAt(ms));
+    EXPECT_TRUE(r.events.empty());
+    ASSERT_EQ(r.num_broad_phase_pairs, 1u);
+    if (r.num_pairs_caught_up + r.num_catch_up_skips == 0) continue;
+    ++stretches;
+    EXPECT_EQ(ms % 100, 0) << "caught up at " << ms << " ms, not when the slow body's stamp moved";
+    EXPECT_EQ(r.num_pairs_caught_up, 1u) << ms << " ms";
+    EXPECT_EQ(r.num_catch_up_skips, 98u) << ms << " ms";
+  }
+  EXPECT_GE(stretches, 8);  // from the slow body's second pose on
 }
 
 TEST(WorldModel, ABodyPosedFasterThanTheChecksIsCaughtUpBetweenThem) {

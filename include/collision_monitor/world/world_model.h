@@ -146,6 +146,9 @@ struct CycleResult {
   /// Of num_pairs_checked, those at stamps between a pair's last check and this one (catch-up,
   /// Settings::align_poses).
   std::size_t num_pairs_caught_up = 0;
+  /// Stamps catch-up passed over without a check: neither body can have moved far enough since
+  /// the pair's last check to change its status.
+  std::size_t num_catch_up_skips = 0;
   double compute_time = 0.0;  ///< s, wall time of check()
   /// Pairs the broad phase handed on (may collide, boxes within warning_distance + hysteresis);
   /// each is either checked (num_pairs_checked) or answered from its previous result because
