@@ -1165,16 +1165,17 @@ struct WorldModel::Impl {
     }
     std::sort(catch_stamps.begin(), catch_stamps.end());
     catch_stamps.erase(std::unique(catch_stamps.begin(), catch_stamps.end()), catch_stamps.end());
-    // A stamp is passed over when the status cannot have changed since the last one checked
-    // (`ref_a`, `ref_b`, bounds `lo` and `hi`): from there no point of a body moved farther than
-    // pointShift(), and the pair's signed distance changed by at most the sum of both (a body
-    // within that of where it was). The slack covers the queries' own error.
+    // A stamp is passed over when the status cannot have changed since the last one checked,
+    // at poses `ref_a`, `ref_b` and distance `near` (its lower bound beyond the cutoff, where
+    // only CLEAR holds, for any distance above): from there no point of a body moved farther
+    // than pointShift(), and the pair's signed distance changed by at most the sum of both (a
+    // body within that of where it was). The slack covers the queries' own error.
     const double reach_a = bodies[a].reachFromOrigin();
     const double reach_b = bodies[b].reachFromOrigin();
     const double slack = 4e-9 * (1.0 + reach_a + reach_b);
     bool have_ref = false;
     Transform3 ref_a, ref_b;
-    double lo = 0.0, hi = 0.0;
+    double near = 0.0;
     for (const Stamp t : catch_stamps) {
       if (abandoned.load(std::memory_order_relaxed)) return;
       const Transform3 pose_a = bodies[a].poseAt(t);
@@ -1182,7 +1183,7 @@ struct WorldModel::Impl {
       if (have_ref) {
         const double shift =
             pointShift(ref_a, pose_a, reach_a) + pointShift(ref_b, pose_b, reach_b) + slack;
-        if (holdsThrough(e->status, lo - shift, hi + shift, settings)) {
+        if (holdsThrough(e->status, near - shift, near + shift, settings)) {
           ++res->num_catch_up_skips;
           continue;
         }
@@ -1201,8 +1202,7 @@ struct WorldModel::Impl {
       have_ref = true;
       ref_a = pose_a;
       ref_b = pose_b;
-      lo = n.lower_bound;
-      hi = n.distance;  // a part pair's distance (+inf when none was measured)
+      near = n.lower_bound;
       if (next == e->status) continue;
       emit(e->status, next, makeResult(a, b, next, n, t), eventStamp(e, t), &res->events,
            &event_keys, rankKey(a, b));
