@@ -330,8 +330,6 @@ struct BodyState {
       r = std::max(r, (at.part_centres[i] - at.pose.t).norm() + at.part_radii[i]);
     return r;
   }
-  /// Whether poseAt() places the body elsewhere than its held pose at some time from `t` on.
-  bool sweeps(Stamp t) const { return t < held_since; }
   /// The stamp of the pose sweptBox() starts from for `t`: the last one at or before it (else
   /// the first). The box changes only when this does (or the body moves).
   Stamp sweepStart(Stamp t) const { return history.at(t)->stamp; }
@@ -1608,7 +1606,7 @@ CycleResult WorldModel::check(Stamp now) {
   m.last_verdict = res.stamp;
   for (int slot : m.active) {
     BodyState& b = m.bodies[slot];
-    const bool swept = !caught_from.isStatic() && !b.stamp.isStatic() && b.sweeps(caught_from);
+    const bool swept = !caught_from.isStatic() && !b.stamp.isStatic() && b.elsewhereAt(caught_from);
     const Stamp from = swept ? b.sweepStart(caught_from) : Stamp();
     if (!b.was_active || b.swept_version != b.version || m.sweep_all || swept != b.swept ||
         from != b.swept_from) {
