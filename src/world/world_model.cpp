@@ -209,6 +209,10 @@ class PoseHistory {
 Transform3 interpolate(const Transform3& a, const Transform3& b, double s) {
   Transform3 out;
   out.t = a.t + s * (b.t - a.t);
+  if (a.R == b.R) {  // a translation: no arc to follow
+    out.R = a.R;
+    return out;
+  }
   const Eigen::Quaterniond qa(a.R), qb(b.R);
   out.R = qa.slerp(s, qb).normalized().toRotationMatrix();
   return out;
@@ -230,7 +234,8 @@ double rotationAngle(const core::Mat3& a, const core::Mat3& b) {
 /// The farthest a point within `r` of a body's origin moves from pose `a` to pose `b`:
 /// |b.t - a.t| + |(b.R - a.R) x|, where |b.R - a.R| is 2 sin(angle / 2).
 double pointShift(const Transform3& a, const Transform3& b, double r) {
-  return (b.t - a.t).norm() + 2.0 * r * std::sin(rotationAngle(a.R, b.R) / 2.0);
+  const double moved = (b.t - a.t).norm();
+  return a.R == b.R ? moved : moved + 2.0 * r * std::sin(rotationAngle(a.R, b.R) / 2.0);
 }
 
 /// A body in its slot, with its placement in the fixed frame.
@@ -296,7 +301,7 @@ struct BodyState {
   Transform3 poseAt(Stamp t) const {
     if (!elsewhereAt(t)) return at.pose;
     const StampedPose& before = *history.at(t);
-    if (t < before.stamp) return before.pose;
+    if (t <= before.stamp) return before.pose;  // at one of its poses, or before the first
     // t < held_since <= stamp: a pose follows the one before `t`.
     const StampedPose& after = *(&before + 1);
     return interpolate(before.pose, after.pose, (t - before.stamp) / (after.stamp - before.stamp));
