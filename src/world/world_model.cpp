@@ -130,7 +130,8 @@ struct Narrow {
   Vec3 point_b = Vec3::Zero();
   Vec3 normal = Vec3::UnitX();
   bool exact = false;  ///< distance is the true minimum (not only "beyond the cutoff")
-  /// At most the true minimum: `distance` when exact, else the nearest any part pair may be.
+  /// At most the true minimum: `distance` when exact, else the nearest any part pair may be
+  /// (+inf when a box or ball gap overflowed, or the query failed: no bound).
   double lower_bound = kInf;
   int gjk_runs = 0;
 };
@@ -231,11 +232,13 @@ double rotationAngle(const core::Mat3& a, const core::Mat3& b) {
   return std::acos(std::clamp(c, -1.0, 1.0));
 }
 
-/// The farthest a point within `r` of a body's origin moves from pose `a` to pose `b`:
-/// |b.t - a.t| + |(b.R - a.R) x|, where |b.R - a.R| is 2 sin(angle / 2).
+/// At least as far as a point within `r` of a body's origin moves from pose `a` to pose `b`:
+/// |b.t - a.t| + |(b.R - a.R) x| <= |b.t - a.t| + |b.R - a.R|_F r. For a turn by `angle` the
+/// Frobenius norm is 2 sqrt(2) sin(angle / 2), sqrt(2) times the chord a metre out; from the
+/// entries, it does not round a small turn to 0 (acos of the trace does below 1e-8 rad), and
+/// holds for a matrix that is not quite a rotation too.
 double pointShift(const Transform3& a, const Transform3& b, double r) {
-  const double moved = (b.t - a.t).norm();
-  return a.R == b.R ? moved : moved + 2.0 * r * std::sin(rotationAngle(a.R, b.R) / 2.0);
+  return (b.t - a.t).norm() + (b.R - a.R).norm() * r;
 }
 
 /// A body in its slot, with its placement in the fixed frame.
@@ -1172,10 +1175,15 @@ struct WorldModel::Impl {
     // at poses `ref_a`, `ref_b` and distance `near` (its lower bound beyond the cutoff, where
     // only CLEAR holds, for any distance above): from there no point of a body moved farther
     // than pointShift(), and the pair's signed distance changed by at most the sum of both (a
-    // body within that of where it was). The slack covers the queries' own error.
+    // body within that of where it was). The slack covers our queries' error, which grows with
+    // the bodies' size and distance from the origin. libccd's depths (cores overlapping) are
+    // not that close (docs/reliability.md): with it, only a stretch that stays apart is passed
+    // over. A bound that overflowed (+inf: bodies 1e154 m apart) is no reference.
     const double reach_a = bodies[a].reachFromOrigin();
     const double reach_b = bodies[b].reachFromOrigin();
     const double slack = 4e-9 * (1.0 + reach_a + reach_b);
+    const double floor = settings.backend == core::BackendType::Libccd ? 0.0 : -kInf;
+    const auto far = [](const Transform3& x) { return x.t.lpNorm<Eigen::Infinity>(); };
     bool have_ref = false;
     Transform3 ref_a, ref_b;
     double near = 0.0;
@@ -1184,9 +1192,11 @@ struct WorldModel::Impl {
       const Transform3 pose_a = bodies[a].poseAt(t);
       const Transform3 pose_b = bodies[b].poseAt(t);
       if (have_ref) {
+        const double ulps = 16.0 * std::numeric_limits<double>::epsilon() *
+                            std::max({far(ref_a), far(ref_b), far(pose_a), far(pose_b)});
         const double shift =
-            pointShift(ref_a, pose_a, reach_a) + pointShift(ref_b, pose_b, reach_b) + slack;
-        if (holdsThrough(e->status, near - shift, near + shift, settings)) {
+            pointShift(ref_a, pose_a, reach_a) + pointShift(ref_b, pose_b, reach_b) + slack + ulps;
+        if (near - shift > floor && holdsThrough(e->status, near - shift, near + shift, settings)) {
           ++res->num_catch_up_skips;
           continue;
         }
@@ -1202,7 +1212,7 @@ struct WorldModel::Impl {
         res->num_part_checks += static_cast<std::size_t>(x.gjk_runs);
         if (std::isfinite(x.distance)) n = x;
       }
-      have_ref = true;
+      have_ref = std::isfinite(n.lower_bound);
       ref_a = pose_a;
       ref_b = pose_b;
       near = n.lower_bound;

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <future>
 #include <limits>
 #include <map>
@@ -1841,6 +1842,153 @@ TEST(WorldModel, CatchUpBoundsTheMotionOfARotatingBodyByItsReach) {
                           [](const auto& x) { return x.first == E::CollisionBegin; }),
             10);             // one pass in each of the ball's 10 periods
   EXPECT_GT(skipped, 500u);  // most of the rod's stamps, where it points away
+}
+
+/// Events from 250 ms on of two one-part bodies, "a" posed every 1 ms and "b" every `period_b`
+/// ms (b never turns), checked every `check` ms, and the oracle's: every stamp since the pair's
+/// last one, distances by the same backend (b's translation interpolated), pair_logic.
+struct TwoBodyRun {
+  int events = 0, expected = 0;
+  std::size_t skips = 0;
+};
+TwoBodyRun runTwoBodies(const Settings& s, const Part& pa, const Part& pb,
+                        const std::function<Transform3(int)>& poseA,
+                        const std::function<Transform3(int)>& poseB, int period_b, int check) {
+  WorldModel w(s);
+  EXPECT_EQ(w.addBody(body("a", {pa})), "");
+  EXPECT_EQ(w.addBody(body("b", {pb})), "");
+  const auto narrow = core::makeNarrowPhase(s.backend);
+  const auto stampOf = [](int ms) { return Stamp::fromNanoseconds(1000000000LL + ms * 1000000LL); };
+  const auto bAt = [&](int ms) {  // b's pose at `ms` as the world model places it
+    const int k0 = ms - ms % period_b;
+    if (k0 == ms) return poseB(ms);
+    Transform3 T = poseB(k0);
+    T.t += (ms - k0) / static_cast<double>(period_b) * (poseB(k0 + period_b).t - T.t);
+    return T;
+  };
+  TwoBodyRun out;
+  PairStatus status = PairStatus::Clear;
+  int last = -1;
+  for (int now = 0; now <= 600; now += check) {
+    for (int ms = std::max(0, now - check + 1); ms <= now; ++ms) {
+      EXPECT_TRUE(w.setPose("a", poseA(ms), stampOf(ms)));
+      if (ms % period_b == 0) {
+        EXPECT_TRUE(w.setPose("b", poseB(ms), stampOf(ms)));
+      }
+    }
+    const CycleResult r = w.check(stampOf(now));
+    const int t = now - now % period_b;  // the pair's stamp: b's, the older moving body's
+    if (now < 250) {
+      status = r.pairs.empty() ? PairStatus::Clear : r.pairs[0].status;
+    } else {
+      out.events += static_cast<int>(r.events.size());
+      out.skips += r.num_catch_up_skips;
+      for (int x = last + 1; x <= t; ++x) {
+        const double d =
+            narrow
+                ->signedDistance(pa.shape, poseA(x) * pa.pose, pb.shape, bAt(x) * pb.pose, nullptr)
+                .distance;
+        const PairStatus next = nextStatus(status, d, s);
+        EventType types[2];
+        out.expected += transitionEvents(status, next, types);
+        status = next;
+      }
+    }
+    last = t;
+  }
+  return out;
+}
+
+TEST(WorldModel, CatchUpPassesOverNoStampNearAThreshold) {
+  // Found by a review of the skip (each case gave 0 to 16 events of 24 to 800 before): a body
+  // that jitters by 1e-8 rad, whose turn acos of the trace rounded to 0 (a sphere on a part 1 m
+  // or 100 m out, between w - 6e-10 and w + 9.4e-9 m, or w - 3e-7 and w + 7e-7 m); libccd's
+  // depth, off by 1e-5 m for a move of 5e-6 m (contact_distance inside the overlap); bodies 1e9
+  // m out, where one ulp is 1.2e-7 m; and a box gap that overflowed to +inf at 1e154 m.
+  Settings s;
+  s.warning_distance = 0.05;
+  s.contact_distance = 0.0;
+  s.hysteresis = 0.0;
+  s.pose_timeout = 0.5;
+  const Part ball{ConvexShape::sphere(0.1), Transform3::Identity()};
+  const auto jitter = [](double theta, const Vec3& t) {
+    return [=](int ms) {
+      Transform3 T;
+      T.t = t;
+      T.R = Eigen::AngleAxisd(ms % 2 ? theta : 0.0, Vec3::UnitZ()).toRotationMatrix();
+      return T;
+    };
+  };
+  const auto drift = [](const Vec3& t, const Vec3& v) {
+    return [=](int ms) {
+      Transform3 T;
+      T.t = t + v * ms;
+      return T;
+    };
+  };
+  for (const double out : {1.0, 100.0}) {
+    SCOPED_TRACE("a turn of 1e-8 rad, a part " + std::to_string(out) + " m out");
+    Part part = ball;
+    part.pose.t = Vec3(out, 0, 0);
+    const double gap = 0.5 * (4e-9 * (1.2 + out) + out * 1e-8);  // above w at the turn 0
+    const TwoBodyRun r = runTwoBodies(s, part, ball, jitter(1e-8, Vec3::Zero()),
+                                      drift(Vec3(out, 0.25 + gap, 0), Vec3(0, 0, 1e-13)), 100, 10);
+    EXPECT_EQ(r.events, r.expected);
+    EXPECT_EQ(r.expected, 400);
+  }
+  {
+    SCOPED_TRACE("libccd, contact_distance inside the overlap");
+    Settings c = s;
+    c.backend = core::BackendType::Libccd;
+    c.warning_distance = 0.5;
+    c.contact_distance = -0.289008279187 - 7.5e-6;
+    const TwoBodyRun r = runTwoBodies(
+        c, Part{ConvexShape::sphere(0.05), Transform3::Identity()},
+        Part{ConvexShape::ellipsoid(Vec3(1.0, 0.5, 0.3)), Transform3::Identity()},
+        [](int ms) {
+          Transform3 T;
+          T.t = Vec3(-0.5 + (76475 + ms % 2) * 5e-6, 0.1, 0.05);
+          return T;
+        },
+        drift(Vec3::Zero(), Vec3(0, 0, 1e-13)), 100, 10);
+    EXPECT_EQ(r.events, r.expected);
+    EXPECT_EQ(r.expected, 800);
+  }
+  {
+    SCOPED_TRACE("1e9 m out");
+    Part part = ball;
+    part.pose.t = Vec3(0.5, 0, 0);
+    const auto a = jitter(1.3e-7, Vec3(0, 1e9, 0));
+    const auto b = drift(Vec3(0.5, 1e9 + 0.35, 0), Vec3(1e-13, 0, 0));
+    const auto narrow = core::makeNarrowPhase(s.backend);
+    Settings f = s;  // w just below the distance at the turn 0, by more than the move
+    f.warning_distance =
+        narrow->signedDistance(ball.shape, a(0) * part.pose, ball.shape, b(0), nullptr).distance -
+        1.02e-7;
+    const TwoBodyRun r = runTwoBodies(f, part, ball, a, b, 100, 10);
+    EXPECT_EQ(r.events, r.expected);
+    EXPECT_EQ(r.expected, 400);
+  }
+  {
+    SCOPED_TRACE("1e154 m apart");
+    const Part small{ConvexShape::sphere(0.2), Transform3::Identity()};
+    const TwoBodyRun r = runTwoBodies(
+        s, small, small,
+        [](int ms) {
+          Transform3 T;
+          T.t = Vec3(ms % 30 < 10 ? -1e154 : 0.0, 1e-9 * ms, 0);
+          return T;
+        },
+        [](int ms) {
+          Transform3 T;
+          T.t = Vec3(ms % 30 == 0 ? 1e154 : 0.3, 0, 1e-9 * ms);
+          return T;
+        },
+        10, 30);
+    EXPECT_EQ(r.events, r.expected);
+    EXPECT_EQ(r.expected, 24);
+    EXPECT_GT(r.skips, 0u);  // where the bound is finite
+  }
 }
 
 TEST(WorldModel, ABodyPosedFasterThanTheChecksIsCaughtUpBetweenThem) {

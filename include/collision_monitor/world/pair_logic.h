@@ -48,13 +48,13 @@ inline PairStatus nextStatus(PairStatus prev, double d, const Settings& s) {
   return d < w ? PairStatus::Warning : PairStatus::Clear;
 }
 
-/// A distance (m) beyond which a pair with previous status `prev` is certainly CLEAR:
 /// Whether nextStatus(prev, d) == prev for every d in [lo, hi]. Each status holds on an interval
 /// of distances (an intersection of half-lines), so its two ends tell.
 inline bool holdsThrough(PairStatus prev, double lo, double hi, const Settings& s) {
   return nextStatus(prev, lo, s) == prev && nextStatus(prev, hi, s) == prev;
 }
 
+/// A distance (m) beyond which a pair with previous status `prev` is certainly CLEAR:
 /// d > clearCutoff(prev) implies nextStatus(prev, d) == Clear. Used to skip narrow-phase work.
 inline double clearCutoff(PairStatus prev, const Settings& s) {
   const double base = std::max(s.warning_distance, s.contact_distance);

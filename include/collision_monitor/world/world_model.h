@@ -147,7 +147,7 @@ struct CycleResult {
   /// Settings::align_poses).
   std::size_t num_pairs_caught_up = 0;
   /// Stamps catch-up passed over without a check: neither body can have moved far enough since
-  /// the pair's last check to change its status.
+  /// the last stamp it checked the pair at to change the pair's status.
   std::size_t num_catch_up_skips = 0;
   double compute_time = 0.0;  ///< s, wall time of check()
   /// Pairs the broad phase handed on (may collide, boxes within warning_distance + hysteresis);
