@@ -1961,10 +1961,13 @@ TEST(WorldModel, CatchUpPassesOverNoStampNearAThreshold) {
     const auto a = jitter(1.3e-7, Vec3(0, 1e9, 0));
     const auto b = drift(Vec3(0.5, 1e9 + 0.35, 0), Vec3(1e-13, 0, 0));
     const auto narrow = core::makeNarrowPhase(s.backend);
-    Settings f = s;  // w just below the distance at the turn 0, by more than the move
+    // w below the distance at the turn 0 by more than the turn's bound (0.6 m x 2 sqrt(2)
+    // sin(1.3e-7 / 2) + the slack = 1.17e-7 m), less than the computed distance falls at the
+    // turn (one ulp of 1e9: 1.19e-7 m, for a true move of 6.5e-8 m).
+    Settings f = s;
     f.warning_distance =
         narrow->signedDistance(ball.shape, a(0) * part.pose, ball.shape, b(0), nullptr).distance -
-        1.02e-7;
+        1.18e-7;
     const TwoBodyRun r = runTwoBodies(f, part, ball, a, b, 100, 10);
     EXPECT_EQ(r.events, r.expected);
     EXPECT_EQ(r.expected, 400);
