@@ -1994,6 +1994,35 @@ TEST(WorldModel, CatchUpPassesOverNoStampNearAThreshold) {
   }
 }
 
+TEST(WorldModel, ABodyReplacedWithNewGeometryIsBoxedOverItsKeptPosesAsItIsNow) {
+  // "a" (a ball of r 0.1, posed at 1 kHz) leaves "b" (r 0.1, posed at 10 Hz, drifting) at
+  // 10 m/s from 0.45 m at 100 ms; at 150 ms it is replaced with a ball of r 0.5 (the same pose
+  // source). The pair's time is b's stamp, 100 ms, where the big ball overlaps b by 0.15 m; now
+  // it is 0.35 m off b's box. The broad phase boxes a over its kept poses since: the boxes of
+  // the big ball, not of the small one it was (0.25 m off b's box: the pair was not found).
+  const Settings s = dyadic();
+  const auto w = twoSpheres(s, "a", "b", 0.1);
+  const auto stampAt = [](int ms) { return Stamp::fromNanoseconds(1000000000LL + ms * 1000000LL); };
+  for (int ms = 0; ms <= 150; ++ms) {
+    ASSERT_TRUE(w->setPose("a", at(0.45 + 0.01 * std::max(0, ms - 100)), stampAt(ms)));
+    if (ms % 100 == 0) {
+      ASSERT_TRUE(w->setPose("b", at(0, 0, 1e-6 * ms), stampAt(ms)));
+    }
+    if (ms == 150) {
+      ASSERT_EQ(w->addBody(sphere("a", 0.5)), "");
+    }
+    const CycleResult r = w->check(stampAt(ms));
+    if (ms < 150) {
+      EXPECT_TRUE(r.events.empty()) << ms << " ms";
+      continue;
+    }
+    ASSERT_EQ(r.events.size(), 1u);
+    EXPECT_EQ(r.events[0].type, E::CollisionBegin);
+    EXPECT_EQ(r.events[0].stamp, stampAt(100));
+    EXPECT_NEAR(r.events[0].pair.distance, std::hypot(0.45, 1e-4) - 0.6, 1e-12);
+  }
+}
+
 TEST(WorldModel, ABodyPosedFasterThanTheChecksIsCaughtUpBetweenThem) {
   // A dart (20 m/s) posed every 10 ms on a topic, checked every 50 ms, passing an obstacle
   // posed again at the same pose (still): the pair carries the dart's stamps, and between two
