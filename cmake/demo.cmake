@@ -26,4 +26,10 @@ if(TARGET collision_monitor_node)
   add_rostest(test/demo/demo_screenshot.test DEPENDENCIES ${CM_DEMO_TEST_DEPS})
   set_tests_properties(_ctest_${PROJECT_NAME}_rostest_test_demo_demo_screenshot.test PROPERTIES
     ENVIRONMENT "CM_DEMO_ARTIFACTS=${CMAKE_BINARY_DIR}/test_results")
+  # The Panda demo (launch/panda_demo.launch): every event with an obstacle against the test's
+  # own forward kinematics and closed-form distances. The Panda comes from CM_ROBOT_DATA
+  # (cmake/ros.cmake).
+  add_rostest(test/demo/panda_demo.test DEPENDENCIES ${CM_DEMO_TEST_DEPS})
+  set_tests_properties(_ctest_${PROJECT_NAME}_rostest_test_demo_panda_demo.test PROPERTIES
+    ENVIRONMENT "CM_ROBOT_DATA=${CM_ROBOT_DATA_DIR}")
 endif()

@@ -53,7 +53,8 @@ install(FILES nodelet_plugins.xml DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION
 install(DIRECTORY launch config urdf meshes rviz DESTINATION ${CATKIN_PACKAGE_SHARE_DESTINATION})
 catkin_install_python(PROGRAMS scripts/demo_joint_motion.py scripts/demo_obstacles.py
   scripts/demo_summary.py DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
-install(FILES scripts/demo_scene.py DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
+install(FILES scripts/demo_scene.py scripts/panda_demo_scene.py
+  DESTINATION ${CATKIN_PACKAGE_BIN_DESTINATION})
 
 if(CATKIN_ENABLE_TESTING)
   find_package(rostest REQUIRED)
