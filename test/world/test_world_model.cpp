@@ -1999,6 +1999,131 @@ TEST(WorldModel, CatchUpPassesOverNoStampNearAThreshold) {
   }
 }
 
+// A pair inside the broad phase's reach but beyond the clear cutoff is held as "beyond the
+// cutoff" (not exact). A larger warning_distance (the bodies not moving) must not reuse that
+// result: the pair is measured again under the new cutoff and turns WARNING.
+TEST(WorldModel, AResultBeyondASmallerCutoffIsNotReusedUnderALargerOne) {
+  WorldModel w(dyadic());  // w = 1/16, h = 1/128: reach 0.0703125
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));           // static poses
+  ASSERT_TRUE(w.setPose("b", at(1.06640625), 0.0));  // gap 0.06640625: in reach, beyond w
+  CycleResult r = w.check(1.0);
+  EXPECT_TRUE(r.pairs.empty());
+  EXPECT_EQ(r.num_broad_phase_pairs, 1u);
+  Settings s = dyadic();
+  s.warning_distance = 0.125;
+  w.setSettings(s);
+  r = w.check(2.0);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_EQ(r.pairs[0].status, S::Warning);
+  EXPECT_EQ(r.pairs[0].distance, 0.06640625);
+}
+
+// Catch-up of a pair in WARNING: between two poses of the slow body, the fast one steps out
+// beyond warning + hysteresis for one stamp (0.05 -> 0.08 m) and back. The stamp out there has
+// to be checked: near - shift stays above contact, but near + shift passes w + h, where WARNING
+// no longer holds. Expected: WARNING_END at step 7, WARNING_BEGIN at step 8.
+TEST(WorldModel, CatchUpChecksAStampWhereAWarningPairMayHaveLeftIt) {
+  const Settings s = dyadic();  // w = 0.0625, h = 0.0078125: WARNING holds below 0.0703125
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(sphere("fast", 0.1)), "");
+  ASSERT_EQ(w.addBody(sphere("slow", 0.1)), "");
+  const auto fastX = [](int k) { return k == 7 ? 0.28 : 0.25; };  // gap 0.08 at step 7, else 0.05
+  std::vector<std::pair<E, Stamp>> got;
+  for (int k = -20; k <= 20; ++k) {
+    ASSERT_TRUE(w.setPose("fast", at(fastX(k)), step(k)));
+    if (k % 20 == 0) {  // slow: moving, slowly
+      ASSERT_TRUE(w.setPose("slow", at(0, 1e-4 * k), step(k)));
+    }
+    const CycleResult r = w.check(step(k));
+    if (k < 0) continue;
+    for (const Event& e : r.events) {
+      got.emplace_back(e.type, e.stamp);
+      // The END to CLEAR says where the pair is then (0.08 m), as a live check's does.
+      if (e.type == E::WarningEnd) {
+        EXPECT_NEAR(e.pair.distance, 0.08, 1e-5);
+      }
+    }
+  }
+  // From step 0 on the pair is in WARNING (0.05 m); the last events are those of steps 7 and 8.
+  ASSERT_GE(got.size(), 2u);
+  const std::vector<std::pair<E, Stamp>> last(got.end() - 2, got.end());
+  EXPECT_EQ(last, (std::vector<std::pair<E, Stamp>>{{E::WarningEnd, step(7)},
+                                                    {E::WarningBegin, step(8)}}));
+}
+
+// Catch-up samples a stretch only at the stamps of a body that moved in it (catchUp()): a body
+// held since before the stretch adds none, though posed more often. Here "slow" (posed every
+// 0.2 s) jumps 2 m between two poses, past "still" (posed every 10 ms, never moving): no catch-up
+// check, no event (the pair is 0.8 m apart at both of slow's stamps). With the held body's
+// stamps taken too, slow was interpolated through it: COLLISION at made-up times.
+TEST(WorldModel, AHeldBodysStampsAreNotCaughtUp) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("still", 0.1)), "");
+  ASSERT_EQ(w.addBody(sphere("slow", 0.1)), "");
+  std::size_t caught_up = 0;
+  for (int k = -20; k <= 20; ++k) {
+    ASSERT_TRUE(w.setPose("still", at(0, 0), step(k)));
+    if (k % 20 == 0) {
+      ASSERT_TRUE(w.setPose("slow", at(k == -20 ? -1.2 : (k == 0 ? -1.0 : 1.0)), step(k)));
+    }
+    const CycleResult r = w.check(step(k));
+    EXPECT_TRUE(r.events.empty()) << "at step " << k;
+    caught_up += r.num_pairs_caught_up;
+  }
+  EXPECT_EQ(caught_up, 0u);
+}
+
+// A stretch checked live stands even after the pair's stamp went back. The obstacle, posed once
+// (still: the pair checked live at the dart's stamps, the dart passing 0.083 m from it, CLEAR),
+// gets a late pose stamped 0.2 s at 0.25 s: the pair's stamp goes back from 0.249 to 0.2 s. At
+// 0.26 s its next pose moves it across the dart's line; interpolated from 0.2 s, it met the dart
+// at 0.23 s. The stretch up to 0.249 s was checked live: it is not caught up again (no event).
+TEST(WorldModel, APairsStampGoingBackDoesNotReopenAStretchCheckedLive) {
+  const Settings s = dyadic();
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(sphere("dart", 0.1)), "");
+  ASSERT_EQ(w.addBody(sphere("obstacle", 0.1)), "");
+  const auto ms = [](int k) { return Stamp::fromNanoseconds(1000000000LL + k * 1000000LL); };
+  std::vector<Event> sent;
+  for (int k = 0; k <= 262; ++k) {
+    ASSERT_TRUE(w.setPose("dart", at(0.005 * (k - 230)), ms(k)));  // 5 m/s, at 0 at k 230
+    if (k == 0) {
+      ASSERT_TRUE(w.setPose("obstacle", at(0, 0.2, 0.2), ms(0)));
+    }
+    if (k == 250) {  // late
+      ASSERT_TRUE(w.setPose("obstacle", at(0, 0.19, 0.19), ms(200)));
+    }
+    if (k == 260) {
+      ASSERT_TRUE(w.setPose("obstacle", at(0, -0.3, -0.3), ms(260)));
+    }
+    const CycleResult r = w.check(ms(k));
+    if (k == 249) {
+      EXPECT_EQ(r.num_broad_phase_pairs, 1u);
+    }
+    sent.insert(sent.end(), r.events.begin(), r.events.end());
+  }
+  EXPECT_TRUE(sent.empty()) << sent.size() << " events, the first at "
+                            << (sent.empty() ? Stamp() : sent[0].stamp);
+}
+
+// A negative hysteresis does not narrow the broad phase's reach below the warning distance: a
+// pair 0.0586 m apart (below w = 0.0625, beyond w + h = 0.0547) is WARNING.
+TEST(WorldModel, ANegativeHysteresisKeepsTheWarningDistanceInReach) {
+  Settings s = dyadic();
+  s.hysteresis = -0.0078125;
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(1.05859375), 0.0));  // gap 0.05859375
+  const CycleResult r = w.check(1.0);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Warning}}));
+}
+
 TEST(WorldModel, ABodyReplacedWithNewGeometryIsBoxedOverItsKeptPosesAsItIsNow) {
   // "a" (a ball of r 0.1, posed at 1 kHz) leaves "b" (r 0.1, posed at 10 Hz, drifting) at
   // 10 m/s from 0.45 m at 100 ms; at 150 ms it is replaced with a ball of r 0.5 (the same pose
