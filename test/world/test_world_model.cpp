@@ -2109,6 +2109,37 @@ TEST(WorldModel, APairsStampGoingBackDoesNotReopenAStretchCheckedLive) {
                             << (sent.empty() ? Stamp() : sent[0].stamp);
 }
 
+// Checks that come 80 ms after the poses (a slow link): catch-up reaches back to a body's first
+// pose, not to the check that first saw it. "fast" is posed every 10 ms from step 0 and passes
+// through "slow" (posed every 0.2 s, moving) at steps 3 to 5; until slow's next pose the pair is
+// checked at slow's stamp, step 0, where fast is 0.3 m away. Slow's pose of step 20 catches the
+// pair up at fast's stamps 1 to 19: COLLISION from step 3 to 5. Taken back only to the first
+// check's time (step 8), the pass was lost.
+TEST(WorldModel, CatchUpReachesBackToABodysFirstPoseWhenChecksComeLate) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("fast", 0.1)), "");
+  ASSERT_EQ(w.addBody(sphere("slow", 0.1)), "");
+  const double latency = 0.08;
+  ASSERT_TRUE(w.setPose("slow", at(0, 0), step(-20)));
+  w.check(step(-20).seconds() + latency);  // UNKNOWN_BEGIN: fast has no pose yet
+  std::vector<std::pair<E, Stamp>> got;
+  for (int k = 0; k <= 20; ++k) {
+    ASSERT_TRUE(w.setPose("fast", at(0.5 - 0.125 * k), step(k)));  // gap |x| - 0.2
+    if (k % 20 == 0) {
+      ASSERT_TRUE(w.setPose("slow", at(0, 1e-3 * (k + 20)), step(k)));  // moving, slowly
+    }
+    for (const Event& e : w.check(step(k).seconds() + latency).events) {
+      if (e.type != E::UnknownEnd) got.emplace_back(e.type, e.stamp);  // fast's first pose
+    }
+  }
+  EXPECT_EQ(got, (std::vector<std::pair<E, Stamp>>{{E::WarningBegin, step(2)},
+                                                   {E::WarningEnd, step(3)},
+                                                   {E::CollisionBegin, step(3)},
+                                                   {E::CollisionEnd, step(6)},
+                                                   {E::WarningBegin, step(6)},
+                                                   {E::WarningEnd, step(7)}}));
+}
+
 // A negative hysteresis does not narrow the broad phase's reach below the warning distance: a
 // pair 0.0586 m apart (below w = 0.0625, beyond w + h = 0.0547) is WARNING.
 TEST(WorldModel, ANegativeHysteresisKeepsTheWarningDistanceInReach) {
