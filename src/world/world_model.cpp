@@ -1918,7 +1918,8 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   int best_slot = -1;
   Narrow best;
   for (const auto& [lb, o] : order) {
-    if (best_slot >= 0 && lb >= best.distance) break;
+    // At a gap equal to the best distance, measure: a tie goes to the smaller id.
+    if (best_slot >= 0 && lb > best.distance) break;
     const Narrow n = m.narrowPhase(sa, o, m.pairTime(sa, o), kInf, nullptr);
     if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
     if (std::isnan(n.distance)) {

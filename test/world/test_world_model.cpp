@@ -3228,6 +3228,397 @@ TEST(WorldModel, ThousandBodiesWithoutPosesStayAffordable) {
   std::printf("... capped at 100 listed: %.1f ms\n", 1e3 * rc.compute_time);
 }
 
+// Tests from the mutation audit, round 2 (docs/reliability.md): each fails on the one-line
+// change it was written for.
+
+TEST(WorldModel, MinDistanceWithinReachCountsAPairExactlyAtTheClearCutoff) {
+  // exact_min_distance off: min_distance over the pairs within the clear cutoff of any status
+  // (w + h = 0.0703125), that one included. b leaves WARNING exactly there: the narrow phase
+  // (cutoff w + h from WARNING) measures it exactly, and it counts.
+  Settings s = dyadic();
+  s.exact_min_distance = false;
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(1.03125), 1.0));
+  EXPECT_EQ(events(w.check(1.0)), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
+  ASSERT_TRUE(w.setPose("b", at(1.0703125), 1.1));
+  const CycleResult r = w.check(1.1);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningEnd, "a", "b"}}));
+  EXPECT_EQ(r.min_distance, 0.0703125);
+}
+
+TEST(WorldModel, MinDistanceLooksPastAWarningPairWithinTheHysteresis) {
+  // a-b stays WARNING at 0.06640625 (between w and w + h: measured exactly); a-c is CLEAR at
+  // 0.064453125 (beyond w: the narrow phase stops at its cutoff, no exact distance). The nearest
+  // pair is a-c: min_distance must search past the WARNING pair although it is within w + h.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("c", at(-1.064453125), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(1.03125), 1.0));
+  EXPECT_EQ(events(w.check(1.0)), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
+  ASSERT_TRUE(w.setPose("b", at(1.06640625), 1.1));
+  const CycleResult r = w.check(1.1);
+  EXPECT_TRUE(events(r).empty());
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Warning}}));
+  EXPECT_EQ(r.min_distance, 0.064453125);
+}
+
+TEST(WorldModel, MinDistanceForgetsTheFarPairsOfABodyGoneStale) {
+  // a-c (2 m) and a-b (3 m) are beyond the broad phase's reach: min_distance finds a-c. Then c's
+  // pose goes stale while nothing moves: its far pair's distance no longer counts.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(4), 0.0));
+  ASSERT_TRUE(w.setPose("c", at(-3), 1.0));
+  EXPECT_EQ(w.check(1.0).min_distance, 2.0);
+  const CycleResult r = w.check(2.0);
+  EXPECT_EQ(r.stale_bodies, (std::vector<std::string>{"c"}));
+  EXPECT_EQ(r.min_distance, 3.0);
+}
+
+TEST(WorldModel, MinDistanceBeyondReachFollowsThePairsTimeWhenOnlyAStampChanges) {
+  // a (the older stamps) moved once and is then posed again where it is; b is posed every 40 ms
+  // and is interpolated in between. The pair is checked at a's stamp (b taken back to it): when
+  // only a's stamp moves on, no box changes, but the far pair's distance is of another time.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), step(0)));
+  ASSERT_TRUE(w.setPose("b", at(3, 0), step(1)));
+  w.check(step(1));  // stamps apart: poses are kept from here on
+  ASSERT_TRUE(w.setPose("a", at(0.001), step(2)));
+  ASSERT_TRUE(w.setPose("b", at(3, 0.4), step(5)));
+  const auto gap = [](double y) { return std::hypot(2.999, y) - 1.0; };
+  EXPECT_NEAR(w.check(step(5)).min_distance, gap(0.1), 1e-9);  // b at step 2
+  ASSERT_TRUE(w.setPose("a", at(0.001), step(3)));
+  EXPECT_NEAR(w.check(step(5)).min_distance, gap(0.2), 1e-9);  // b at step 3
+  ASSERT_TRUE(w.setPose("a", at(0.001), step(4)));
+  EXPECT_NEAR(w.check(step(5)).min_distance, gap(0.3), 1e-9);  // b at step 4
+}
+
+TEST(WorldModel, MinDistanceBeyondReachIsNotRaisedByAPairMeasuredPastTheBestSoFar) {
+  // Beyond the broad phase's reach. a-c (2.3 m) is measured first (its boxes' gap, 1.89 m, is
+  // the smallest); a-k's bound (2.24 m, the bounding spheres') lets its narrow phase run under the
+  // cutoff 2.3 and it measures 2.415 m: the best stays 2.3.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  ASSERT_EQ(w.addBody(body("k", {Part{ConvexShape::box(Vec3(1, 1, 1)), Transform3::Identity()}})),
+            "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  const double u = 3.3 / std::sqrt(2.0);
+  ASSERT_TRUE(w.setPose("c", at(-u, -u), 0.0));
+  ASSERT_TRUE(w.setPose("k", at(3, 2), 0.0));
+  EXPECT_NEAR(w.check(1.0).min_distance, 2.3, 1e-9);
+  EXPECT_NEAR(w.check(1.1).min_distance, 2.3, 1e-9);
+}
+
+TEST(WorldModel, AnEndToClearOutOfReachSaysWhereThePairIsAtItsTimeNow) {
+  // a-b is WARNING at a's older stamp (b taken back to 0.03 m of a). Then a's stamp catches up
+  // with b's (same pose) and a smaller warning distance drops the pair out of reach: its END to
+  // CLEAR says where the pair is at its time now (b at 2 m), not at the old one.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), step(0)));
+  ASSERT_TRUE(w.setPose("b", at(1.03, 0), step(1)));
+  EXPECT_EQ(events(w.check(step(1))), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
+  ASSERT_TRUE(w.setPose("a", at(0.0001), step(2)));
+  ASSERT_TRUE(w.setPose("b", at(1.03, 0), step(2)));
+  ASSERT_TRUE(w.setPose("b", at(1.03, 2), step(3)));
+  EXPECT_EQ(statuses(w.check(step(3))), (std::map<Key, S>{{{"a", "b"}, S::Warning}}));
+  ASSERT_TRUE(w.setPose("a", at(0.0001), step(3)));
+  Settings s = dyadic();
+  s.warning_distance = 0.01;
+  w.setSettings(s);
+  const CycleResult r = w.check(step(3));
+  ASSERT_EQ(events(r), (std::vector<Ev>{{E::WarningEnd, "a", "b"}}));
+  EXPECT_NEAR(r.events[0].pair.distance, std::hypot(1.0299, 2.0) - 1.0, 1e-9);
+}
+
+TEST(WorldModel, ABodyAddedInTheSlotOfARemovedOneDoesNotInheritItsDisabledPairs) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  w.disablePair("a", "b");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(1.03125), 0.0));
+  EXPECT_TRUE(events(w.check(1.0)).empty());
+  ASSERT_TRUE(w.removeBody("b"));
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");  // b's slot, free again
+  ASSERT_TRUE(w.setPose("c", at(1.03125), 0.0));
+  EXPECT_FALSE(w.isPairDisabled("a", "c"));
+  EXPECT_EQ(events(w.check(1.1)), (std::vector<Ev>{{E::WarningBegin, "a", "c"}}));
+}
+
+TEST(WorldModel, ABodyReplacedWithALargerShapeInPlaceMeetsWhatItNowReaches) {
+  // Replaced from the same frame, a keeps its pose; its new sphere reaches b: the broad phase must
+  // take its new box although no pose came.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.1)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(1.03125), 0.0));
+  EXPECT_TRUE(events(w.check(1.0)).empty());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  EXPECT_EQ(events(w.check(1.1)), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
+}
+
+TEST(WorldModel, EnablingAPairDisabledByNameLeavesItOff) {
+  // enablePair() lifts disableByDefault() only: a pair disabled by name stays off for the check
+  // as isPairDisabled() says.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  w.disablePair("a", "b");
+  w.enablePair("a", "b");
+  EXPECT_TRUE(w.isPairDisabled("a", "b"));
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(1.03125), 0.0));
+  const CycleResult r = w.check(1.0);
+  EXPECT_TRUE(events(r).empty());
+  EXPECT_TRUE(r.pairs.empty());
+}
+
+TEST(WorldModel, APoseOlderThanPoseTimeoutIsKeptToPlaceABodyBackAtItsStart) {
+  // b's two poses are 600 ms apart (more than pose_timeout): the older one is still kept, so that
+  // b is interpolated at a's stamp (40 % of the way: right beside a), not taken to stand still.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("b", at(1.03, -0.2), step(0)));
+  ASSERT_TRUE(w.setPose("a", at(0), step(10)));
+  ASSERT_TRUE(w.setPose("a", at(0.0001), step(20)));
+  ASSERT_TRUE(w.setPose("b", at(1.03, 0.4), step(60)));
+  const CycleResult r = w.check(step(60));
+  EXPECT_EQ(r.stamp, step(20));
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Warning}}));
+}
+
+TEST(WorldModel, ABodyHeldSinceItsOldestKeptPoseCountsAsStill) {
+  // a moved at step 1 and was posed there again at step 2; of the two poses kept, both are the
+  // held one: a is still as far as known, and the pair's verdict is b's newer stamp.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), step(0)));
+  ASSERT_TRUE(w.setPose("a", at(0.0001), step(1)));
+  ASSERT_TRUE(w.setPose("a", at(0.0001), step(2)));
+  ASSERT_TRUE(w.setPose("b", at(1.03), step(5)));
+  const CycleResult r = w.check(step(5));
+  EXPECT_EQ(r.stamp, step(5));
+  ASSERT_EQ(events(r), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
+  EXPECT_EQ(r.events[0].stamp, step(5));
+}
+
+TEST(WorldModel, NearestBreaksATieByIdAmongTheBodiesItMeasures) {
+  // c and b are exactly as far from a (mirror images on a diagonal, their boxes' gaps well below
+  // the distance, so both are measured): the smaller id wins, whichever was added first.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  const double u = std::sqrt(2.0);
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("c", at(u, u), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(-u, -u), 0.0));
+  std::string why;
+  const auto n = w.nearest("a", 1.0, &why);
+  ASSERT_TRUE(n) << why;
+  EXPECT_EQ(n->body_b, "b");
+}
+
+// With both bodies on the axis their boxes' gaps equal the distance. nearest() stopped at a box
+// gap equal to the best distance so far (`lb >= best.distance`) without measuring b, and
+// answered "c": the body added first, not the smaller id its tie-break names.
+TEST(WorldModel, NearestBreaksAnExactTieByIdWhateverTheOrderOfAdding) {
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("c", at(2), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(-2), 0.0));
+  std::string why;
+  const auto n = w.nearest("a", 1.0, &why);
+  ASSERT_TRUE(n) << why;
+  EXPECT_EQ(n->distance, 1.0);
+  EXPECT_EQ(n->body_b, "b");
+}
+
+TEST(WorldModel, NearestOrdersTheBodiesByTheirBoxesAtThePairsTime) {
+  // At a's stamp (step 20) b was right beside a (interpolated between its poses); it is 1 m off
+  // now. c is 0.5 m away. The nearest, as the pair is checked, is b.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  ASSERT_TRUE(w.setPose("b", at(1.03, -1.0), step(0)));
+  ASSERT_TRUE(w.setPose("a", at(0), step(10)));
+  ASSERT_TRUE(w.setPose("a", at(0.0001), step(20)));
+  ASSERT_TRUE(w.setPose("b", at(1.03, 2.0), step(60)));
+  ASSERT_TRUE(w.setPose("c", at(-1.5), 0.0));
+  std::string why;
+  const auto n = w.nearest("a", step(60), &why);
+  ASSERT_TRUE(n) << why;
+  EXPECT_EQ(n->body_b, "b");
+  EXPECT_NEAR(n->distance, 0.0299, 1e-9);
+}
+
+TEST(WorldModel, MinDistanceDoesNotMeetABodyGoneStaleWhereItWas) {
+  // c goes stale at -2 (a-b, 1.5 m, is then the nearest and the far search needs no wider
+  // margin); then b moves to 0.5 m of where c was: min_distance is a-b's (1.5 m), not b-c's.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(2.5), 0.0));
+  ASSERT_TRUE(w.setPose("c", at(-2), 1.0));
+  EXPECT_EQ(w.check(1.0).min_distance, 1.0);
+  EXPECT_EQ(w.check(2.0).min_distance, 1.5);  // c stale
+  ASSERT_TRUE(w.setPose("b", at(-2, 1.5), 0.0));
+  EXPECT_NEAR(w.check(2.1).min_distance, 1.5, 1e-9);
+}
+
+TEST(WorldModel, ABodyGoingStaleAfterTheListIsFullStillAnnouncesItsPairs) {
+  // max_unknown_pairs 1: c's pairs fill the list; d, fresh at the last check, goes stale in the
+  // same check: its pairs, known before, get their UNKNOWN_BEGIN though not listed.
+  Settings s = dyadic();
+  s.max_unknown_pairs = 1;
+  WorldModel w(s);
+  for (const char* id : {"a", "b", "c", "d"}) {
+    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
+  }
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(3), 0.0));
+  ASSERT_TRUE(w.setPose("c", at(6), 1.0));
+  ASSERT_TRUE(w.setPose("d", at(9), 1.0));
+  EXPECT_TRUE(events(w.check(1.0)).empty());
+  const CycleResult r = w.check(2.0);
+  EXPECT_EQ(r.stale_bodies, (std::vector<std::string>{"c", "d"}));
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::UnknownBegin, "a", "c"},
+                                        {E::UnknownBegin, "a", "d"},
+                                        {E::UnknownBegin, "b", "c"},
+                                        {E::UnknownBegin, "b", "d"},
+                                        {E::UnknownBegin, "c", "d"}}));
+  EXPECT_EQ(r.pairs.size(), 1u);
+  EXPECT_EQ(r.num_unknown_pairs, 5u);
+}
+
+TEST(WorldModel, ABodyGivenANewPoseSourceIsNotCaughtUpBeforeItsFirstPoseFromIt) {
+  // b is replaced with another frame and posed from it at step 5, before the next check. a passed
+  // right by b's new place at step 3, before b was known to be there: no events for that.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("b", at(0, 5), step(0)));
+  ASSERT_TRUE(w.setPose("a", at(-1), step(1)));
+  EXPECT_TRUE(events(w.check(step(1))).empty());  // stamps apart: poses are kept
+  BodySpec moved = sphere("b", 0.5);
+  moved.frame = "b_other_frame";
+  ASSERT_EQ(w.addBody(moved), "");
+  for (int k = 2; k <= 7; ++k) {
+    ASSERT_TRUE(w.setPose("a", at(-1 + 0.5 * (k - 1)), step(k)));  // x = 0 at step 3
+    if (k == 5) {
+      ASSERT_TRUE(w.setPose("b", at(0, 1.03), step(5)));
+    }
+  }
+  EXPECT_TRUE(events(w.check(step(7))).empty());
+}
+
+TEST(WorldModel, ADisabledPairOfAStaleBodyEndsWhileTheUnknownListIsFull) {
+  // max_unknown_pairs 1, x never posed (its pairs fill the list). a-b was WARNING; the pair is
+  // disabled and a goes stale in the same check: the pair ends (CLEAR, no longer checked), it is
+  // not announced UNKNOWN.
+  Settings s = dyadic();
+  s.max_unknown_pairs = 1;
+  WorldModel w(s);
+  for (const char* id : {"a", "b", "x"}) {
+    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
+  }
+  ASSERT_TRUE(w.setPose("a", at(0), 1.0));
+  ASSERT_TRUE(w.setPose("b", at(1.03125), 0.0));
+  EXPECT_EQ(events(w.check(1.0)),
+            (std::vector<Ev>{{E::WarningBegin, "a", "b"}, {E::UnknownBegin, "a", "x"}}));
+  w.disablePair("a", "b");
+  EXPECT_EQ(events(w.check(2.0)), (std::vector<Ev>{{E::WarningEnd, "a", "b"}}));
+  EXPECT_TRUE(events(w.check(2.1)).empty());
+}
+
+TEST(WorldModel, AFarPairFoundBeyondTheBestIsMeasuredOnceTheBestMovesAway) {
+  // Beyond reach, on diagonals (boxes' gaps below the distances): a-b (1 m) is measured first and
+  // is the nearest; a-c (1.3 m) is then only found to be beyond it. b moves to 1.8 m: a-c, which
+  // did not move, is the nearest now.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  const double ub = 2.0 / std::sqrt(2.0);
+  const double uc = 2.3 / std::sqrt(2.0);
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(-ub, -ub), 0.0));
+  ASSERT_TRUE(w.setPose("c", at(uc, uc), 0.0));
+  EXPECT_NEAR(w.check(1.0).min_distance, 1.0, 1e-9);
+  ASSERT_TRUE(w.setPose("b", at(-2.8), 0.0));
+  EXPECT_NEAR(w.check(1.1).min_distance, 1.3, 1e-9);
+}
+
+TEST(WorldModel, CheckHypotheticalIncludesABodyExactlyAtTheMargin) {
+  // "All within margin": b at exactly 0.0625 m with margin 0.0625 is in.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("b", at(1.0625), 0.0));
+  const std::vector<PairResult> out = whatIf(w, sphere("x", 0.5), at(0), 0.0625, 1.0);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].body_b, "b");
+  EXPECT_EQ(out[0].distance, 0.0625);
+}
+
+TEST(WorldModel, APoseReplacedAtTheSameStampIsBoxedWhereItIsNow) {
+  // b's pose of step 2 is replaced (same stamp) by one right beside a; b then moves off. a's
+  // stamp is step 2: the pair is checked there, and b's box spans the pose that replaced the
+  // first one.
+  WorldModel w(dyadic());
+  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("a", at(0), step(0)));
+  ASSERT_TRUE(w.setPose("a", at(0.0001), step(2)));
+  ASSERT_TRUE(w.setPose("b", at(1.03, 6), step(2)));
+  ASSERT_TRUE(w.setPose("b", at(1.03, 0), step(2)));
+  ASSERT_TRUE(w.setPose("b", at(1.03, 5), step(3)));
+  const CycleResult r = w.check(step(3));
+  EXPECT_EQ(r.stamp, step(2));
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Warning}}));
+}
+
+TEST(WorldModel, AFreshPairLeavingReachEndsWhileTheUnknownListIsFull) {
+  // max_unknown_pairs 1, x and y never posed (x's pairs fill the list, y is not visited). a-b
+  // was WARNING and b moves out of reach: both fresh, the pair ends (CLEAR), it is not UNKNOWN.
+  Settings s = dyadic();
+  s.max_unknown_pairs = 1;
+  WorldModel w(s);
+  for (const char* id : {"a", "b", "x", "y"}) {
+    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
+  }
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(1.03125), 0.0));
+  EXPECT_EQ(events(w.check(1.0)),
+            (std::vector<Ev>{{E::WarningBegin, "a", "b"}, {E::UnknownBegin, "a", "x"}}));
+  ASSERT_TRUE(w.setPose("b", at(3), 0.0));
+  const CycleResult r = w.check(1.1);
+  ASSERT_EQ(events(r), (std::vector<Ev>{{E::WarningEnd, "a", "b"}}));
+  EXPECT_EQ(r.events[0].pair.distance, 2.0);
+}
+
 }  // namespace
 }  // namespace world
 }  // namespace collision_monitor
