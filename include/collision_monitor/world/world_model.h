@@ -269,8 +269,8 @@ class WorldModel {
   /// both bodies are static).
   std::optional<PairResult> distance(const std::string& a, const std::string& b, Stamp now,
                                      std::string* why, Stamp* stamp = nullptr) const;
-  /// Nearest body to `a` among those it may collide with (respects groups and disabled pairs).
-  /// `stamp`: as distance()'s.
+  /// Nearest body to `a` among those it may collide with (respects groups and disabled pairs);
+  /// of bodies exactly as near, the smallest id. `stamp`: as distance()'s.
   std::optional<PairResult> nearest(const std::string& a, Stamp now, std::string* why,
                                     Stamp* stamp = nullptr) const;
   /// A hypothetical body at `pose` (body frame -> fixed frame) against every body with a fresh
