@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <functional>
 #include <future>
+#include <initializer_list>
 #include <limits>
 #include <map>
 #include <memory>
@@ -50,6 +51,12 @@ BodySpec body(const std::string& id, std::vector<Part> parts, const std::string&
 
 BodySpec sphere(const std::string& id, double r, const std::string& group = "") {
   return body(id, {Part{ConvexShape::sphere(r), Transform3::Identity()}}, group);
+}
+
+/// Spheres of radius `r` with these ids, added to `w` (no poses).
+void addSpheres(WorldModel& w, std::initializer_list<const char*> ids, double r) {
+  for (const char* id : ids)
+    EXPECT_EQ(w.addBody(sphere(id, r)), "") << id;
 }
 
 /// Settings with thresholds exact in binary (w = 1/16, h = 1/128).
@@ -2004,8 +2011,7 @@ TEST(WorldModel, CatchUpPassesOverNoStampNearAThreshold) {
 // result: the pair is measured again under the new cutoff and turns WARNING.
 TEST(WorldModel, AResultBeyondASmallerCutoffIsNotReusedUnderALargerOne) {
   WorldModel w(dyadic());  // w = 1/16, h = 1/128: reach 0.0703125
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "b"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));           // static poses
   ASSERT_TRUE(w.setPose("b", at(1.06640625), 0.0));  // gap 0.06640625: in reach, beyond w
   CycleResult r = w.check(1.0);
@@ -2028,8 +2034,7 @@ TEST(WorldModel, AResultBeyondASmallerCutoffIsNotReusedUnderALargerOne) {
 TEST(WorldModel, CatchUpChecksAStampWhereAWarningPairMayHaveLeftIt) {
   const Settings s = dyadic();  // w = 0.0625, h = 0.0078125: WARNING holds below 0.0703125
   WorldModel w(s);
-  ASSERT_EQ(w.addBody(sphere("fast", 0.1)), "");
-  ASSERT_EQ(w.addBody(sphere("slow", 0.1)), "");
+  addSpheres(w, {"fast", "slow"}, 0.1);
   const auto fastX = [](int k) { return k == 7 ? 0.28 : 0.25; };  // gap 0.08 at step 7, else 0.05
   std::vector<std::pair<E, Stamp>> got;
   for (int k = -20; k <= 20; ++k) {
@@ -2061,8 +2066,7 @@ TEST(WorldModel, CatchUpChecksAStampWhereAWarningPairMayHaveLeftIt) {
 // stamps taken too, slow was interpolated through it: COLLISION at made-up times.
 TEST(WorldModel, AHeldBodysStampsAreNotCaughtUp) {
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("still", 0.1)), "");
-  ASSERT_EQ(w.addBody(sphere("slow", 0.1)), "");
+  addSpheres(w, {"still", "slow"}, 0.1);
   std::size_t caught_up = 0;
   for (int k = -20; k <= 20; ++k) {
     ASSERT_TRUE(w.setPose("still", at(0, 0), step(k)));
@@ -2084,8 +2088,7 @@ TEST(WorldModel, AHeldBodysStampsAreNotCaughtUp) {
 TEST(WorldModel, APairsStampGoingBackDoesNotReopenAStretchCheckedLive) {
   const Settings s = dyadic();
   WorldModel w(s);
-  ASSERT_EQ(w.addBody(sphere("dart", 0.1)), "");
-  ASSERT_EQ(w.addBody(sphere("obstacle", 0.1)), "");
+  addSpheres(w, {"dart", "obstacle"}, 0.1);
   const auto ms = [](int k) { return Stamp::fromNanoseconds(1000000000LL + k * 1000000LL); };
   std::vector<Event> sent;
   for (int k = 0; k <= 262; ++k) {
@@ -2117,8 +2120,7 @@ TEST(WorldModel, APairsStampGoingBackDoesNotReopenAStretchCheckedLive) {
 // check's time (step 8), the pass was lost.
 TEST(WorldModel, CatchUpReachesBackToABodysFirstPoseWhenChecksComeLate) {
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("fast", 0.1)), "");
-  ASSERT_EQ(w.addBody(sphere("slow", 0.1)), "");
+  addSpheres(w, {"fast", "slow"}, 0.1);
   const double latency = 0.08;
   ASSERT_TRUE(w.setPose("slow", at(0, 0), step(-20)));
   w.check(step(-20).seconds() + latency);  // UNKNOWN_BEGIN: fast has no pose yet
@@ -2146,8 +2148,7 @@ TEST(WorldModel, ANegativeHysteresisKeepsTheWarningDistanceInReach) {
   Settings s = dyadic();
   s.hysteresis = -0.0078125;
   WorldModel w(s);
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "b"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));
   ASSERT_TRUE(w.setPose("b", at(1.05859375), 0.0));  // gap 0.05859375
   const CycleResult r = w.check(1.0);
@@ -3238,8 +3239,7 @@ TEST(WorldModel, MinDistanceWithinReachCountsAPairExactlyAtTheClearCutoff) {
   Settings s = dyadic();
   s.exact_min_distance = false;
   WorldModel w(s);
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "b"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));
   ASSERT_TRUE(w.setPose("b", at(1.03125), 1.0));
   EXPECT_EQ(events(w.check(1.0)), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
@@ -3254,9 +3254,7 @@ TEST(WorldModel, MinDistanceLooksPastAWarningPairWithinTheHysteresis) {
   // 0.064453125 (beyond w: the narrow phase stops at its cutoff, no exact distance). The nearest
   // pair is a-c: min_distance must search past the WARNING pair although it is within w + h.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  addSpheres(w, {"a", "b", "c"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));
   ASSERT_TRUE(w.setPose("c", at(-1.064453125), 0.0));
   ASSERT_TRUE(w.setPose("b", at(1.03125), 1.0));
@@ -3272,9 +3270,7 @@ TEST(WorldModel, MinDistanceForgetsTheFarPairsOfABodyGoneStale) {
   // a-c (2 m) and a-b (3 m) are beyond the broad phase's reach: min_distance finds a-c. Then c's
   // pose goes stale while nothing moves: its far pair's distance no longer counts.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  addSpheres(w, {"a", "b", "c"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));
   ASSERT_TRUE(w.setPose("b", at(4), 0.0));
   ASSERT_TRUE(w.setPose("c", at(-3), 1.0));
@@ -3289,8 +3285,7 @@ TEST(WorldModel, MinDistanceBeyondReachFollowsThePairsTimeWhenOnlyAStampChanges)
   // and is interpolated in between. The pair is checked at a's stamp (b taken back to it): when
   // only a's stamp moves on, no box changes, but the far pair's distance is of another time.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "b"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), step(0)));
   ASSERT_TRUE(w.setPose("b", at(3, 0), step(1)));
   w.check(step(1));  // stamps apart: poses are kept from here on
@@ -3309,8 +3304,7 @@ TEST(WorldModel, MinDistanceBeyondReachIsNotRaisedByAPairMeasuredPastTheBestSoFa
   // the smallest); a-k's bound (2.24 m, the bounding spheres') lets its narrow phase run under the
   // cutoff 2.3 and it measures 2.415 m: the best stays 2.3.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  addSpheres(w, {"a", "c"}, 0.5);
   ASSERT_EQ(w.addBody(body("k", {Part{ConvexShape::box(Vec3(1, 1, 1)), Transform3::Identity()}})),
             "");
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));
@@ -3326,8 +3320,7 @@ TEST(WorldModel, AnEndToClearOutOfReachSaysWhereThePairIsAtItsTimeNow) {
   // with b's (same pose) and a smaller warning distance drops the pair out of reach: its END to
   // CLEAR says where the pair is at its time now (b at 2 m), not at the old one.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "b"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), step(0)));
   ASSERT_TRUE(w.setPose("b", at(1.03, 0), step(1)));
   EXPECT_EQ(events(w.check(step(1))), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
@@ -3346,8 +3339,7 @@ TEST(WorldModel, AnEndToClearOutOfReachSaysWhereThePairIsAtItsTimeNow) {
 
 TEST(WorldModel, ABodyAddedInTheSlotOfARemovedOneDoesNotInheritItsDisabledPairs) {
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "b"}, 0.5);
   w.disablePair("a", "b");
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));
   ASSERT_TRUE(w.setPose("b", at(1.03125), 0.0));
@@ -3376,8 +3368,7 @@ TEST(WorldModel, EnablingAPairDisabledByNameLeavesItOff) {
   // enablePair() lifts disableByDefault() only: a pair disabled by name stays off for the check
   // as isPairDisabled() says.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "b"}, 0.5);
   w.disablePair("a", "b");
   w.enablePair("a", "b");
   EXPECT_TRUE(w.isPairDisabled("a", "b"));
@@ -3392,8 +3383,7 @@ TEST(WorldModel, APoseOlderThanPoseTimeoutIsKeptToPlaceABodyBackAtItsStart) {
   // b's two poses are 600 ms apart (more than pose_timeout): the older one is still kept, so that
   // b is interpolated at a's stamp (40 % of the way: right beside a), not taken to stand still.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "b"}, 0.5);
   ASSERT_TRUE(w.setPose("b", at(1.03, -0.2), step(0)));
   ASSERT_TRUE(w.setPose("a", at(0), step(10)));
   ASSERT_TRUE(w.setPose("a", at(0.0001), step(20)));
@@ -3407,8 +3397,7 @@ TEST(WorldModel, ABodyHeldSinceItsOldestKeptPoseCountsAsStill) {
   // a moved at step 1 and was posed there again at step 2; of the two poses kept, both are the
   // held one: a is still as far as known, and the pair's verdict is b's newer stamp.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "b"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), step(0)));
   ASSERT_TRUE(w.setPose("a", at(0.0001), step(1)));
   ASSERT_TRUE(w.setPose("a", at(0.0001), step(2)));
@@ -3423,9 +3412,7 @@ TEST(WorldModel, NearestBreaksATieByIdAmongTheBodiesItMeasures) {
   // c and b are exactly as far from a (mirror images on a diagonal, their boxes' gaps well below
   // the distance, so both are measured): the smaller id wins, whichever was added first.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "c", "b"}, 0.5);
   const double u = std::sqrt(2.0);
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));
   ASSERT_TRUE(w.setPose("c", at(u, u), 0.0));
@@ -3441,9 +3428,7 @@ TEST(WorldModel, NearestBreaksATieByIdAmongTheBodiesItMeasures) {
 // answered "c": the body added first, not the smaller id its tie-break names.
 TEST(WorldModel, NearestBreaksAnExactTieByIdWhateverTheOrderOfAdding) {
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "c", "b"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));
   ASSERT_TRUE(w.setPose("c", at(2), 0.0));
   ASSERT_TRUE(w.setPose("b", at(-2), 0.0));
@@ -3458,9 +3443,7 @@ TEST(WorldModel, NearestOrdersTheBodiesByTheirBoxesAtThePairsTime) {
   // At a's stamp (step 20) b was right beside a (interpolated between its poses); it is 1 m off
   // now. c is 0.5 m away. The nearest, as the pair is checked, is b.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  addSpheres(w, {"a", "b", "c"}, 0.5);
   ASSERT_TRUE(w.setPose("b", at(1.03, -1.0), step(0)));
   ASSERT_TRUE(w.setPose("a", at(0), step(10)));
   ASSERT_TRUE(w.setPose("a", at(0.0001), step(20)));
@@ -3477,9 +3460,7 @@ TEST(WorldModel, MinDistanceDoesNotMeetABodyGoneStaleWhereItWas) {
   // c goes stale at -2 (a-b, 1.5 m, is then the nearest and the far search needs no wider
   // margin); then b moves to 0.5 m of where c was: min_distance is a-b's (1.5 m), not b-c's.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  addSpheres(w, {"a", "b", "c"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));
   ASSERT_TRUE(w.setPose("b", at(2.5), 0.0));
   ASSERT_TRUE(w.setPose("c", at(-2), 1.0));
@@ -3518,8 +3499,7 @@ TEST(WorldModel, ABodyGivenANewPoseSourceIsNotCaughtUpBeforeItsFirstPoseFromIt) 
   // b is replaced with another frame and posed from it at step 5, before the next check. a passed
   // right by b's new place at step 3, before b was known to be there: no events for that.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "b"}, 0.5);
   ASSERT_TRUE(w.setPose("b", at(0, 5), step(0)));
   ASSERT_TRUE(w.setPose("a", at(-1), step(1)));
   EXPECT_TRUE(events(w.check(step(1))).empty());  // stamps apart: poses are kept
@@ -3559,9 +3539,7 @@ TEST(WorldModel, AFarPairFoundBeyondTheBestIsMeasuredOnceTheBestMovesAway) {
   // is the nearest; a-c (1.3 m) is then only found to be beyond it. b moves to 1.8 m: a-c, which
   // did not move, is the nearest now.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("c", 0.5)), "");
+  addSpheres(w, {"a", "b", "c"}, 0.5);
   const double ub = 2.0 / std::sqrt(2.0);
   const double uc = 2.3 / std::sqrt(2.0);
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));
@@ -3588,8 +3566,7 @@ TEST(WorldModel, APoseReplacedAtTheSameStampIsBoxedWhereItIsNow) {
   // stamp is step 2: the pair is checked there, and b's box spans the pose that replaced the
   // first one.
   WorldModel w(dyadic());
-  ASSERT_EQ(w.addBody(sphere("a", 0.5)), "");
-  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  addSpheres(w, {"a", "b"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), step(0)));
   ASSERT_TRUE(w.setPose("a", at(0.0001), step(2)));
   ASSERT_TRUE(w.setPose("b", at(1.03, 6), step(2)));
