@@ -3476,9 +3476,7 @@ TEST(WorldModel, ABodyGoingStaleAfterTheListIsFullStillAnnouncesItsPairs) {
   Settings s = dyadic();
   s.max_unknown_pairs = 1;
   WorldModel w(s);
-  for (const char* id : {"a", "b", "c", "d"}) {
-    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
-  }
+  addSpheres(w, {"a", "b", "c", "d"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));
   ASSERT_TRUE(w.setPose("b", at(3), 0.0));
   ASSERT_TRUE(w.setPose("c", at(6), 1.0));
@@ -3522,9 +3520,7 @@ TEST(WorldModel, ADisabledPairOfAStaleBodyEndsWhileTheUnknownListIsFull) {
   Settings s = dyadic();
   s.max_unknown_pairs = 1;
   WorldModel w(s);
-  for (const char* id : {"a", "b", "x"}) {
-    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
-  }
+  addSpheres(w, {"a", "b", "x"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), 1.0));
   ASSERT_TRUE(w.setPose("b", at(1.03125), 0.0));
   EXPECT_EQ(events(w.check(1.0)),
@@ -3583,9 +3579,7 @@ TEST(WorldModel, AFreshPairLeavingReachEndsWhileTheUnknownListIsFull) {
   Settings s = dyadic();
   s.max_unknown_pairs = 1;
   WorldModel w(s);
-  for (const char* id : {"a", "b", "x", "y"}) {
-    ASSERT_EQ(w.addBody(sphere(id, 0.5)), "");
-  }
+  addSpheres(w, {"a", "b", "x", "y"}, 0.5);
   ASSERT_TRUE(w.setPose("a", at(0), 0.0));
   ASSERT_TRUE(w.setPose("b", at(1.03125), 0.0));
   EXPECT_EQ(events(w.check(1.0)),
