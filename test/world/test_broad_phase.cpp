@@ -181,6 +181,34 @@ TEST(HashGrid, TouchingAndMarginBoundariesAndFarAway) {
   EXPECT_EQ(gridAll(empty), PairSet{});
 }
 
+TEST(HashGrid, BoxesReachingPastTheClampedCellCoordinatesMeetTheirNeighbours) {
+  // Cells of 2.5 m (the median box, 1 m inflated by 1/8 m a side, twice): cell coordinates clamp
+  // at +-2^20 cells (+-2.6e6 m) and an int holds +-2^31 (+-5.4e9 m). A box from -3e6 to -1e6 m
+  // overlaps the unit box at -2e6 m, one from 1e9 to 1e10 m the unit box at 8e9 m; the boxes
+  // near the origin meet nothing (4 m and more apart).
+  const std::vector<Aabb> boxes = {
+      Aabb{Vec3(0, 0, 0), Vec3(1, 1, 1)},       Aabb{Vec3(5, 0, 0), Vec3(6, 1, 1)},
+      Aabb{Vec3(-3e6, 0, 0), Vec3(-1e6, 1, 1)}, Aabb{Vec3(-2e6, 0, 0), Vec3(-2e6 + 1, 1, 1)},
+      Aabb{Vec3(1e9, 0, 0), Vec3(1e10, 1, 1)},  Aabb{Vec3(8e9, 0, 0), Vec3(8e9 + 1, 1, 1)},
+      Aabb{Vec3(10, 0, 0), Vec3(11, 1, 1)}};
+  HashGrid grid;
+  grid.setMargin(0.25);
+  for (int i = 0; i < static_cast<int>(boxes.size()); ++i)
+    grid.set(i, boxes[i]);
+  grid.prepare();
+  EXPECT_NEAR(grid.cellSize(), 2.5, 1e-9);
+  EXPECT_EQ(gridAll(grid), (PairSet{{2, 3}, {4, 5}}));
+  // Each box queried as moved finds the same.
+  PairSet moved;
+  for (int i = 0; i < static_cast<int>(boxes.size()); ++i) {
+    std::vector<char> flag(boxes.size(), 0);
+    flag[i] = 1;
+    grid.forEachPairWith({i}, flag,
+                         [&](int a, int b) { moved.emplace(std::min(a, b), std::max(a, b)); });
+  }
+  EXPECT_EQ(moved, (PairSet{{2, 3}, {4, 5}}));
+}
+
 }  // namespace
 }  // namespace world
 }  // namespace collision_monitor

@@ -19,6 +19,7 @@
 #include <set>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <utility>
 #include <vector>
 
@@ -3588,6 +3589,317 @@ TEST(WorldModel, AFreshPairLeavingReachEndsWhileTheUnknownListIsFull) {
   const CycleResult r = w.check(1.1);
   ASSERT_EQ(events(r), (std::vector<Ev>{{E::WarningEnd, "a", "b"}}));
   EXPECT_EQ(r.events[0].pair.distance, 2.0);
+}
+
+// ---- Round 3 of the mutation audit: time to collision, the compound narrow phase, setPose's
+// checks and the clock going back, groups, event order, the slot index, the grid's clamping.
+
+TEST(WorldModel, TimeToCollisionIsZeroAtExactlyTheContactDistance) {
+  // Spheres of radius 1/2 whose centres are 1 + 1/16 m apart: 1/16 m, the contact distance,
+  // exactly, and no twists. The contact is reached now: 0 s (COLLISION), not +inf ("never").
+  Settings s = dyadic();
+  s.contact_distance = 0.0625;
+  s.warning_distance = 0.125;
+  WorldModel w(s);
+  addSpheres(w, {"a", "b"}, 0.5);
+  ASSERT_TRUE(w.setPose("a", at(0), 1.0));
+  ASSERT_TRUE(w.setPose("b", at(1.0625), 1.0));
+  const CycleResult r = w.check(1.0);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_EQ(r.pairs[0].status, S::Collision);
+  EXPECT_EQ(r.pairs[0].distance, 0.0625);
+  EXPECT_EQ(r.pairs[0].time_to_collision, 0.0);
+}
+
+TEST(WorldModel, TimeToCollisionHorizonHoldsWhenOnlyTheSecondBodyRotates) {
+  // armTimeToCollision(-1, 2, 4) with the bodies added the other way round ("b" first), so that
+  // the spinning arm is the second body of the pair: its contact, pi + asin(7/8) = 4.21 s away,
+  // is beyond the 4 s horizon: +inf. With a 5 s horizon it is reported.
+  for (const double horizon : {4.0, 5.0}) {
+    Settings s = dyadic();
+    s.warning_distance = 5.0;
+    s.ttc_horizon = horizon;
+    WorldModel w(s);
+    ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+    ASSERT_EQ(w.addBody(body("arm", {Part{ConvexShape::sphere(0.5), at(2)}})), "");
+    Twist tw;
+    tw.angular = Vec3(0, 0, -1);
+    ASSERT_TRUE(w.setPose("arm", at(0), 1.0, tw));
+    ASSERT_TRUE(w.setPose("b", at(0, 2), 1.0));
+    const CycleResult r = w.check(1.0);
+    ASSERT_EQ(r.pairs.size(), 1u);
+    if (horizon == 4.0) {
+      EXPECT_EQ(r.pairs[0].time_to_collision, std::numeric_limits<double>::infinity());
+    } else {
+      EXPECT_NEAR(r.pairs[0].time_to_collision, M_PI + std::asin(0.875), 1e-8);
+    }
+  }
+}
+
+TEST(WorldModel, TimeToCollisionOfARotatingBodyStartsFromItsOwnOrientation) {
+  // The arm of armTimeToCollision() posed turned by -pi/2 about z: its sphere starts at (0, -2),
+  // b's at (0, 2), 3 m apart. Spinning at 1 rad/s the arm's sphere centre is at
+  // 2 (cos(t - pi/2), sin(t - pi/2)), 1 m from b's when sin(t - pi/2) = 7/8: t = pi/2 + asin(7/8).
+  Settings s = dyadic();
+  s.warning_distance = 5.0;
+  WorldModel w(s);
+  ASSERT_EQ(w.addBody(body("arm", {Part{ConvexShape::sphere(0.5), at(2)}})), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  Transform3 turned = at(0);
+  turned.R = Eigen::AngleAxisd(-M_PI / 2, Vec3::UnitZ()).toRotationMatrix();
+  Twist tw;
+  tw.angular = Vec3(0, 0, 1);
+  ASSERT_TRUE(w.setPose("arm", turned, 1.0, tw));
+  ASSERT_TRUE(w.setPose("b", at(0, 2), 1.0));
+  const CycleResult r = w.check(1.0);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_NEAR(r.pairs[0].distance, 3.0, 1e-12);
+  EXPECT_NEAR(r.pairs[0].time_to_collision, M_PI / 2 + std::asin(0.875), 1e-8);
+}
+
+TEST(WorldModel, TimeToCollisionIsOfThePairsTimeWhenOnlyTheSecondBodyHasATwist) {
+  // a (no twist) moves from -0.1 to 0 by 1.0 s; b, coming at 1 m/s, is at 4 at 1.0 s and 3.9 at
+  // 1.1 s. The pair is checked at 1.0 s, b taken back to 4: 3 m apart, so 3 s to the contact
+  // (2.9 s from b's held pose, which is of another time).
+  const auto w = twoSpheresInWarningReach(0.5);
+  Twist tb;
+  tb.linear = Vec3(-1, 0, 0);
+  ASSERT_TRUE(w->setPose("a", at(-0.1), 0.9));
+  ASSERT_TRUE(w->setPose("a", at(0), 1.0));
+  ASSERT_TRUE(w->setPose("b", at(4), 1.0, tb));
+  ASSERT_TRUE(w->setPose("b", at(3.9), 1.1, tb));
+  const CycleResult r = w->check(1.1);
+  EXPECT_EQ(r.stamp, Stamp(1.0));
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_EQ(r.pairs[0].distance, 3.0);
+  EXPECT_NEAR(r.pairs[0].time_to_collision, 3.0, 1e-12);
+}
+
+TEST(WorldModel, CheckHypotheticalGivesTheTimeToCollisionOfAMovingBody) {
+  // b, of radius 1/2, 3 m from the probe's centre and coming at 1/2 m/s: 2 m apart, 4 s.
+  WorldModel w(dyadic());
+  addSpheres(w, {"b"}, 0.5);
+  Twist tw;
+  tw.linear = Vec3(-0.5, 0, 0);
+  ASSERT_TRUE(w.setPose("b", at(3), 1.0, tw));
+  const std::vector<PairResult> out = whatIf(w, sphere("x", 0.5), at(0), 2.5, 1.0);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(out[0].distance, 2.0);
+  EXPECT_NEAR(out[0].time_to_collision, 4.0, 1e-12);
+}
+
+TEST(WorldModel, APartPairLeftOutNearerThanOneMeasuredMakesTheEndSayWhereThePairIs) {
+  // A: a ball of radius 1/2 at its origin and a thin rod (4 x 0.02 x 0.02, turned 45 degrees
+  // about z) centred at (0, 3). b, radius 1/4, WARNING 1/32 m below the ball, moves to (1, 1.5):
+  // sqrt(3.25) - 0.75 = 1.053 m from the ball, 2.5 / sqrt(2) - 0.26 = 1.508 m from the rod. The
+  // rod's bounding ball reaches b, the ball's bound (1.053) is past the cutoff: the rod is
+  // measured, the ball left out. The END to CLEAR says 1.053, not the rod's 1.508.
+  WorldModel w(dyadic());
+  Transform3 rod = at(0, 3);
+  rod.R = Eigen::AngleAxisd(M_PI / 4, Vec3::UnitZ()).toRotationMatrix();
+  ASSERT_EQ(w.addBody(body("A", {Part{ConvexShape::sphere(0.5), Transform3::Identity()},
+                                 Part{ConvexShape::box(Vec3(4, 0.02, 0.02)), rod}})),
+            "");
+  addSpheres(w, {"b"}, 0.25);
+  ASSERT_TRUE(w.setPose("A", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(0, -0.78125), 0.0));
+  EXPECT_EQ(events(w.check(1.0)), (std::vector<Ev>{{E::WarningBegin, "A", "b"}}));
+  ASSERT_TRUE(w.setPose("b", at(1, 1.5), 0.0));
+  const CycleResult r = w.check(1.1);
+  ASSERT_EQ(events(r), (std::vector<Ev>{{E::WarningEnd, "A", "b"}}));
+  EXPECT_NEAR(r.events[0].pair.distance, std::sqrt(3.25) - 0.75, 1e-12);
+  EXPECT_NEAR(r.min_distance, std::sqrt(3.25) - 0.75, 1e-12);
+}
+
+TEST(WorldModel, SetPoseRefusesANonFiniteTwistOrArrivalTimeAndKeepsThePose) {
+  // As a NaN stamp or pose is: refused (false), nothing changes. b stays at 2, 1 m from a, at
+  // rest.
+  WorldModel w(dyadic());
+  addSpheres(w, {"a", "b"}, 0.5);
+  ASSERT_TRUE(w.setPose("a", at(0), 1.0));
+  ASSERT_TRUE(w.setPose("b", at(2), 1.0));
+  const double inf = std::numeric_limits<double>::infinity();
+  Twist nan_twist;
+  nan_twist.linear = Vec3(std::nan(""), 0, 0);
+  EXPECT_FALSE(w.setPose("b", at(3), 1.1, nan_twist));
+  Twist inf_twist;
+  inf_twist.angular = Vec3(0, 0, inf);
+  EXPECT_FALSE(w.setPose("b", at(3), 1.1, inf_twist));
+  EXPECT_FALSE(w.setPose("b", at(3), 1.1, std::nullopt, Stamp(std::nan(""))));
+  EXPECT_EQ(w.pose("b")->t, Vec3(2, 0, 0));
+  std::string why;
+  Stamp stamp;
+  const auto d = w.distance("a", "b", 1.1, &why, &stamp);
+  ASSERT_TRUE(d) << why;
+  EXPECT_EQ(d->distance, 1.0);
+  EXPECT_EQ(d->time_to_collision, inf);
+  EXPECT_EQ(stamp, Stamp(1.0));
+}
+
+TEST(WorldModel, GroupsKeepTheirMembersWhenUnusedGroupNamesAreForgotten) {
+  // Five bodies: u and v in no group, y1 and y2 in "crew", x renamed through 73 fresh groups.
+  // 1 + 73 = 74 names = 2 x 5 bodies + 64: the next new name, "team" of the new body p, makes
+  // the model forget the unused ones (crew, x's last name and team stay). Then q joins team.
+  // Each pair overlaps (centres 1/2 m apart, radii 1/2): u-v collide, the group pairs are never
+  // checked.
+  WorldModel w(dyadic());
+  addSpheres(w, {"u", "v"}, 0.5);
+  ASSERT_EQ(w.addBody(sphere("y1", 0.5, "crew")), "");
+  ASSERT_EQ(w.addBody(sphere("y2", 0.5, "crew")), "");
+  for (int i = 0; i < 73; ++i)
+    ASSERT_EQ(w.addBody(sphere("x", 0.5, "g" + std::to_string(i))), "");
+  EXPECT_EQ(w.groupNames(), 74u);
+  ASSERT_EQ(w.addBody(sphere("p", 0.5, "team")), "");
+  EXPECT_EQ(w.groupNames(), 3u);
+  ASSERT_EQ(w.addBody(sphere("q", 0.5, "team")), "");
+  for (const auto& [id, x, y] :
+       std::vector<std::tuple<std::string, double, double>>{{"u", 0, 0},
+                                                            {"v", 0.5, 0},
+                                                            {"y1", 0, 10},
+                                                            {"y2", 0.5, 10},
+                                                            {"p", 0, 20},
+                                                            {"q", 0.5, 20},
+                                                            {"x", 0, 30}}) {
+    ASSERT_TRUE(w.setPose(id, at(x, y), 0.0));
+  }
+  const CycleResult r = w.check(1.0);
+  EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"u", "v"}, S::Collision}}));
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::CollisionBegin, "u", "v"}}));
+}
+
+TEST(WorldModel, TwoChecksAtTheSameTimeAreNoClockGoingBack) {
+  // b's pose is stamped 1/4 s ahead of the checks (no arrival time): it ages from its stamp,
+  // fresh until 10.75, though check() is called twice at 10.0 (the clock did not go back).
+  WorldModel w(dyadic());  // pose_timeout 0.5
+  addSpheres(w, {"a", "b"}, 0.5);
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));  // static
+  ASSERT_TRUE(w.setPose("b", at(2), 10.25));
+  EXPECT_TRUE(w.check(10.0).stale_bodies.empty());
+  EXPECT_TRUE(w.check(10.0).stale_bodies.empty());
+  EXPECT_TRUE(w.check(10.625).stale_bodies.empty());
+  EXPECT_EQ(w.check(10.875).stale_bodies, std::vector<std::string>{"b"});
+}
+
+TEST(WorldModel, TheEndEventsOfARemovedBodyComeFirstInIdOrderOnce) {
+  // "m" WARNING with five bodies 1/32 m away (added before and after it, in an order unlike
+  // their ids). It is removed while a-b begins WARNING: the check after gives m's five ENDs
+  // first, in the order of the other id and each pair read in id order, stamped with the
+  // check's time, then a-b's BEGIN; the next check nothing.
+  WorldModel w(dyadic());
+  addSpheres(w, {"q", "n", "m", "r", "o", "p", "a", "b"}, 0.5);
+  const double d = 1.03125;
+  for (const auto& [id, x, y, z] :
+       std::vector<std::tuple<std::string, double, double, double>>{{"m", 0, 0, 0},
+                                                                    {"n", d, 0, 0},
+                                                                    {"o", -d, 0, 0},
+                                                                    {"p", 0, d, 0},
+                                                                    {"q", 0, -d, 0},
+                                                                    {"r", 0, 0, d},
+                                                                    {"a", 10, 0, 0},
+                                                                    {"b", 12, 0, 0}}) {
+    ASSERT_TRUE(w.setPose(id, at(x, y, z), 0.0));
+  }
+  EXPECT_EQ(events(w.check(1.0)).size(), 5u);
+  ASSERT_TRUE(w.removeBody("m"));
+  ASSERT_TRUE(w.setPose("b", at(10 + d), 0.0));
+  const CycleResult r = w.check(1.5);
+  EXPECT_EQ(events(r), (std::vector<Ev>{{E::WarningEnd, "m", "n"},
+                                        {E::WarningEnd, "m", "o"},
+                                        {E::WarningEnd, "m", "p"},
+                                        {E::WarningEnd, "m", "q"},
+                                        {E::WarningEnd, "m", "r"},
+                                        {E::WarningBegin, "a", "b"}}));
+  for (const Event& e : r.events)
+    EXPECT_EQ(e.stamp, Stamp(1.5));
+  EXPECT_TRUE(w.check(2.0).events.empty());
+}
+
+TEST(WorldModel, CatchUpGoesOnAfterPosesAreForgottenForAPairTrackedBefore) {
+  // CatchUpGoesOnAfterPosesAreForgotten's world, with the dart held 0.065 m from the obstacle
+  // before time jumps back (CLEAR, within the broad phase's reach of 0.0703 m: the pair is
+  // tracked, checked up to 100.2 s). After clearPoses() the dart's pass is caught up as in a
+  // fresh world: both radii 0.1, the dart at (-1.5 + 0.2 k, 0.02) at step k, the obstacle at 0:
+  // 0.1007 m apart at steps 6 and 9, overlapping at 7 and 8.
+  for (const bool fixed : {true, false}) {
+    SCOPED_TRACE(fixed ? "static obstacle" : "timed obstacle");
+    auto w = twoSpheres(dyadic(), "dart", "obstacle", 0.1);
+    ASSERT_EQ(w->addBody(sphere("late", 0.1)), "");
+    for (int k = 0; k <= 20; ++k) {
+      const double t = 100.0 + k * 0.01;
+      ASSERT_TRUE(w->setPose("dart", at(-0.265), t));
+      ASSERT_TRUE(w->setPose("late", at(50.0 + 0.01 * k), t - 0.3));
+      ASSERT_TRUE(w->setPose("obstacle", at(0), fixed ? Stamp() : Stamp(t - 0.1)));
+      EXPECT_TRUE(w->check(t).events.empty());
+    }
+    w->clearPoses();
+    Timeline events;
+    for (int k = 0; k <= 25; ++k) {
+      if (k > 0) {
+        ASSERT_TRUE(w->setPose("dart", at(-1.5 + 0.2 * k, 0.02), step(k)));
+      }
+      if (k % 5 != 0) continue;
+      ASSERT_TRUE(w->setPose("late", at(50.0 + 0.01 * k), step(k - 30)));
+      ASSERT_TRUE(w->setPose("obstacle", at(0), fixed ? Stamp() : step(k - 10)));
+      for (const Event& e : w->check(step(k)).events) {
+        if (e.type != E::UnknownBegin && e.type != E::UnknownEnd) {
+          events.emplace_back(e.type, e.stamp);
+        }
+      }
+    }
+    EXPECT_EQ(events, (Timeline{{E::CollisionBegin, step(7)}, {E::CollisionEnd, step(9)}}));
+  }
+}
+
+TEST(WorldModel, AnUnresolvedStaticPoseIsForgottenByClearPoses) {
+  // A static pose holds through clearPoses() (it is not sent again), but not one marked
+  // unresolved: that body has no pose until it is given one again.
+  WorldModel w(dyadic());
+  addSpheres(w, {"a", "b"}, 0.5);
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(3), 0.0));
+  w.markUnresolved("b");
+  w.clearPoses();
+  EXPECT_TRUE(w.pose("a"));
+  EXPECT_FALSE(w.pose("b"));
+  std::string why;
+  EXPECT_FALSE(w.distance("a", "b", 1.0, &why));
+  EXPECT_EQ(why, "body 'b' has no pose yet");
+}
+
+TEST(WorldModel, StaleBodiesAreListedInIdOrder) {
+  // Added (slots) in another order than their ids; c has a pose.
+  WorldModel w(dyadic());
+  addSpheres(w, {"d", "b", "c", "a"}, 0.5);
+  ASSERT_TRUE(w.setPose("c", at(0), 0.0));
+  EXPECT_EQ(w.check(1.0).stale_bodies, (std::vector<std::string>{"a", "b", "d"}));
+}
+
+TEST(WorldModel, SetPoseOfAnUnknownIdAnswersWhateverBodiesCameAndWent) {
+  // setPose() finds ids in an open-addressing index, whose probe for an id it does not hold ends
+  // at an empty cell: after 1,000 bodies added and removed one at a time (each may leave a
+  // tombstone in a table of 16 cells), and with 1 to 40 bodies held, setPose("nobody") answers
+  // false. The lookup runs in a thread of its own: an index without an empty cell would never
+  // answer.
+  auto w = std::make_shared<WorldModel>();
+  const auto refusesNobody = [&w] {
+    std::promise<bool> done;
+    std::future<bool> answer = done.get_future();
+    std::thread([w, done = std::move(done)]() mutable {
+      done.set_value(w->setPose("nobody", at(0), 1.0));
+    }).detach();
+    return answer.wait_for(std::chrono::seconds(5)) == std::future_status::ready && !answer.get();
+  };
+  for (int i = 0; i < 1000; ++i) {
+    const std::string id = "c" + std::to_string(i);
+    ASSERT_EQ(w->addBody(sphere(id, 0.5)), "");
+    ASSERT_TRUE(w->setPose(id, at(0), 1.0));
+    ASSERT_TRUE(w->removeBody(id));
+  }
+  ASSERT_TRUE(refusesNobody()) << "after 1,000 bodies came and went";
+  for (int i = 0; i < 40; ++i) {
+    ASSERT_EQ(w->addBody(sphere("b" + std::to_string(i), 0.5)), "");
+    ASSERT_TRUE(refusesNobody()) << i + 1 << " bodies held";
+  }
 }
 
 }  // namespace
