@@ -152,6 +152,37 @@ TEST(Backend, LibccdKnownAnswersOnUnitCubes) {
   EXPECT_NEAR((r.normal - Vec3::UnitZ()).norm(), 0.0, 1e-2);
 }
 
+// The libccd backend answers an overlap of the cores with libccd's own penetration, the radii
+// added after (ccd_backend.cpp), and falls back to our GJK/EPA only when that answer is
+// contradicted along its normal. A unit cube (A) and a capsule (B) of length 2 and radius 0.1
+// standing along z at x = 0.4: the core segment is 0.1 inside the face x = 0.5, so the cores
+// overlap by 0.1 along +x (0.5 along y, 1.5 along z) and the shapes by 0.1 + 0.1 = 0.2. The
+// backend's answer must be libccd's on the cores (no GJK iterations) with B's radius subtracted.
+TEST(Backend, LibccdBackendKeepsLibccdsConsistentAnswerAndAddsTheRadii) {
+  const auto np = cm::makeNarrowPhase(cm::BackendType::Libccd);
+  const auto cube = cm::ConvexShape::box(Vec3(1, 1, 1));
+  const auto capsule = cm::ConvexShape::capsule(2.0, 0.1);
+  const Vec3 o(700.0, -300.0, 20.0);
+  const cm::ContactResult r =
+      np->signedDistance(cube, at(o), capsule, at(o + Vec3(0.4, 0.1, 0.0)), nullptr);
+  EXPECT_EQ(r.status, cm::Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.2, 1e-9);
+  EXPECT_NEAR((r.normal - Vec3::UnitX()).norm(), 0.0, 1e-9);
+  EXPECT_NEAR((r.point_b - r.point_a).dot(r.normal), r.distance, 1e-9);
+  // libccd's answer, not the core query's (which counts its GJK iterations).
+  EXPECT_EQ(r.gjk_iterations, 0);
+  EXPECT_EQ(r.epa_iterations, 0);
+  cm::CcdOptions cores;
+  cores.cores_only = true;
+  cm::ContactResult direct;
+  ASSERT_TRUE(
+      cm::ccdPenetration(cube, at(o), capsule, at(o + Vec3(0.4, 0.1, 0.0)), &direct, cores));
+  EXPECT_NEAR(direct.distance, -0.1, 1e-9);
+  EXPECT_EQ(r.distance, direct.distance - 0.1);
+  EXPECT_EQ(r.point_a, direct.point_a);
+  EXPECT_EQ(r.point_b, Vec3(direct.point_b - 0.1 * direct.normal));
+}
+
 // Measures libccd's two algorithms against the oracle and pins the choice made in
 // ccd_backend.cpp: GJK+EPA for the depth (MPR is not a minimum-depth query).
 TEST(LibccdSweep, GjkEpaIsTheMoreAccurateDepth) {

@@ -329,6 +329,29 @@ TEST(ConvexHull, NearlyFlatInputDoesNotFailAndStaysClose) {
   }
 }
 
+TEST(ConvexHull, ThinSlabAboveTheFlatnessThresholdKeepsBothFaces) {
+  // A set counts as flat when its thickness is at most 1e-10 of its extent (plus the coordinates'
+  // rounding floor). The corners of a 2 x 2 x 2e-8 slab are 1e-8 of its extent thick: a solid,
+  // whose hull keeps all 8 corners and both faces z = +-1e-8; a polygon would keep one of each
+  // pair and lose the thickness.
+  std::vector<Vec3> pts;
+  for (const double x : {-1.0, 1.0})
+    for (const double y : {-1.0, 1.0})
+      for (const double z : {-1e-8, 1e-8})
+        pts.emplace_back(x, y, z);
+  const auto poly = cm::buildConvexHull(pts);
+  ASSERT_TRUE(poly);
+  EXPECT_EQ(poly->size(), 8);
+  EXPECT_EQ(poly->support(Vec3::UnitZ()).z(), 1e-8);
+  EXPECT_EQ(poly->support(-Vec3::UnitZ()).z(), -1e-8);
+  // A point 1 above the slab's centre is 1 - 1e-8 from it.
+  const cm::ConvexShape slab = cm::ConvexShape::convexHull(pts);
+  const cm::ContactResult r =
+      cm::signedDistance(slab, cm::Transform3::Identity(), cm::ConvexShape::point(Vec3(0, 0, 1)),
+                         cm::Transform3::Identity());
+  EXPECT_NEAR(r.distance, 1.0 - 1e-8, 1e-15);
+}
+
 TEST(ConvexHull, EmptyOrNonFiniteInputThrowsWithAClearMessage) {
   try {
     cm::buildConvexHull({});

@@ -347,6 +347,44 @@ TEST(GjkSeed, SeedKeptNamesTheSeedVerticesOfTheTerminalSimplex) {
   EXPECT_EQ(cm::gjkDistance(md, settings(5)).seed_kept, 0u);
 }
 
+TEST(GjkSeed, TetrahedronSeedWithTheOriginBeyondItsFirstFaceIsNotAnIntersection) {
+  // Box [-1, 1]^3 minus the point (3, 0, 0): A - B = [-4, -2] x [-1, 1]^2, distance 2 along x,
+  // closest point w = (-2, 0, 0) (witnesses (1, 0, 0) on the box, the point itself on B). A seed
+  // tetrahedron of points of A - B whose face 0-1-2 lies in the face x = -2 and whose vertex 3 is
+  // on the far face x = -4: the origin is (2/3) (w0 + w1 + w2) - w3 (weights 2/3, 2/3, 2/3, -1),
+  // beyond the face 0-1-2 only. That face is the one the loop's lean sub-algorithm leaves out
+  // (it holds no newest vertex), so the seed's closest point must come from the full one.
+  using Box3 = cm::BoxShape<3>;
+  using Pt3 = cm::PointShape<3>;
+  const Box3 cube{cm::Vec3::Ones()};
+  const Pt3 p{cm::Vec3(3, 0, 0)};
+  const cm::MinkowskiDifference<3, Box3, Pt3> md(cube, p, shift<3>(cm::Vec3::Zero()));
+  const auto point = [&](const cm::Vec3& a) {
+    cm::SupportPoint<3> q;
+    q.a = a;
+    q.b = p.p;
+    q.w = q.a - q.b;
+    return q;
+  };
+  cm::Simplex<3> seed;
+  seed.size = 4;
+  seed.v[0] = point(cm::Vec3(1, -1, -1));
+  seed.v[1] = point(cm::Vec3(1, 1, -1));
+  seed.v[2] = point(cm::Vec3(1, -1, 1));
+  seed.v[3] = point(cm::Vec3(-1, -2.0 / 3.0, -2.0 / 3.0));
+  const auto r = cm::gjkDistance(md, settings(5), &seed);
+  EXPECT_EQ(r.status, cm::GjkStatus::Separated);
+  EXPECT_NEAR(r.distance, 2.0, 1e-12);
+  expectVecNear<3>(r.v, cm::Vec3(-2, 0, 0), 1e-12);
+  EXPECT_NEAR(r.point_a.x(), 1.0, 1e-12);
+  expectVecNear<3>(r.point_b, cm::Vec3(3, 0, 0), 1e-12);
+  // gjkIntersect from the same seed: 2 apart, not within a margin of 1.9.
+  cm::Simplex<3> s = seed;
+  EXPECT_FALSE(cm::gjkIntersect(md, 1.9, settings(5), &s));
+  s = seed;
+  EXPECT_TRUE(cm::gjkIntersect(md, 2.1, settings(5), &s));
+}
+
 // ---------------------------------------------------------------------------------------------
 // Simplex sub-algorithms
 // ---------------------------------------------------------------------------------------------

@@ -372,6 +372,31 @@ TEST(ExactPoint, DistanceOfAShapeAroundAPointOrAConcentricShapeIsPenetration) {
       Status::Touching);
 }
 
+TEST(ExactPoint, DistanceOfShapesWhoseCoresTouchButRadiiOverlapIsPenetration) {
+  // distance() (no depth) where the cores only touch, so that GJK ends with the origin on A - B's
+  // boundary (or A - B is a single point): the radii make the shapes overlap by rA + rB, so the
+  // answer is Penetrating, never Touching. Concentric spheres 0.5 and 0.25 (cores: one point;
+  // overlap 0.75), a sphere of radius 0.1 centred on the unit cube's face x = 0.5 (overlap 0.1),
+  // two capsules of radius 0.1 whose core segments cross at their midpoints (overlap 0.2).
+  const Transform3 o = at(0, 0, 0);
+  const ConvexShape capsule = ConvexShape::capsule(2.0, 0.1);
+  struct Case {
+    ConvexShape a, b;
+    Transform3 pb;
+    double overlap;
+  };
+  for (const Case& c :
+       std::vector<Case>{{ConvexShape::sphere(0.5), ConvexShape::sphere(0.25), at(0, 0, 0), 0.75},
+                         {kUnitCube, ConvexShape::sphere(0.1), at(0.5, 0.3, 0.2), 0.1},
+                         {capsule, capsule, rotAt(M_PI / 2, Vec3::UnitY(), Vec3::Zero()), 0.2}}) {
+    const ContactResult r = cm::distance(c.a, o, c.b, c.pb);
+    EXPECT_EQ(r.status, Status::Penetrating) << c.a.describe() << " / " << c.b.describe();
+    EXPECT_EQ(r.distance, 0.0);
+    EXPECT_TRUE(cm::intersect(c.a, o, c.b, c.pb));
+    EXPECT_NEAR(cm::signedDistance(c.a, o, c.b, c.pb).distance, -c.overlap, kTol);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Curved shapes against box faces
 // ---------------------------------------------------------------------------------------------
@@ -587,6 +612,33 @@ TEST(ExactDegenerate, FlatPolytopes) {
   r = cm::signedDistance(sq, at(0, 0, 0), sq, rotAt(M_PI / 2, Vec3::UnitY(), Vec3(0.5, 0, 0)));
   EXPECT_NEAR(r.distance, -0.5, kTol);
   expectVecNear(r.normal, Vec3::UnitX(), kTol);
+}
+
+TEST(ExactDegenerate, FlatOverlapNormalPointsTowardsBsOrigin) {
+  // A 2x2 square in the plane z = 1 of its frame (the frame's origin 1 below it; no core offset:
+  // the centre (0, 0, 1) is within 4 half-sizes) and a sphere of radius 0.1 centred in the square
+  // at (0.2, 0.3, 1). The cores' A - B is flat (the plane z = 0) through the origin: the depth is
+  // the radius, 0.1, out of either side of the plane. query.cpp breaks that tie towards B's origin:
+  // A -> B is (0.2, 0.3, 1), so the normal is +z; in the other order A -> B is (-0.2, -0.3, -1)
+  // and the normal -z.
+  const auto square = std::make_shared<cm::Polytope<3>>(
+      std::vector<Vec3>{Vec3(-1, -1, 1), Vec3(1, -1, 1), Vec3(1, 1, 1), Vec3(-1, 1, 1)});
+  const ConvexShape sq = ConvexShape::polytope(square);
+  const ConvexShape ball = ConvexShape::sphere(0.1);
+  ContactResult r = cm::signedDistance(sq, at(0, 0, 0), ball, at(0.2, 0.3, 1));
+  EXPECT_EQ(r.status, Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.1, kTol);
+  expectVecNear(r.normal, Vec3::UnitZ(), kTol);
+  expectVecNear(r.point_a, Vec3(0.2, 0.3, 1.0), kTol);  // the sphere's centre, on the square
+  expectVecNear(r.point_b, Vec3(0.2, 0.3, 0.9), kTol);  // 0.1 below it along -normal
+  expectConsistent(r, kTol);
+  r = cm::signedDistance(ball, at(0.2, 0.3, 1), sq, at(0, 0, 0));
+  EXPECT_EQ(r.status, Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.1, kTol);
+  expectVecNear(r.normal, -Vec3::UnitZ(), kTol);
+  expectVecNear(r.point_a, Vec3(0.2, 0.3, 0.9), kTol);
+  expectVecNear(r.point_b, Vec3(0.2, 0.3, 1.0), kTol);
+  expectConsistent(r, kTol);
 }
 
 TEST(ExactDegenerate, CoincidentPointsAndSinglePoint) {
