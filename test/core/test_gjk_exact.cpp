@@ -229,6 +229,23 @@ TEST(ExactBox, NearlyParallelFaces) {
   EXPECT_NEAR(p.normal.z(), 0.0, 2 * eps);
 }
 
+TEST(ExactBox, DistanceOfOverlappingBoxesHasTheNormalFromAsOriginTowardsBs) {
+  // distance() computes no depth: for cores that overlap with GJK's simplex enclosing the origin
+  // (a generic pose: no symmetry puts the origin on a segment or triangle of support points) its
+  // normal is the direction from A's origin towards B's (query.h), here (0.3, 0.4, 0) / 0.5, not
+  // a least-depth direction as EPA would give. Unit cubes with centres 0.5 apart (their inscribed
+  // balls of radius 0.5 overlap, so the cubes do), turned about generic axes.
+  const Transform3 pa = rotAt(0.7, Vec3(3, -1, 2), Vec3::Zero());
+  const Transform3 pb = rotAt(0.3, Vec3(1, 2, 3), Vec3(0.3, 0.4, 0));
+  for (const bool swap : {false, true}) {
+    const ContactResult r = swap ? cm::distance(kUnitCube, pb, kUnitCube, pa)
+                                 : cm::distance(kUnitCube, pa, kUnitCube, pb);
+    EXPECT_EQ(r.status, Status::Penetrating);
+    EXPECT_EQ(r.distance, 0.0);
+    expectVecNear(r.normal, (swap ? -1.0 : 1.0) * Vec3(0.6, 0.8, 0.0), kTol);
+  }
+}
+
 // ---------------------------------------------------------------------------------------------
 // Capsules and sphere/box
 // ---------------------------------------------------------------------------------------------
@@ -641,6 +658,39 @@ TEST(ExactDegenerate, FlatOverlapNormalPointsTowardsBsOrigin) {
   expectConsistent(r, kTol);
 }
 
+TEST(ExactDegenerate, CollinearOverlapNormalIsPerpendicularToTheLineTowardsBsOrigin) {
+  // Two padded segments on the x axis of the common frame, overlapping on x in [-0.5, 1]. A's
+  // segment runs through its frame's origin; B's lies 1 below its frame's origin (z = -1 in B's
+  // frame; no core offset: the centre (0, 0, -1) is within 4 half-sizes) and B's frame is at
+  // (0.5, 0, 1). The cores' A - B is a segment along x through the origin (EPA: flat, dimension
+  // 1): every direction across x gives depth 0 for the cores, rA + rB = 0.1 + 0.2 = 0.3 for the
+  // padded shapes. query.cpp breaks the tie towards B's origin with the part of A -> B = (0.5, 0,
+  // 1) across the line: (0, 0, 1). Witnesses: a common point of the cores (y = z = 0, x in the
+  // overlap) plus 0.1 along the normal on A, minus 0.2 on B. In the other order the normal is
+  // -z.
+  const ConvexShape a = ConvexShape::segment(Vec3(-1, 0, 0), Vec3(1, 0, 0)).padded(0.1);
+  const ConvexShape b = ConvexShape::segment(Vec3(-1, 0, -1), Vec3(1, 0, -1)).padded(0.2);
+  for (const bool swap : {false, true}) {
+    SCOPED_TRACE(swap ? "B first" : "A first");
+    const ContactResult r = swap ? cm::signedDistance(b, at(0.5, 0, 1), a, at(0, 0, 0))
+                                 : cm::signedDistance(a, at(0, 0, 0), b, at(0.5, 0, 1));
+    const double s = swap ? -1.0 : 1.0;
+    const Vec3& pa = swap ? r.point_b : r.point_a;  // the witness on a (padded 0.1)
+    const Vec3& pb = swap ? r.point_a : r.point_b;
+    EXPECT_EQ(r.status, Status::Penetrating);
+    EXPECT_NEAR(r.distance, -0.3, kTol);
+    expectVecNear(r.normal, s * Vec3::UnitZ(), kTol);
+    EXPECT_NEAR(pa.z(), 0.1, kTol);
+    EXPECT_NEAR(pb.z(), -0.2, kTol);
+    EXPECT_NEAR(pa.y(), 0.0, kTol);
+    EXPECT_NEAR(pb.y(), 0.0, kTol);
+    EXPECT_GE(pa.x(), -0.5 - kTol);
+    EXPECT_LE(pa.x(), 1.0 + kTol);
+    EXPECT_NEAR(pa.x(), pb.x(), kTol);
+    expectConsistent(r, kTol);
+  }
+}
+
 TEST(ExactDegenerate, CoincidentPointsAndSinglePoint) {
   // Three coincident vertices: a one-point polytope at p = (0.1, 0.2, 0.3) inside a unit sphere.
   const Vec3 p(0.1, 0.2, 0.3);
@@ -819,4 +869,84 @@ TEST(ExactQuery, NonFinitePosesGiveADefinedFailure) {
   EXPECT_TRUE(cm::intersect(kUnitCube, at(0, 0, 0), kUnitCube, bad));
   EXPECT_STREQ(cm::toString(Status::FailedToConverge), "FailedToConverge");
   EXPECT_STREQ(cm::toString(Status::Touching), "Touching");
+}
+
+TEST(ExactQuery, NonFiniteRotationOfBAloneGivesADefinedFailure) {
+  // A NaN or Inf only in B's rotation (A at the identity, both translations finite) reaches the
+  // relative rotation R_A^T R_B but not the relative translation R_A^T (t_B - t_A): the queries
+  // must still see the pose as non-finite and give the defined failure (FailedToConverge, finite
+  // unit normal; intersect() true, conservative), for shapes far apart or overlapping.
+  for (const double bad :
+       {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    for (const double x : {0.5, 5.0}) {
+      Transform3 pose_b = at(x, 0, 0);
+      pose_b.R(1, 2) = bad;
+      for (const bool signed_query : {false, true}) {
+        const ContactResult r = signed_query
+                                    ? cm::signedDistance(kUnitCube, at(0, 0, 0), kUnitCube, pose_b)
+                                    : cm::distance(kUnitCube, at(0, 0, 0), kUnitCube, pose_b);
+        EXPECT_EQ(r.status, Status::FailedToConverge) << "x = " << x << " bad = " << bad;
+        EXPECT_TRUE(r.normal.allFinite());
+        EXPECT_NEAR(r.normal.norm(), 1.0, 1e-15);
+      }
+      EXPECT_TRUE(cm::intersect(kUnitCube, at(0, 0, 0), kUnitCube, pose_b)) << "x = " << x;
+    }
+  }
+}
+
+TEST(ExactQuery, GjkOutOfIterationsIsReportedAsFailedToConverge) {
+  // With no GJK iterations allowed (QueryOptions::max_iterations = 0) GJK stops on its starting
+  // point, unconverged: the answer is FailedToConverge, never Separated, with the starting
+  // point's distance as the estimate, which is an upper bound on the true gap 3 - 0.5 - 0.5 = 2
+  // (every point of A - B is at least that far from the origin). Unit cubes 3 apart along x.
+  cm::QueryOptions o;
+  o.max_iterations = 0;
+  const Transform3 pb = at(3, 0.2, -0.1);
+  for (const bool signed_query : {false, true}) {
+    const ContactResult r =
+        signed_query ? cm::signedDistance(kUnitCube, at(0, 0, 0), kUnitCube, pb, nullptr, o)
+                     : cm::distance(kUnitCube, at(0, 0, 0), kUnitCube, pb, nullptr, o);
+    EXPECT_EQ(r.status, Status::FailedToConverge) << (signed_query ? "signed" : "distance");
+    EXPECT_GE(r.distance, 2.0 - kTol);
+    EXPECT_TRUE(r.normal.allFinite());
+  }
+  // The same pair with the default bound converges: the gap.
+  EXPECT_NEAR(cm::signedDistance(kUnitCube, at(0, 0, 0), kUnitCube, pb).distance, 2.0, kTol);
+}
+
+TEST(ExactQuery, EpaWithoutAnUpperBoundOnTheDepthNeverSettles) {
+  // With no EPA iterations allowed (QueryOptions::max_epa_iterations = 0), EPA stops on GJK's
+  // enclosing tetrahedron before any support call: it has only the lower bound of its nearest
+  // face (0 <= bound <= the depth), no upper bound. Even with a touching band as wide as the
+  // pair (touch_tolerance = 1) that lower bound proves nothing about the depth: the answer is
+  // FailedToConverge, not Touching. Unit cubes overlapping deeply (centres 0.365 apart) at a
+  // generic pose; with the default options the same pair converges (Penetrating).
+  cm::QueryOptions o;
+  o.max_epa_iterations = 0;
+  o.touch_tolerance = 1.0;
+  const Transform3 pb = rotAt(0.3, Vec3(1, 2, 3), Vec3(0.31, 0.17, 0.09));
+  const ContactResult r = cm::signedDistance(kUnitCube, at(0, 0, 0), kUnitCube, pb, nullptr, o);
+  EXPECT_EQ(r.status, Status::FailedToConverge);
+  EXPECT_EQ(r.epa_iterations, 0);
+  EXPECT_EQ(cm::signedDistance(kUnitCube, at(0, 0, 0), kUnitCube, pb).status, Status::Penetrating);
+}
+
+TEST(ExactQuery, UnconvergedEpaWhoseUpperBoundIsInTheTouchingBandSettlesAsTouching) {
+  // A point at the centre of a unit cube: depth 0.5 (every face). GJK ends on a segment of
+  // support points through the origin (symmetry), so EPA blows it up to a tetrahedron with
+  // support calls along known directions: their least overlap is an upper bound on the depth
+  // (>= 0.5). With no EPA iterations allowed (max_epa_iterations = 0) EPA stops unconverged, its
+  // lower bound (nearest face of the tetrahedron) not within tolerance of that upper bound. With
+  // a touching band as wide as the pair (touch_tolerance = 1: band = size = sqrt(3) / 2 = 0.866,
+  // the cube's half-diagonal) the upper bound lies in the band, so the signed distance is known to
+  // be in [-band, 0]: Touching (query.cpp: "settled"), not FailedToConverge, with the bound as
+  // the depth.
+  cm::QueryOptions o;
+  o.max_epa_iterations = 0;
+  o.touch_tolerance = 1.0;
+  const ContactResult r = cm::signedDistance(
+      kUnitCube, at(0, 0, 0), ConvexShape::point(Vec3::Zero()), at(0, 0, 0), nullptr, o);
+  EXPECT_EQ(r.status, Status::Touching);
+  EXPECT_LE(r.distance, -0.5 + kTol);
+  EXPECT_GE(r.distance, -0.5 * kSqrt3 - kTol);
 }

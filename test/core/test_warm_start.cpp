@@ -291,3 +291,33 @@ TEST(WarmStart, NeedleTriangleKeepsItsDirection) {
     EXPECT_LE(warm.gjk_iterations, 1);
   }
 }
+
+TEST(WarmStart, WarmQueryThatFailsToConvergeRunsAgainCold) {
+  // signedDistance() with a warm cache whose answer is FailedToConverge runs the query again cold
+  // (query.cpp): the answer is the cold one. Options under which the seed matters: no EPA
+  // iterations (max_epa_iterations = 0) and a touching band as wide as the pair
+  // (touch_tolerance = 1). A point at a unit cube's centre, cold: GJK ends on a segment through
+  // the origin (symmetry), EPA's blow-up support calls bound the depth (0.5) from above inside
+  // the band: Touching. Warm from a cache holding the regular tetrahedron of four cube corners
+  // (support points of the cube) against the point (their centroid is the cube's centre, so the
+  // seed encloses the origin): GJK starts enclosed, EPA makes no support call and has no upper
+  // bound: FailedToConverge, unless the query falls back to the cold run.
+  cm::QueryOptions o;
+  o.max_epa_iterations = 0;
+  o.touch_tolerance = 1.0;
+  const ConvexShape cube = ConvexShape::box(Vec3(1, 1, 1));
+  const ConvexShape point = ConvexShape::point(Vec3::Zero());
+  const ContactResult cold =
+      cm::signedDistance(cube, Transform3(), point, Transform3(), nullptr, o);
+  ASSERT_EQ(cold.status, cm::Status::Touching);
+  PairCache cache;
+  cache.core_a = cube.coreId();
+  cache.core_b = point.coreId();
+  cache.size = 4;
+  cache.local_a = {Vec3(0.5, 0.5, 0.5), Vec3(0.5, -0.5, -0.5), Vec3(-0.5, 0.5, -0.5),
+                   Vec3(-0.5, -0.5, 0.5)};
+  cache.local_b = {Vec3::Zero(), Vec3::Zero(), Vec3::Zero(), Vec3::Zero()};
+  const ContactResult warm = cm::signedDistance(cube, Transform3(), point, Transform3(), &cache, o);
+  EXPECT_EQ(warm.status, cold.status);
+  EXPECT_NEAR(warm.distance, cold.distance, 1e-12);
+}
