@@ -55,6 +55,14 @@ cm::Simplex<D> simplexOf(const std::vector<Vec<D>>& pts) {
   }
   return s;
 }
+/// The support point of A - B made of a (on A) and b (on B).
+cm::SupportPoint<3> supportPointOf(const cm::Vec3& a, const cm::Vec3& b) {
+  cm::SupportPoint<3> q;
+  q.a = a;
+  q.b = b;
+  q.w = a - b;
+  return q;
+}
 
 using Box2 = cm::BoxShape<2>;
 using Pt2 = cm::PointShape<2>;
@@ -307,20 +315,12 @@ TEST(GjkSeed, SeedKeptNamesTheSeedVerticesOfTheTerminalSimplex) {
   const Box3 cube{cm::Vec3::Ones()};
   const Pt3 p{cm::Vec3(3, 0.5, 0.2)};
   const cm::MinkowskiDifference<3, Box3, Pt3> md(cube, p, shift<3>(cm::Vec3::Zero()));
-  const auto corner = [&](double y, double z) {
-    cm::SupportPoint<3> q;
-    q.a = cm::Vec3(1, y, z);
-    q.b = p.p;
-    q.w = q.a - q.b;
-    return q;
-  };
+  const auto corner = [&](double y, double z) { return supportPointOf(cm::Vec3(1, y, z), p.p); };
   cm::Simplex<3> seed;
   // The face's triangle (the origin projects into it) plus a vertex on the far side: GJK keeps
   // vertices 1, 2, 3, certifies with one support point and adds none.
   seed.size = 4;
-  seed.v[0].a = cm::Vec3(-1, -1, -1);
-  seed.v[0].b = p.p;
-  seed.v[0].w = seed.v[0].a - seed.v[0].b;
+  seed.v[0] = supportPointOf(cm::Vec3(-1, -1, -1), p.p);
   seed.v[1] = corner(1, 1);
   seed.v[2] = corner(-1, 1);
   seed.v[3] = corner(0, -1);
@@ -359,19 +359,12 @@ TEST(GjkSeed, TetrahedronSeedWithTheOriginBeyondItsFirstFaceIsNotAnIntersection)
   const Box3 cube{cm::Vec3::Ones()};
   const Pt3 p{cm::Vec3(3, 0, 0)};
   const cm::MinkowskiDifference<3, Box3, Pt3> md(cube, p, shift<3>(cm::Vec3::Zero()));
-  const auto point = [&](const cm::Vec3& a) {
-    cm::SupportPoint<3> q;
-    q.a = a;
-    q.b = p.p;
-    q.w = q.a - q.b;
-    return q;
-  };
   cm::Simplex<3> seed;
   seed.size = 4;
-  seed.v[0] = point(cm::Vec3(1, -1, -1));
-  seed.v[1] = point(cm::Vec3(1, 1, -1));
-  seed.v[2] = point(cm::Vec3(1, -1, 1));
-  seed.v[3] = point(cm::Vec3(-1, -2.0 / 3.0, -2.0 / 3.0));
+  seed.v[0] = supportPointOf(cm::Vec3(1, -1, -1), p.p);
+  seed.v[1] = supportPointOf(cm::Vec3(1, 1, -1), p.p);
+  seed.v[2] = supportPointOf(cm::Vec3(1, -1, 1), p.p);
+  seed.v[3] = supportPointOf(cm::Vec3(-1, -2.0 / 3.0, -2.0 / 3.0), p.p);
   const auto r = cm::gjkDistance(md, settings(5), &seed);
   EXPECT_EQ(r.status, cm::GjkStatus::Separated);
   EXPECT_NEAR(r.distance, 2.0, 1e-12);
