@@ -950,3 +950,33 @@ TEST(ExactQuery, UnconvergedEpaWhoseUpperBoundIsInTheTouchingBandSettlesAsTouchi
   EXPECT_LE(r.distance, -0.5 + kTol);
   EXPECT_GE(r.distance, -0.5 * kSqrt3 - kTol);
 }
+
+TEST(ExactQuery, UnconvergedEpaReportsItsUpperBoundWithWitnessesOnBothSupportingPlanes) {
+  // EPA out of iterations (max_epa_iterations = 2) reports the least overlap it saw along a
+  // support direction n: an upper bound on the depth, with witness points on A's supporting plane
+  // along n and on B's along -n, one depth apart along n. Checked against the cubes' 8 vertices
+  // each (brute force): the depth is the overlap of the two vertex sets' projections on n, and it
+  // is at least the converged query's depth (the safe side). The pair is the deep overlap at a
+  // generic pose of EpaWithoutAnUpperBoundOnTheDepthNeverSettles.
+  cm::QueryOptions o;
+  o.max_epa_iterations = 2;
+  const Transform3 pb = rotAt(0.3, Vec3(1, 2, 3), Vec3(0.31, 0.17, 0.09));
+  const ContactResult r = cm::signedDistance(kUnitCube, at(0, 0, 0), kUnitCube, pb, nullptr, o);
+  EXPECT_EQ(r.status, Status::FailedToConverge);
+  EXPECT_EQ(r.epa_iterations, 2);
+  expectConsistent(r, kTol);
+  const Vec3& n = r.normal;
+  double max_a = -1e300;
+  double min_b = 1e300;
+  for (int i = 0; i < 8; ++i) {
+    const Vec3 v((i & 1) ? 0.5 : -0.5, (i & 2) ? 0.5 : -0.5, (i & 4) ? 0.5 : -0.5);
+    max_a = std::max(max_a, n.dot(v));
+    min_b = std::min(min_b, n.dot(pb * v));
+  }
+  EXPECT_NEAR(n.dot(r.point_a), max_a, kTol);
+  EXPECT_NEAR(n.dot(r.point_b), min_b, kTol);
+  EXPECT_NEAR(r.distance, min_b - max_a, kTol);
+  const ContactResult exact = cm::signedDistance(kUnitCube, at(0, 0, 0), kUnitCube, pb);
+  ASSERT_EQ(exact.status, Status::Penetrating);
+  EXPECT_LE(r.distance, exact.distance + kTol);
+}
