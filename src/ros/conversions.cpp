@@ -335,12 +335,19 @@ Expected<world::BodySpec> bodyFromMsg(const collision_monitor::Body& msg, world:
                  std::to_string(limits.max_parts_per_body)};
   }
   const bool from_topic = msg.pose_from_topic || !msg.pose_topic.empty();
-  if (!from_topic && msg.header.frame_id.empty()) {
-    return Error{"header.frame_id is empty: a body needs a TF frame unless pose_from_topic is set"};
+  // tf2 frames have no leading '/' (tf2 drops one from a transform's frames too): the body's
+  // markers and ~list_bodies named "/f1", which tf2 (and so rviz) refuses. "/" names no frame:
+  // it was kept as the frame '', never posed and never refused.
+  const std::string& given = msg.header.frame_id;
+  std::string frame = !given.empty() && given[0] == '/' ? given.substr(1) : given;
+  if (!from_topic && frame.empty()) {
+    return Error{"header.frame_id " +
+                 (given.empty() ? std::string("is empty") : quoteInput(given) + " names no frame") +
+                 ": a body needs a TF frame unless pose_from_topic is set"};
   }
   world::BodySpec spec;
   spec.id = msg.id;
-  spec.frame = msg.header.frame_id;
+  spec.frame = std::move(frame);
   spec.group = msg.group;
   spec.padding = msg.padding;
   spec.pose_source = from_topic ? world::PoseSource::Topic : world::PoseSource::Tf;

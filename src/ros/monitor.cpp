@@ -609,9 +609,6 @@ std::string Monitor::addBody(world::BodySpec spec) {
   // Kept as the topic read (remapped): a replaced body keeps its pose while it comes from the
   // same topic (WorldModel::addBody), however it is spelled ('~x', '/node/x', or 'a' with a:=/x).
   if (!topic.empty()) spec.pose_topic = nh_.resolveName(topic);
-  // tf2 frames have no leading '/': the body's markers and ~list_bodies named "/f1", which tf2
-  // (and so rviz) refuses.
-  if (!spec.frame.empty() && spec.frame[0] == '/') spec.frame.erase(0, 1);
   Tracked t;
   t.from_tf = spec.pose_source == world::PoseSource::Tf;
   t.frame = spec.frame;

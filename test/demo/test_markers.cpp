@@ -182,6 +182,27 @@ TEST(MarkerBuilder, BodiesColouredByWorstPairStatus) {
     EXPECT_TRUE(isGreen(m->color)) << id;
 }
 
+// A body with two pairs of one status is coloured by the closer one: b in warning at 40 mm of
+// a and at 10 mm of c is as deep an amber as c, not as pale as a.
+TEST(MarkerBuilder, BodyColouredByItsClosestPairOfTheWorstStatus) {
+  cm::world::WorldModel world;
+  const std::vector<std::string> ids = {"a", "b", "c"};
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    addBody(world, boxBody(ids[i]), at(static_cast<double>(i), 0.0, 0.0));
+  }
+  cm::world::CycleResult cycle;
+  cycle.stamp = 1.0;
+  cycle.pairs.push_back(pair("a", "b", PairStatus::Warning, 0.04));
+  cycle.pairs.push_back(pair("b", "c", PairStatus::Warning, 0.01));
+  MarkerBuilder builder(everyCycle());
+  const auto bodies = bodyMarkers(builder.build(world, cycle, kFrame), ids);
+  ASSERT_EQ(bodies.size(), ids.size());
+  for (const auto& [id, m] : bodies)
+    EXPECT_TRUE(isAmber(m->color)) << id;
+  EXPECT_EQ(bodies.at("b")->color.g, bodies.at("c")->color.g);
+  EXPECT_LT(bodies.at("b")->color.g, bodies.at("a")->color.g);
+}
+
 TEST(MarkerBuilder, CubeHullIsTwelveTriangles) {
   cm::world::WorldModel world;
   cm::world::BodySpec spec = topicBody("cube");
@@ -302,6 +323,51 @@ TEST(MarkerBuilder, PrimitivesAndTessellations) {
       EXPECT_LE(std::hypot(p.x, p.y), 0.05 + 1e-9);
     }
   }
+}
+
+// rviz's CUBE, CYLINDER and SPHERE markers take full sizes: a box's sides, a cylinder's diameter
+// (x, y) and height (z), an ellipsoid's diameters.
+TEST(MarkerBuilder, PrimitiveMarkersHaveFullSizes) {
+  cm::world::WorldModel world;
+  cm::world::BodySpec spec = topicBody("sizes");
+  for (const ConvexShape& s :
+       {ConvexShape::box(Vec3(0.1, 0.2, 0.3)), ConvexShape::cylinder(0.2, 0.05),
+        ConvexShape::ellipsoid(Vec3(0.1, 0.05, 0.02))}) {
+    spec.parts.push_back(cm::world::Part{s, Transform3::Identity()});
+  }
+  addBody(world, spec, at(0.0, 0.0, 0.0));
+  MarkerBuilder builder(everyCycle());
+  const MarkerArray out = builder.build(world, cm::world::CycleResult(), kFrame);
+  std::map<int, Vec3> scales;  // marker type -> scale
+  for (const Marker* m : find(out, "bodies", Marker::ADD))
+    scales[m->type] = Vec3(m->scale.x, m->scale.y, m->scale.z);
+  ASSERT_EQ(scales.size(), 3u);
+  EXPECT_NEAR((scales[Marker::CUBE] - Vec3(0.1, 0.2, 0.3)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((scales[Marker::CYLINDER] - Vec3(0.1, 0.1, 0.2)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((scales[Marker::SPHERE] - Vec3(0.2, 0.1, 0.04)).norm(), 0.0, 1e-12);
+}
+
+// Normals are drawn for penetrating pairs only: bodies that just touch (distance 0, in
+// COLLISION at contact_distance 0) get no arrow. A deep arrow keeps a head of at most 2 cm.
+TEST(MarkerBuilder, NoNormalForTouchingPairsAndShortHeads) {
+  cm::world::WorldModel world;
+  addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
+  addBody(world, boxBody("b"), at(1.0, 0.0, 0.0));
+  cm::world::CycleResult touching;
+  touching.pairs.push_back(pair("a", "b", PairStatus::Collision, 0.0));
+  MarkerBuilder builder(everyCycle());
+  const MarkerArray out = builder.build(world, touching, kFrame, 0.0);
+  EXPECT_EQ(find(out, "witness", Marker::ADD).size(), 1u);
+  EXPECT_EQ(find(out, "normals", Marker::ADD).size(), 0u);
+  cm::world::CycleResult deep;
+  deep.pairs.push_back(pair("a", "b", PairStatus::Collision, -0.2));
+  const MarkerArray d = builder.build(world, deep, kFrame, 0.1);
+  const auto arrows = find(d, "normals", Marker::ADD);
+  ASSERT_EQ(arrows.size(), 1u);
+  ASSERT_EQ(arrows[0]->points.size(), 2u);
+  EXPECT_NEAR(arrows[0]->points[1].x - arrows[0]->points[0].x, 0.2, 1e-12);
+  EXPECT_GT(arrows[0]->scale.z, 0.0);
+  EXPECT_LE(arrows[0]->scale.z, 0.02);
 }
 
 TEST(MarkerBuilder, PaddingShell) {
@@ -547,6 +613,29 @@ TEST(MarkerBuilder, AMissedDeletionComesAgainOrExpires) {
       EXPECT_EQ(rviz.begin()->second.first.pose.position.x, 0.0);  // a
     }
   }
+}
+
+// Markers that live forever (lifetime 0): a DELETE comes again in every array for 1 s (bodies
+// 5 s), as MarkerBuilder's header says, so a subscriber that missed one still gets it.
+TEST(MarkerBuilder, DeletionsOfMarkersThatLiveForeverComeForOneSecond) {
+  cm::world::WorldModel world;
+  addBody(world, boxBody("a"), at(0.0, 0.0, 0.0));
+  addBody(world, boxBody("b"), at(1.0, 0.0, 0.0));
+  cm::world::CycleResult warning, clear;
+  warning.pairs.push_back(pair("a", "b", PairStatus::Warning, 0.03));
+  MarkerOptions options = everyCycle();
+  options.lifetime = 0.0;
+  MarkerBuilder builder(options);
+  const MarkerArray first = builder.build(world, warning, kFrame, 0.0);
+  ASSERT_EQ(find(first, "witness", Marker::ADD).size(), 1u);
+  EXPECT_EQ(find(first, "witness", Marker::ADD)[0]->lifetime.toSec(), 0.0);
+  ASSERT_TRUE(world.removeBody("b"));
+  EXPECT_EQ(find(builder.build(world, clear, kFrame, 0.1), "witness", Marker::DELETE).size(), 1u);
+  EXPECT_EQ(find(builder.build(world, clear, kFrame, 0.6), "witness", Marker::DELETE).size(), 1u);
+  EXPECT_EQ(find(builder.build(world, clear, kFrame, 4.0), "bodies", Marker::DELETE).size(), 1u);
+  const MarkerArray later = builder.build(world, clear, kFrame, 5.2);
+  EXPECT_EQ(find(later, "witness", Marker::DELETE).size(), 0u);
+  EXPECT_EQ(find(later, "bodies", Marker::DELETE).size(), 0u);
 }
 
 TEST(MarkerBuilder, UnchangedBodiesAreNotSent) {

@@ -137,7 +137,7 @@ def bad_body(rng, tracked_ids):
     elif k == 6:
         b.parts = []  # no parts
     elif k == 7:
-        b.header.frame_id = ''  # attached to TF but no frame
+        b.header.frame_id = rng.choice(['', '/'])  # attached to TF but no frame ('/': none either)
     else:
         b.parts = [shape(Shape.SPHERE, [0.01])] * 1001  # more than max_parts_per_body
     return b

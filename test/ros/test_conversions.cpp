@@ -225,6 +225,62 @@ TEST(Shape, Convex) {
   EXPECT_EQ(mirrored->support(core::Vec3(0, 1, 0)).y(), 0.0);
 }
 
+// The Shape message's dimension order (Shape.msg): [height, radius] for a cylinder and a cone,
+// [length, radius] for a capsule, the axis along z. A swapped pair gave a 1 m wide, 0.2 m tall
+// cylinder for a 1 m tall one, and no test noticed.
+TEST(Shape, DimensionsInTheMessagesOrder) {
+  const Limits limits;
+  using S = collision_monitor::Shape;
+  auto cylinder = shapeFromMsg(shape(S::CYLINDER, {1.0, 0.2}), limits, kNoMeshes);
+  ASSERT_TRUE(cylinder) << cylinder.error();
+  EXPECT_NEAR(cylinder->support(core::Vec3::UnitX()).x(), 0.2, 1e-12);
+  EXPECT_NEAR(cylinder->support(core::Vec3::UnitZ()).z(), 0.5, 1e-12);
+  EXPECT_NEAR(cylinder->support(-core::Vec3::UnitZ()).z(), -0.5, 1e-12);
+  auto cone = shapeFromMsg(shape(S::CONE, {1.0, 0.2}), limits, kNoMeshes);
+  ASSERT_TRUE(cone) << cone.error();
+  EXPECT_NEAR(cone->support(core::Vec3::UnitX()).x(), 0.2, 1e-12);
+  EXPECT_NEAR(cone->support(core::Vec3::UnitZ()).z(), 0.5, 1e-12);  // the apex
+  auto capsule = shapeFromMsg(shape(S::CAPSULE, {1.0, 0.2}), limits, kNoMeshes);
+  ASSERT_TRUE(capsule) << capsule.error();
+  EXPECT_NEAR(capsule->support(core::Vec3::UnitX()).x(), 0.2, 1e-12);
+  EXPECT_NEAR(capsule->support(core::Vec3::UnitZ()).z(), 0.5 + 0.2, 1e-12);
+  auto ellipsoid = shapeFromMsg(shape(S::ELLIPSOID, {1, 2, 3}), limits, kNoMeshes);
+  ASSERT_TRUE(ellipsoid) << ellipsoid.error();
+  EXPECT_NEAR(ellipsoid->support(core::Vec3::UnitY()).y(), 2.0, 1e-12);
+  EXPECT_NEAR(ellipsoid->support(core::Vec3::UnitZ()).z(), 3.0, 1e-12);
+}
+
+// |q| within kQuaternionTolerance (1e-3) of 1 is accepted and normalised, beyond it refused.
+TEST(Transform, QuaternionToleranceIsOneThousandth) {
+  EXPECT_TRUE(toTransform(pose(0, 0, 0, 0, 0, 0, 1.0009)));
+  EXPECT_TRUE(toTransform(pose(0, 0, 0, 0, 0, 0, 0.9991)));
+  EXPECT_TRUE(contains(toTransform(pose(0, 0, 0, 0, 0, 0, 1.002)).error(), "unit quaternion"));
+  EXPECT_TRUE(contains(toTransform(pose(0, 0, 0, 0, 0, 0, 0.998)).error(), "unit quaternion"));
+}
+
+// Only a scale of 0,0,0 means 1,1,1 (an unset field): 0,0,2 flattens a convex part onto the z
+// axis, and on a primitive it is refused like any other scale.
+TEST(Shape, ScaleIsUnsetOnlyWhenAllThreeAreZero) {
+  const Limits limits;
+  collision_monitor::Shape s;
+  s.type = collision_monitor::Shape::CONVEX;
+  for (auto [x, y, z] : {std::array<double, 3>{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}) {
+    geometry_msgs::Point p;
+    p.x = x;
+    p.y = y;
+    p.z = z;
+    s.vertices.push_back(p);
+  }
+  s.scale.z = 2;
+  auto segment = shapeFromMsg(s, limits, kNoMeshes);
+  ASSERT_TRUE(segment) << segment.error();
+  EXPECT_NEAR((segment->support(core::Vec3(1, 1, 0.5)) - core::Vec3(0, 0, 2)).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(segment->support(core::Vec3(1, 1, -0.5)).norm(), 0.0, 1e-12);
+  auto sphere = shape(collision_monitor::Shape::SPHERE, {1});
+  sphere.scale.z = 1;
+  EXPECT_TRUE(contains(shapeFromMsg(sphere, limits, kNoMeshes).error(), "scale applies"));
+}
+
 TEST(Shape, MeshGoesThroughTheLoader) {
   collision_monitor::Shape s;
   s.type = collision_monitor::Shape::MESH;
@@ -329,6 +385,28 @@ TEST(Body, RefusesWithReasons) {
   }
 }
 
+// tf2 frames have no leading '/': one is dropped ("/f1" is the frame "f1"), and "/" alone names
+// no frame, refused as an empty one is (it was kept as the frame '': a body never posed, with no
+// reason given). A topic-posed body needs no frame.
+TEST(Body, LeadingSlashOfTheFrameIsDroppedAndASlashAloneRefused) {
+  const auto sphere = shape(collision_monitor::Shape::SPHERE, {1});
+  auto slashed = body("a", {sphere});
+  slashed.header.frame_id = "/f1";
+  auto spec = bodyFromMsg(slashed, world::BodyOrigin::Topic, Limits(), kNoMeshes);
+  ASSERT_TRUE(spec) << spec.error();
+  EXPECT_EQ(spec->frame, "f1");
+  auto slash = body("a", {sphere});
+  slash.header.frame_id = "/";
+  EXPECT_EQ(bodyFromMsg(slash, world::BodyOrigin::Topic, Limits(), kNoMeshes).error(),
+            "header.frame_id '/' names no frame: a body needs a TF frame unless pose_from_topic "
+            "is set");
+  slash.pose_from_topic = true;
+  auto topic = bodyFromMsg(slash, world::BodyOrigin::Topic, Limits(), kNoMeshes);
+  ASSERT_TRUE(topic) << topic.error();
+  EXPECT_EQ(topic->frame, "");
+  EXPECT_EQ(topic->pose_source, world::PoseSource::Topic);
+}
+
 TEST(InputText, EscapedForOneLogLine) {
   EXPECT_EQ(escapeInput("body 'x\n[ERROR] y'\t\x7f\xc3\xa9"),
             "body 'x\\x0a[ERROR] y'\\x09\\x7f\\xc3\\xa9");
@@ -366,6 +444,20 @@ TEST(BodyPoses, Validates) {
   msg.poses = {pose(1, 0, 0), pose(0, 0, 0)};
   msg.ids = {"a", "a"};
   EXPECT_TRUE(contains(posesFromMsg(msg).error(), "twice"));
+}
+
+// A twist is refused when any of its six components is not finite: the angular ones too.
+TEST(BodyPoses, NonFiniteTwistIsRefused) {
+  collision_monitor::BodyPoses msg;
+  msg.header.frame_id = "world";
+  msg.ids = {"a"};
+  msg.poses = {pose(1, 0, 0)};
+  msg.twists.resize(1);
+  msg.twists[0].angular.z = kNaN;
+  EXPECT_EQ(posesFromMsg(msg).error(), "twist of 'a' is not finite");
+  msg.twists[0].angular.z = 0.0;
+  msg.twists[0].linear.y = kInf;
+  EXPECT_EQ(posesFromMsg(msg).error(), "twist of 'a' is not finite");
 }
 
 TEST(BodyPoses, TransformUpdate) {
@@ -500,6 +592,63 @@ TEST(Params, PairsAndStrings) {
   auto s = stringsFromXmlRpc(one);
   ASSERT_TRUE(s);
   EXPECT_EQ(s->at(0), "/meshes");
+}
+
+// A part's orientation as a list is [x, y, z, w]; as a map, a missing component is 0. A pair of
+// disabled_pairs is two names, no more; a number type beyond 255 is named as given.
+TEST(Params, OrientationListsMapsPairsAndTypeNumbers) {
+  XmlRpc::XmlRpcValue b;
+  b["id"] = "flipped";
+  b["frame_id"] = "world";
+  XmlRpc::XmlRpcValue part;
+  part["type"] = "sphere";
+  part["dimensions"][0] = 0.1;
+  part["pose"]["orientation"][0] = 1.0;  // x: half a turn about x
+  part["pose"]["orientation"][1] = 0.0;
+  part["pose"]["orientation"][2] = 0.0;
+  part["pose"]["orientation"][3] = 0.0;
+  b["parts"][0] = part;
+  part["pose"]["orientation"] = XmlRpc::XmlRpcValue();
+  part["pose"]["orientation"]["z"] = 1.0;  // half a turn about z, w left out
+  b["parts"][1] = part;
+  auto msg = bodyFromXmlRpc(b);
+  ASSERT_TRUE(msg) << msg.error();
+  ASSERT_EQ(msg->parts.size(), 2u);
+  EXPECT_EQ(msg->parts[0].pose.orientation.x, 1.0);
+  EXPECT_EQ(msg->parts[0].pose.orientation.w, 0.0);
+  EXPECT_EQ(msg->parts[1].pose.orientation.z, 1.0);
+  EXPECT_EQ(msg->parts[1].pose.orientation.w, 0.0);
+
+  XmlRpc::XmlRpcValue big = b;
+  big["parts"][0]["type"] = 256;
+  EXPECT_EQ(bodyFromXmlRpc(big).error(), "parts[0].type: unknown shape type 256");
+
+  XmlRpc::XmlRpcValue pairs;
+  pairs[0][0] = "a";
+  pairs[0][1] = "b";
+  pairs[0][2] = "c";
+  EXPECT_EQ(pairsFromXmlRpc(pairs).error(), "disabled_pairs[0]: expected [a, b]");
+}
+
+// operation "add" (lower case) is ADD, as "ADD" and 0 are; a position given as a map leaves the
+// coordinates it does not name at 0.
+TEST(Params, LowerCaseAddAndPositionMaps) {
+  XmlRpc::XmlRpcValue b;
+  b["id"] = "shelf";
+  b["frame_id"] = "world";
+  b["operation"] = "add";
+  XmlRpc::XmlRpcValue part;
+  part["type"] = "sphere";
+  part["dimensions"][0] = 0.1;
+  part["pose"]["position"]["y"] = 0.5;
+  b["parts"][0] = part;
+  auto msg = bodyFromXmlRpc(b);
+  ASSERT_TRUE(msg) << msg.error();
+  EXPECT_EQ(msg->operation, collision_monitor::Body::ADD);
+  ASSERT_EQ(msg->parts.size(), 1u);
+  EXPECT_EQ(msg->parts[0].pose.position.x, 0.0);
+  EXPECT_EQ(msg->parts[0].pose.position.y, 0.5);
+  EXPECT_EQ(msg->parts[0].pose.position.z, 0.0);
 }
 
 // --- mesh URIs ------------------------------------------------------------------------------
@@ -640,6 +789,26 @@ TEST_F(MeshUris, PercentEncodingIsDecodedBeforeTheCheckAndQueriesAreRefused) {
                "outside"));
   EXPECT_EQ(resolveMeshUri("file://" + dir_ + "/root/mA.stl%00.x", roots_, resolver_).error(),
             "the URI's path holds a NUL (%00)");
+}
+
+// %XX is decoded at the very end of the path too ("t%41" is the file "tA"), as libcurl does; a
+// '%' with one hex digit after it stays.
+TEST_F(MeshUris, PercentEncodingAtTheEndOfThePath) {
+  std::ofstream(dir_ + "/root/tA") << tetStl(1);
+  std::ofstream(dir_ + "/root/t%4") << tetStl(1);
+  auto a = resolveMeshUri("file://" + dir_ + "/root/t%41", roots_, resolver_);
+  ASSERT_TRUE(a) << a.error();
+  EXPECT_EQ(a->substr(a->size() - 8), "/root/tA");
+  auto b = resolveMeshUri("file://" + dir_ + "/root/t%4", roots_, resolver_);
+  ASSERT_TRUE(b) << b.error();
+  EXPECT_EQ(b->substr(b->size() - 9), "/root/t%4");
+}
+
+// mesh_roots "/" covers every file.
+TEST_F(MeshUris, RootDirectoryCoversEveryFile) {
+  auto a = resolveMeshUri("file://" + dir_ + "/outside/secret.stl", {"/"}, resolver_);
+  ASSERT_TRUE(a) << a.error();
+  EXPECT_EQ(a->substr(a->size() - 19), "/outside/secret.stl");
 }
 
 /// A COLLADA file of one tetrahedron with corners at `k` units, in `unit` (meter attribute;

@@ -229,6 +229,60 @@ TEST(Urdf, NotAUrdf) {
   EXPECT_FALSE(bodiesFromUrdf("not xml at all", 0.0, Limits(), MeshLoader()));
 }
 
+// A URDF <cylinder> is `length` along its frame's z with `radius` (URDF XML spec), and a
+// <collision>'s <origin> places it in the link: xyz a translation, rpy roll, pitch, yaw about
+// fixed x, y, z.
+TEST(Urdf, CylinderAxisAndCollisionOrigin) {
+  const std::string xml = R"(<robot name="r">
+    <link name="pole"><collision><origin xyz="0.1 0.2 0.4" rpy="0 0 1.5707963267948966"/>
+      <geometry><cylinder radius="0.05" length="0.6"/></geometry></collision></link>
+  </robot>)";
+  auto robot = bodiesFromUrdf(xml, 0.0, Limits(), MeshLoader());
+  ASSERT_TRUE(robot) << robot.error();
+  ASSERT_EQ(robot->bodies.size(), 1u);
+  ASSERT_EQ(robot->bodies[0].parts.size(), 1u);
+  const world::Part& part = robot->bodies[0].parts[0];
+  EXPECT_NEAR(part.shape.support(core::Vec3::UnitX()).x(), 0.05, 1e-12);
+  EXPECT_NEAR(part.shape.support(core::Vec3::UnitZ()).z(), 0.3, 1e-12);
+  EXPECT_NEAR((part.pose.t - core::Vec3(0.1, 0.2, 0.4)).norm(), 0.0, 1e-12);
+  // Yaw of 90 degrees: the part's x along the link's y, its z along the link's z.
+  EXPECT_NEAR((part.pose.R * core::Vec3::UnitX() - core::Vec3::UnitY()).norm(), 0.0, 1e-12);
+  EXPECT_NEAR((part.pose.R * core::Vec3::UnitZ() - core::Vec3::UnitZ()).norm(), 0.0, 1e-12);
+}
+
+// Only scale="0 0 0" is refused as a point: "0 0 1" squeezes a mesh onto its z axis, a segment
+// as long as the mesh is tall, and the link is kept.
+TEST(Urdf, MeshScaledOntoALineIsKept) {
+  const std::string mesh =
+      "package://example-robot-data/robots/pr2_description/meshes/"
+      "shoulder_v0/upper_arm_roll_L.stl";
+  const auto link = [&](const std::string& name, const std::string& scale) {
+    return "<link name=\"" + name + "\"><collision><geometry><mesh filename=\"" + mesh +
+           "\" scale=\"" + scale + "\"/></geometry></collision></link>";
+  };
+  const std::string xml = "<robot name=\"r\">" + link("whole", "1 1 1") + link("line", "0 0 1") +
+                          R"(<joint name="a" type="fixed"><parent link="whole"/>
+                             <child link="line"/></joint></robot>)";
+  MeshCache cache({}, 100000, resolver());
+  auto robot = bodiesFromUrdf(xml, 0.0, Limits(), loaderOf(cache));
+  ASSERT_TRUE(robot) << robot.error();
+  EXPECT_TRUE(robot->errors.empty()) << robot->errors.front();
+  std::map<std::string, const world::BodySpec*> by_id;
+  for (const auto& b : robot->bodies)
+    by_id[b.id] = &b;
+  ASSERT_EQ(by_id.count("line"), 1u);
+  ASSERT_EQ(by_id.count("whole"), 1u);
+  const core::ConvexShape& line = by_id["line"]->parts.at(0).shape;
+  const core::ConvexShape& whole = by_id["whole"]->parts.at(0).shape;
+  for (const core::Vec3& d : {core::Vec3(1, 0.5, 0.25), core::Vec3(-0.5, 1, -0.25)}) {
+    EXPECT_NEAR(line.support(d).x(), 0.0, 1e-12);
+    EXPECT_NEAR(line.support(d).y(), 0.0, 1e-12);
+  }
+  EXPECT_NEAR(line.support(core::Vec3::UnitZ()).z(), whole.support(core::Vec3::UnitZ()).z(), 1e-9);
+  EXPECT_NEAR(line.support(-core::Vec3::UnitZ()).z(), whole.support(-core::Vec3::UnitZ()).z(),
+              1e-9);
+}
+
 TEST(Urdf, Pr2MeshesLoadAsHulls) {
   const std::string xml = readFile(robotData() + "/robots/pr2_description/urdf/pr2.urdf");
   ASSERT_FALSE(xml.empty());

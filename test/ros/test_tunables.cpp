@@ -88,6 +88,18 @@ TEST(Tunables, WarningBelowContact) {
   EXPECT_EQ(differences(in_force, t), "warning_distance 0.1 -> 0.3, contact_distance 0 -> 0.3");
 }
 
+TEST(Tunables, WarningEqualToContactIsValid) {
+  // warning_distance must be >= contact_distance: equal (no warning band) is valid and kept.
+  Tunables t;
+  t.warning_distance = 0.2;
+  t.contact_distance = 0.2;
+  std::vector<std::string> errors;
+  validate(&t, Tunables(), &errors);
+  EXPECT_TRUE(errors.empty()) << errors.front();
+  EXPECT_EQ(t.warning_distance, 0.2);
+  EXPECT_EQ(t.contact_distance, 0.2);
+}
+
 TEST(Tunables, WorldSettingsKeepTheLimits) {
   world::Settings limits;
   limits.max_bodies = 7;

@@ -295,6 +295,20 @@ TEST(WireCheck, HugeClaimsAreRefusedWithoutAllocating) {
   }
 }
 
+// A parts count is checked against the smallest Shape (wire::kShape, 93 bytes) before any part
+// is walked: two parts need at least 186 bytes, and a body of one sphere has 114 after the count.
+TEST(WireCheck, PartsClaimIsCheckedAgainstTheSmallestShape) {
+  collision_monitor::Body b;
+  b.header.frame_id = "world";
+  b.id = "raw";
+  b.parts = {shape(collision_monitor::Shape::SPHERE, {0.1})};
+  Bytes bad = serialize(b);
+  putU32(&bad, dimensionsPrefixOffset(b) - 5, 2);
+  std::string why;
+  EXPECT_FALSE(checkBodyLayout(bad.data(), bad.size(), &why));
+  EXPECT_TRUE(contains(why, "parts claims 2 entries (at least 186 bytes), 114 bytes left")) << why;
+}
+
 TEST(WireCheck, PlainRoscppAllocatesWhatTheMessageClaims) {
   // The bug Checked<M> exists for (and proof that the allocation counter sees it): plain
   // deserialization of a 2^20-dimension claim allocates 8 MB before it finds the stream short.

@@ -34,7 +34,7 @@
 /// rviz re-creates every marker it receives, which costs far more than building them: build()
 /// returns an empty array (callers skip publishing it) when called less than 1 / max_rate
 /// seconds (wall clock) after its last non-empty result. Deletions are computed against what was
-/// last published, and sent once.
+/// last published, and repeated for a lifetime (above).
 #pragma once
 
 #include <cstdint>
