@@ -19,6 +19,7 @@ import tf2_ros
 from collision_monitor.msg import (Body, BodyPoses, CollisionEvent, CollisionState, PairState,
                                    Shape)
 from collision_monitor.srv import CheckCollision, CheckCollisionRequest, CheckCollisionResponse
+from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import Point, PoseStamped, Twist
 from roscpp.srv import GetLoggers, SetLoggerLevel
 from rosgraph_msgs.msg import Log
@@ -985,6 +986,197 @@ class TopicBodies(unittest.TestCase):
             self.assertAlmostEqual(e.pair.distance, gap(stamp), delta=1e-6)
         self.assertLessEqual(hits[0].pair.distance, 0.0)
         self.assertGreater(hits[1].pair.distance, 0.0)
+
+    def test_24_same_group_is_never_checked_by_get_distance(self):
+        # Bodies sharing a non-empty group are never checked against each other (INTERFACE.md,
+        # Body.group): ~get_distance refuses the pair with the reason (node.md, Services); bodies
+        # of different groups are checked as any other pair. g1 and g2 in group 'team' 0.5 m
+        # apart, g3 in group 'other' 0.5 m from g1: spheres of 0.5 m, far from the others.
+        self.m.add(sphere_body('g1', 0.5, group='team'))
+        self.m.add(sphere_body('g2', 0.5, group='team'))
+        self.m.add(sphere_body('g3', 0.5, group='other'))
+        try:
+            self.assertTrue(self.m.wait_listed('g1') and self.m.wait_listed('g2') and
+                            self.m.wait_listed('g3'))
+            self.poses.set('g1', pose(0, 40, 0))
+            self.poses.set('g2', pose(1.5, 40, 0))
+            self.poses.set('g3', pose(0, 41.5, 0))
+            r = self.wait_distance('g1', 'g3', 0.5)
+            self.assertIsNotNone(r, self.distance('g1', 'g3'))
+            self.assertEqual(r.result.status, PairState.CLEAR)
+            r = self.distance('g1', 'g2')
+            self.assertFalse(r.success)
+            self.assertIn("'g1' and 'g2' are never checked", r.message)
+            self.assertIn("group 'team'", r.message)
+            self.assertEqual(r.result.status, PairState.UNKNOWN)
+        finally:
+            with self.poses.lock:
+                for i in ('g1', 'g2', 'g3'):
+                    self.poses.poses.pop(i, None)
+            for i in ('g1', 'g2', 'g3'):
+                self.m.add(Body(id=i, operation=Body.REMOVE))
+        for i in ('g1', 'g2', 'g3'):
+            self.assertTrue(self.m.wait_listed(i, present=False))
+
+    def test_25_body_poses_for_a_tf_body_are_dropped_and_counted(self):
+        # ~body_poses only poses bodies with pose_from_topic: entries for TF-attached ids are
+        # dropped and counted (node.md, Poses). The shelf hangs on shelf_frame (static TF).
+        self.assertIsNotNone(self.wait_distance('s1', 'shelf', 3.5))
+        self.m.diagnostics = None
+        self.assertTrue(wait_for(lambda: self.m.diagnostics is not None, 5.0))
+        counted = int(self.m.diag_value('rejected inputs (total)'))
+        msg = BodyPoses(ids=['shelf'], poses=[pose(0, 0, 0)])
+        msg.header.frame_id = 'world'
+        msg.header.stamp = rospy.Time.now()
+        self.m.poses_pub.publish(msg)
+        d = wait_for(lambda: (lambda d: d if d is not None and int(
+            self.m.diag_value('rejected inputs (total)', d)) > counted else None)(
+                self.m.diagnostics), 5.0, 0.05)
+        self.assertIsNotNone(d, 'poses for a TF-attached body not counted as rejected')
+        self.assertEqual(int(self.m.diag_value('rejected inputs (total)', d)), counted + 1)
+        last = self.m.diag_value('last rejection', d)
+        self.assertIn('~body_poses', last)
+        self.assertIn('shelf', last)
+        self.assertIn('attached to TF', last)
+        r = self.distance('s1', 'shelf')
+        self.assertTrue(r.success, r.message)
+        self.assertAlmostEqual(r.result.distance, 3.5, places=9)
+
+    def test_26_zero_quaternion_on_a_pose_topic_is_refused(self):
+        # A zero quaternion means identity only in Shape.pose and ~check_collision's pose; it is
+        # refused in BodyPoses and PoseStamped (node.md, Input validation). 'zq' (0.5 m) on its
+        # pose topic at x = 10 (5.5 m from s2), then zero-quaternion poses at x = 20: refused,
+        # so the body is never 15.5 m from s2, and its last good pose goes stale.
+        pub = rospy.Publisher('/zq/pose', PoseStamped, queue_size=10)
+        self.m.add(sphere_body('zq', 0.5, pose_topic='/zq/pose'))
+        try:
+            self.assertTrue(self.m.wait_listed('zq'))
+            self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 5.0))
+
+            def publish(x, w):
+                p = PoseStamped()
+                p.header.frame_id = 'world'
+                p.header.stamp = rospy.Time.now()
+                p.pose = pose(x, 0, 0, qw=w)
+                pub.publish(p)
+            self.assertIsNotNone(wait_for(lambda: publish(10.0, 1.0) or (
+                lambda r: r if r.success and abs(r.result.distance - 5.5) < 1e-9 else None)(
+                    self.distance('zq', 's2')), 3.0), self.distance('zq', 's2'))
+            answers = []
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < 1.5:  # 3 pose_timeouts
+                publish(20.0, 0.0)
+                answers.append(self.distance('zq', 's2'))
+                time.sleep(0.05)
+            self.assertEqual([a.result.distance for a in answers
+                              if a.success and abs(a.result.distance - 15.5) < 1e-6], [])
+            self.assertFalse(answers[-1].success, answers[-1].result)
+            self.assertTrue(wait_for(lambda: "'zq'" in (self.m.diag_value('last rejection') or '')
+                                     and 'refused' in self.m.diag_value('last rejection'),
+                                     3.0, 0.1), self.m.diag_value('last rejection'))
+        finally:
+            self.m.add(Body(id='zq', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('zq', present=False))
+
+    def test_27_check_collision_empty_frame_is_the_fixed_frame(self):
+        # body.header.frame_id empty: placed in fixed_frame (node.md, ~check_collision). A 0.5 m
+        # probe at (0, 0, 1.2) overlaps s1 (1 m at the origin) by 0.3 m.
+        self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))
+        probe = sphere_body('probe', 0.5, frame='', pose_from_topic=False)
+        r = self.m.check_collision(probe, pose(0, 0, 1.2), 0.0)
+        self.assertTrue(r.success, r.message)
+        self.assertTrue(r.in_collision)
+        self.assertEqual([(p.body_a, p.body_b) for p in r.pairs], [('probe', 's1')])
+        self.assertAlmostEqual(r.pairs[0].distance, -0.3, delta=self.depth_tol)
+        self.assertNotIn('probe', self.m.ids())
+
+    def test_28_check_collision_margin_must_be_finite(self):
+        # margin is a distance in metres: NaN or infinite is refused with the reason, nothing
+        # is checked (node.md: every number must be finite; invalid input: success false).
+        probe = sphere_body('probe', 0.5, frame='world', pose_from_topic=False)
+        for margin in (float('nan'), float('inf'), float('-inf')):
+            r = self.m.check_collision(probe, pose(0, 0, 1.2), margin)
+            self.assertFalse(r.success, margin)
+            self.assertFalse(r.in_collision, margin)
+            self.assertEqual(r.pairs, [], margin)
+            self.assertIn('margin', r.message, margin)
+
+    def test_29_diagnostics_level_warn_for_stale_bodies_and_rejections(self):
+        # Level: WARN when inputs were rejected since the last report or bodies are stale, else
+        # OK (node.md, Diagnostics). 'lonely' is never posed: stale.
+        self.m.add(sphere_body('lonely', 0.1))
+        try:
+            self.assertTrue(self.m.wait_listed('lonely'))
+            d = wait_for(lambda: (lambda d: d if d is not None and 'stale' in d.message and
+                                  'rejected' not in d.message else None)(self.m.diagnostics),
+                         5.0, 0.05)
+            self.assertIsNotNone(d, self.m.diagnostics)
+            self.assertEqual(d.level, DiagnosticStatus.WARN, d.message)
+            self.assertIn('lonely', d.message)
+            # A rejected input: REMOVE of the YAML shelf.
+            self.m.diagnostics = None
+            self.m.add(Body(id='shelf', operation=Body.REMOVE))
+            d = wait_for(lambda: (lambda d: d if d is not None and 'rejected' in d.message
+                                  else None)(self.m.diagnostics), 5.0, 0.05)
+            self.assertIsNotNone(d, self.m.diagnostics)
+            self.assertEqual(d.level, DiagnosticStatus.WARN, d.message)
+            self.assertIn("cannot remove 'shelf'", d.message)
+        finally:
+            self.m.add(Body(id='lonely', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('lonely', present=False))
+        # Nothing stale, nothing rejected: OK.
+        d = wait_for(lambda: (lambda d: d if d is not None and d.level == DiagnosticStatus.OK
+                              else None)(self.m.diagnostics), 5.0, 0.05)
+        self.assertIsNotNone(d, self.m.diagnostics)
+
+    def test_30_body_poses_for_unknown_ids_are_dropped_and_counted(self):
+        # Entries of ~body_poses for ids the monitor does not track are dropped and counted as
+        # rejected inputs (node.md, Poses); the other entries of the message apply. s2 moves to
+        # x = 3.5 (1.5 m from s1) in the same message.
+        self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))
+        self.poses.paused.add('s2')
+        time.sleep(0.1)  # no streamed pose of s2 in flight
+        self.m.diagnostics = None
+        self.assertTrue(wait_for(lambda: self.m.diagnostics is not None, 5.0))
+        counted = int(self.m.diag_value('rejected inputs (total)'))
+        msg = BodyPoses(ids=['nobody_here', 's2'], poses=[pose(0, 0, 0), pose(3.5, 0, 0)])
+        msg.header.frame_id = 'world'
+        msg.header.stamp = rospy.Time.now()
+        self.m.poses_pub.publish(msg)
+        # (within pose_timeout, 0.5 s: s2 is not streamed any more)
+        r = self.wait_distance('s1', 's2', 1.5, timeout=0.4)
+        self.assertIsNotNone(r, self.distance('s1', 's2'))
+        d = wait_for(lambda: (lambda d: d if d is not None and int(
+            self.m.diag_value('rejected inputs (total)', d)) > counted else None)(
+                self.m.diagnostics), 5.0, 0.05)
+        self.assertIsNotNone(d, 'a pose for an unknown id not counted as rejected')
+        self.assertEqual(int(self.m.diag_value('rejected inputs (total)', d)), counted + 1)
+        last = self.m.diag_value('last rejection', d)
+        self.assertIn('~body_poses', last)
+        self.assertIn('nobody_here', last)
+        self.assertIn('unknown', last)
+        self.assertNotIn('nobody_here', self.m.ids())
+
+    def test_31_unknown_pairs_beyond_max_unknown_pairs_are_counted(self):
+        # ~check_collision reports every body without a fresh pose as an UNKNOWN pair, at most
+        # max_unknown_pairs of them, and its message says how many there are in all and how
+        # many are listed (node.md, ~check_collision). capped_monitor (topic_bodies.test):
+        # max_unknown_pairs 1, three bodies never posed.
+        capped = Monitor('/capped_monitor/')
+        ids = ['u1', 'u2', 'u3']
+        for i in ids:
+            capped.add(sphere_body(i, 0.1))
+        self.assertTrue(wait_for(lambda: capped.ids() == ids, 5.0), capped.ids())
+        probe = sphere_body('probe', 0.5, frame='world', pose_from_topic=False)
+        r = capped.check_collision(probe, pose(0, 0, 0), 0.1)
+        self.assertTrue(r.success, r.message)
+        self.assertFalse(r.in_collision)
+        self.assertEqual(len(r.pairs), 1, r.pairs)
+        self.assertEqual(r.pairs[0].status, PairState.UNKNOWN)
+        self.assertIn(r.pairs[0].body_b, ids)
+        self.assertEqual(r.pairs[0].distance, float('inf'))
+        self.assertIn('3 bodies without a fresh pose', r.message)
+        self.assertIn('(1 listed, max_unknown_pairs)', r.message)
 
 
 if __name__ == '__main__':
