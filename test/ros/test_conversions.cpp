@@ -83,6 +83,19 @@ bool contains(const std::string& s, const std::string& part) {
   return s.find(part) != std::string::npos;
 }
 
+/// A CONVEX part of the corners (0,0,0), (1,0,0), (0,1,0), (0,0,1).
+collision_monitor::Shape unitTetrahedron() {
+  collision_monitor::Shape s;
+  s.type = collision_monitor::Shape::CONVEX;
+  for (auto [x, y, z] : {std::array<double, 3>{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}) {
+    geometry_msgs::Point p;
+    p.x = x;
+    p.y = y;
+    p.z = z;
+    s.vertices.push_back(p);
+  }
+  return s;
+}
 }  // namespace
 
 TEST(Transform, AcceptsUnitAndNearUnitQuaternions) {
@@ -186,13 +199,7 @@ TEST(Shape, Convex) {
   collision_monitor::Shape s;
   s.type = collision_monitor::Shape::CONVEX;
   EXPECT_TRUE(contains(shapeFromMsg(s, limits, kNoMeshes).error(), "no vertices"));
-  for (auto [x, y, z] : {std::array<double, 3>{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}) {
-    geometry_msgs::Point p;
-    p.x = x;
-    p.y = y;
-    p.z = z;
-    s.vertices.push_back(p);
-  }
+  s.vertices = unitTetrahedron().vertices;
   s.scale.x = 2;
   s.scale.y = 2;
   s.scale.z = 2;
@@ -262,15 +269,7 @@ TEST(Transform, QuaternionToleranceIsOneThousandth) {
 // axis, and on a primitive it is refused like any other scale.
 TEST(Shape, ScaleIsUnsetOnlyWhenAllThreeAreZero) {
   const Limits limits;
-  collision_monitor::Shape s;
-  s.type = collision_monitor::Shape::CONVEX;
-  for (auto [x, y, z] : {std::array<double, 3>{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}}) {
-    geometry_msgs::Point p;
-    p.x = x;
-    p.y = y;
-    p.z = z;
-    s.vertices.push_back(p);
-  }
+  collision_monitor::Shape s = unitTetrahedron();
   s.scale.z = 2;
   auto segment = shapeFromMsg(s, limits, kNoMeshes);
   ASSERT_TRUE(segment) << segment.error();

@@ -56,6 +56,14 @@ bool hasPair(const std::vector<IdPair>& pairs, const std::string& a, const std::
          std::find(pairs.begin(), pairs.end(), IdPair{b, a}) != pairs.end();
 }
 
+/// A URDF link `name` whose collision is the PR2's upper arm roll mesh at `scale` ("x y z").
+std::string armLink(const std::string& name, const std::string& scale) {
+  return "<link name=\"" + name +
+         "\"><collision><geometry><mesh filename=\"package://example-robot-data/robots/"
+         "pr2_description/meshes/shoulder_v0/upper_arm_roll_L.stl\" scale=\"" +
+         scale + "\"/></geometry></collision></link>";
+}
+
 }  // namespace
 
 TEST(Urdf, PandaPrimitives) {
@@ -141,15 +149,9 @@ TEST(Urdf, BadLinkIsLeftOutOthersLoad) {
 // rviz and MoveIt draw it: the link was refused ("scale must be all > 0") and left unchecked.
 // A zero factor flattens it; scale="0 0 0" is a point (a Shape message's 0,0,0 means 1,1,1).
 TEST(Urdf, MirroredAndFlattenedMeshes) {
-  const std::string mesh =
-      "package://example-robot-data/robots/pr2_description/meshes/"
-      "shoulder_v0/upper_arm_roll_L.stl";
-  const auto link = [&](const std::string& name, const std::string& scale) {
-    return "<link name=\"" + name + "\"><collision><geometry><mesh filename=\"" + mesh +
-           "\" scale=\"" + scale + "\"/></geometry></collision></link>";
-  };
-  const std::string xml = "<robot name=\"r\">" + link("right", "1 1 1") + link("left", "-1 1 1") +
-                          link("flat", "1 0 1") + link("point", "0 0 0") + R"(
+  const std::string xml = "<robot name=\"r\">" + armLink("right", "1 1 1") +
+                          armLink("left", "-1 1 1") + armLink("flat", "1 0 1") +
+                          armLink("point", "0 0 0") + R"(
     <joint name="a" type="fixed"><parent link="right"/><child link="left"/></joint>
     <joint name="b" type="fixed"><parent link="right"/><child link="flat"/></joint>
     <joint name="c" type="fixed"><parent link="right"/><child link="point"/></joint>
@@ -253,14 +255,8 @@ TEST(Urdf, CylinderAxisAndCollisionOrigin) {
 // Only scale="0 0 0" is refused as a point: "0 0 1" squeezes a mesh onto its z axis, a segment
 // as long as the mesh is tall, and the link is kept.
 TEST(Urdf, MeshScaledOntoALineIsKept) {
-  const std::string mesh =
-      "package://example-robot-data/robots/pr2_description/meshes/"
-      "shoulder_v0/upper_arm_roll_L.stl";
-  const auto link = [&](const std::string& name, const std::string& scale) {
-    return "<link name=\"" + name + "\"><collision><geometry><mesh filename=\"" + mesh +
-           "\" scale=\"" + scale + "\"/></geometry></collision></link>";
-  };
-  const std::string xml = "<robot name=\"r\">" + link("whole", "1 1 1") + link("line", "0 0 1") +
+  const std::string xml = "<robot name=\"r\">" + armLink("whole", "1 1 1") +
+                          armLink("line", "0 0 1") +
                           R"(<joint name="a" type="fixed"><parent link="whole"/>
                              <child link="line"/></joint></robot>)";
   MeshCache cache({}, 100000, resolver());

@@ -124,6 +124,22 @@ class TopicBodies(unittest.TestCase):
         return wait_for(lambda: (lambda r: r if r.success and abs(r.result.distance - expected)
                                  <= tol else None)(self.distance(a, b)), timeout, 0.01)
 
+    def rejected_now(self):
+        """'rejected inputs (total)' of the first /diagnostics report after this call."""
+        self.m.diagnostics = None
+        self.assertTrue(wait_for(lambda: self.m.diagnostics is not None, 5.0))
+        return int(self.m.diag_value('rejected inputs (total)'))
+
+    def wait_one_more_rejected(self, counted, why):
+        """The last rejection of the first report counting more than `counted` rejected inputs,
+        which must count exactly one more."""
+        d = wait_for(lambda: (lambda d: d if d is not None and int(
+            self.m.diag_value('rejected inputs (total)', d)) > counted else None)(
+                self.m.diagnostics), 5.0, 0.05)
+        self.assertIsNotNone(d, why)
+        self.assertEqual(int(self.m.diag_value('rejected inputs (total)', d)), counted + 1)
+        return self.m.diag_value('last rejection', d)
+
     def test_01_two_unit_spheres_exact(self):
         r = self.wait_distance('s1', 's2', 1.0)
         self.assertIsNotNone(r, self.distance('s1', 's2'))
@@ -1022,19 +1038,13 @@ class TopicBodies(unittest.TestCase):
         # ~body_poses only poses bodies with pose_from_topic: entries for TF-attached ids are
         # dropped and counted (node.md, Poses). The shelf hangs on shelf_frame (static TF).
         self.assertIsNotNone(self.wait_distance('s1', 'shelf', 3.5))
-        self.m.diagnostics = None
-        self.assertTrue(wait_for(lambda: self.m.diagnostics is not None, 5.0))
-        counted = int(self.m.diag_value('rejected inputs (total)'))
+        counted = self.rejected_now()
         msg = BodyPoses(ids=['shelf'], poses=[pose(0, 0, 0)])
         msg.header.frame_id = 'world'
         msg.header.stamp = rospy.Time.now()
         self.m.poses_pub.publish(msg)
-        d = wait_for(lambda: (lambda d: d if d is not None and int(
-            self.m.diag_value('rejected inputs (total)', d)) > counted else None)(
-                self.m.diagnostics), 5.0, 0.05)
-        self.assertIsNotNone(d, 'poses for a TF-attached body not counted as rejected')
-        self.assertEqual(int(self.m.diag_value('rejected inputs (total)', d)), counted + 1)
-        last = self.m.diag_value('last rejection', d)
+        last = self.wait_one_more_rejected(
+            counted, 'poses for a TF-attached body not counted as rejected')
         self.assertIn('~body_poses', last)
         self.assertIn('shelf', last)
         self.assertIn('attached to TF', last)
@@ -1136,9 +1146,7 @@ class TopicBodies(unittest.TestCase):
         self.assertIsNotNone(self.wait_distance('s1', 's2', 1.0))
         self.poses.paused.add('s2')
         time.sleep(0.1)  # no streamed pose of s2 in flight
-        self.m.diagnostics = None
-        self.assertTrue(wait_for(lambda: self.m.diagnostics is not None, 5.0))
-        counted = int(self.m.diag_value('rejected inputs (total)'))
+        counted = self.rejected_now()
         msg = BodyPoses(ids=['nobody_here', 's2'], poses=[pose(0, 0, 0), pose(3.5, 0, 0)])
         msg.header.frame_id = 'world'
         msg.header.stamp = rospy.Time.now()
@@ -1146,12 +1154,8 @@ class TopicBodies(unittest.TestCase):
         # (within pose_timeout, 0.5 s: s2 is not streamed any more)
         r = self.wait_distance('s1', 's2', 1.5, timeout=0.4)
         self.assertIsNotNone(r, self.distance('s1', 's2'))
-        d = wait_for(lambda: (lambda d: d if d is not None and int(
-            self.m.diag_value('rejected inputs (total)', d)) > counted else None)(
-                self.m.diagnostics), 5.0, 0.05)
-        self.assertIsNotNone(d, 'a pose for an unknown id not counted as rejected')
-        self.assertEqual(int(self.m.diag_value('rejected inputs (total)', d)), counted + 1)
-        last = self.m.diag_value('last rejection', d)
+        last = self.wait_one_more_rejected(counted,
+                                           'a pose for an unknown id not counted as rejected')
         self.assertIn('~body_poses', last)
         self.assertIn('nobody_here', last)
         self.assertIn('unknown', last)

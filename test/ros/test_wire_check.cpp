@@ -160,6 +160,15 @@ collision_monitor::CheckCollisionRequest someRequest() {
   return r;
 }
 
+/// A Body "raw" in "world" of one sphere (radius 0.1): the smallest layout the tests corrupt.
+collision_monitor::Body oneSphereBody() {
+  collision_monitor::Body b;
+  b.header.frame_id = "world";
+  b.id = "raw";
+  b.parts = {shape(collision_monitor::Shape::SPHERE, {0.1})};
+  return b;
+}
+
 /// Offset of parts[0].dimensions' length prefix in a serialized Body (header, id, operation,
 /// group and the parts count before it, then the part's type byte).
 std::size_t dimensionsPrefixOffset(const collision_monitor::Body& b) {
@@ -231,10 +240,7 @@ TEST(WireCheck, EveryTruncatedPrefixIsRefused) {
 }
 
 TEST(WireCheck, HugeClaimsAreRefusedWithoutAllocating) {
-  collision_monitor::Body b;
-  b.header.frame_id = "world";
-  b.id = "raw";
-  b.parts = {shape(collision_monitor::Shape::SPHERE, {0.1})};
+  const collision_monitor::Body b = oneSphereBody();
   const Bytes good = serialize(b);
   const std::size_t dims = dimensionsPrefixOffset(b);
   ASSERT_EQ(good[dims - 1], collision_monitor::Shape::SPHERE);
@@ -298,10 +304,7 @@ TEST(WireCheck, HugeClaimsAreRefusedWithoutAllocating) {
 // A parts count is checked against the smallest Shape (wire::kShape, 93 bytes) before any part
 // is walked: two parts need at least 186 bytes, and a body of one sphere has 114 after the count.
 TEST(WireCheck, PartsClaimIsCheckedAgainstTheSmallestShape) {
-  collision_monitor::Body b;
-  b.header.frame_id = "world";
-  b.id = "raw";
-  b.parts = {shape(collision_monitor::Shape::SPHERE, {0.1})};
+  const collision_monitor::Body b = oneSphereBody();
   Bytes bad = serialize(b);
   putU32(&bad, dimensionsPrefixOffset(b) - 5, 2);
   std::string why;
@@ -312,10 +315,7 @@ TEST(WireCheck, PartsClaimIsCheckedAgainstTheSmallestShape) {
 TEST(WireCheck, PlainRoscppAllocatesWhatTheMessageClaims) {
   // The bug Checked<M> exists for (and proof that the allocation counter sees it): plain
   // deserialization of a 2^20-dimension claim allocates 8 MB before it finds the stream short.
-  collision_monitor::Body b;
-  b.header.frame_id = "world";
-  b.id = "raw";
-  b.parts = {shape(collision_monitor::Shape::SPHERE, {0.1})};
+  const collision_monitor::Body b = oneSphereBody();
   Bytes bad = serialize(b);
   putU32(&bad, dimensionsPrefixOffset(b), 1u << 20);
   collision_monitor::Body plain;
