@@ -18,7 +18,7 @@ from collision_monitor.srv import CheckCollisionRequest
 from dynamic_reconfigure.client import Client
 from visualization_msgs.msg import Marker, MarkerArray
 
-from cm_test_util import Monitor, pose, sphere_body, wait_for, NS
+from cm_test_util import Monitor, point_close, pose, sphere_body, wait_for, NS
 
 NODE = NS.rstrip('/')
 
@@ -240,6 +240,49 @@ class Reconfigure(unittest.TestCase):
         msg.poses = [pose(0, 0, 0), pose(1.2, 0, 0)]
         self.m.poses_pub.publish(msg)
         self.assertTrue(wait_for(lambda: abs(self.m.state.min_distance - 0.2) < 1e-9, 5.0))
+
+    def test_11_check_on_pose_off_leaves_pose_input_to_the_heartbeat(self):
+        # check_on_pose false (node.md, Check loop): pose input sets no flag; the next check is
+        # the heartbeat's, 10 s after the change's own check at rate 0.1 Hz.
+        self.update(rate=0.1, check_on_pose=False)
+        time.sleep(0.5)  # the check the change itself makes
+        n0 = self.m.state_count
+        msg = BodyPoses()
+        msg.header.frame_id = 'world'
+        msg.ids = ['c']
+        msg.poses = [pose(0, 6, 0)]
+        self.m.poses_pub.publish(msg)
+        time.sleep(1.5)
+        n1 = self.m.state_count
+        self.update(check_on_pose=True, rate=2.0)
+        self.assertEqual(n1, n0, 'a check after pose input with check_on_pose false')
+        # On again: pose input is checked at once (no heartbeat within 3 s at 0.1 Hz either).
+        self.update(rate=0.1)
+        time.sleep(0.5)
+        n0 = self.m.state_count
+        msg.poses = [pose(0, 7, 0)]
+        self.m.poses_pub.publish(msg)
+        self.assertTrue(wait_for(lambda: self.m.state_count > n0, 3.0),
+                        'no check after pose input with check_on_pose true')
+        self.update(rate=2.0)
+
+    def test_12_fixed_frame_spelled_with_a_leading_slash(self):
+        # '/world' is the fixed frame 'world' (tf2 names have no leading '/'), and no TF is
+        # published here: ~body_poses in '/world' and ~get_distance in '/world' need none. a at
+        # the origin, c at y = 3, both of radius 0.5: 2 m apart, witnesses at y = 0.5 and 2.5.
+        msg = BodyPoses()
+        msg.header.frame_id = '/world'
+        msg.ids = ['c']
+        msg.poses = [pose(0, 3, 0)]
+        self.m.poses_pub.publish(msg)
+        r = wait_for(lambda: (lambda r: r if r.success and abs(r.result.distance - 2.0) < 1e-9
+                              else None)(self.m.get_distance('a', 'c', '')), 5.0)
+        self.assertTrue(r, self.m.get_distance('a', 'c', ''))
+        r = self.m.get_distance('a', 'c', '/world')
+        self.assertTrue(r.success, r.message)
+        self.assertAlmostEqual(r.result.distance, 2.0, delta=1e-9)
+        self.assertTrue(point_close(r.result.point_a, (0.0, 0.5, 0.0), 1e-9), r.result.point_a)
+        self.assertTrue(point_close(r.result.point_b, (0.0, 2.5, 0.0), 1e-9), r.result.point_b)
 
 
 if __name__ == '__main__':

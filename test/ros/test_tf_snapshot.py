@@ -209,6 +209,31 @@ class TfSnapshot(unittest.TestCase):
         self.assertFalse(r.success)
         self.assertIn('has a stale pose', r.message)  # z_child's too: its TF stopped
 
+    def test_tf_rotation_beyond_tf2s_tolerance_is_refused(self):
+        """|q|^2 = 1.05, beyond the 0.01 that tf2 takes (node.md): refused and counted as a
+        rotation that is not a unit quaternion, not normalised into the buffer. Its body never
+        has a pose; the body of a unit rotation in the same messages has one."""
+        for body, frame in (('q_far', 'qf'), ('q_unit', 'qu')):
+            self.monitor.add(sphere_body(body, 0.1, frame=frame, pose_from_topic=False))
+        self.assertTrue(self.monitor.wait_listed('q_far') and self.monitor.wait_listed('q_unit'))
+        w = math.sqrt(1.05)
+        stale = []
+        for _ in range(25):
+            self.tf_pub.publish(TFMessage(transforms=[
+                tf_transform('qf', xyz=(7.0, 0.0, 0.0), q=(0.0, 0.0, 0.0, w)),
+                tf_transform('qu', xyz=(7.0, 1.0, 0.0))]))
+            time.sleep(0.04)
+            listed = self.monitor.list_bodies()
+            stale.append(dict(zip(listed.ids, listed.stale)))
+        self.assertFalse(stale[-1]['q_unit'])
+        self.assertTrue(all(s['q_far'] for s in stale), 'a pose from |q|^2 = 1.05')
+        r = self.monitor.get_distance('q_far', 'q_unit', '')
+        self.assertFalse(r.success, r.result.distance)
+        last = wait_for(lambda: (lambda v: v if v and 'qf' in v else None)(
+            self.monitor.diag_value('last refused TF transform')), 5.0)
+        self.assertIn('transform world -> qf from %s: rotation not a unit quaternion'
+                      % rospy.get_name(), last)
+
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'tf_snapshot', TfSnapshot)

@@ -94,12 +94,13 @@ class TopicBodies(unittest.TestCase):
         # shelf_frame: 5 m along y in world, static (stamp 0 chain: never stale).
         cls.static_tf = tf2_ros.StaticTransformBroadcaster()
         # turned_frame: world turned +90 degrees about x (its y is world z, its z is world -y).
-        cls.static_tf.sendTransform([
+        cls.statics = [
             tf_transform('shelf_frame', stamp=rospy.Time(), xyz=(0.0, 5.0, 0.0)),
             tf_transform('turned_frame', stamp=rospy.Time(),
                          q=(math.sqrt(0.5), 0.0, 0.0, math.sqrt(0.5))),
             # far_frame: 1e308 m along x (a finite frame in which a finite pose overflows).
-            tf_transform('far_frame', stamp=rospy.Time(), xyz=(1e308, 0.0, 0.0))])
+            tf_transform('far_frame', stamp=rospy.Time(), xyz=(1e308, 0.0, 0.0))]
+        cls.static_tf.sendTransform(cls.statics)
         cls.m = Monitor()
         cls.poses = PoseStreamer(cls.m.poses_pub, 'world', rate=20.0)
         # Two unit spheres 3 m apart.
@@ -1181,6 +1182,120 @@ class TopicBodies(unittest.TestCase):
         self.assertEqual(r.pairs[0].distance, float('inf'))
         self.assertIn('3 bodies without a fresh pose', r.message)
         self.assertIn('(1 listed, max_unknown_pairs)', r.message)
+
+    def test_32_get_distance_frame_with_a_leading_slash(self):
+        # frame_id '/shelf_frame' is tf2's shelf_frame (as the YAML body's frame_id of
+        # topic_bodies.test): s1 at the origin (radius 1), the unit cube shelf at (0, 5, 0) in
+        # world, so at (0, 0, 0) in shelf_frame; its witness point (0, 4.5, 0) in world.
+        r = wait_for(lambda: (lambda x: x if x.success else None)(self.distance('s1', 'shelf')),
+                     5.0)
+        self.assertIsNotNone(r, self.distance('s1', 'shelf').message)
+        r = self.distance('s1', 'shelf', '/shelf_frame')
+        self.assertTrue(r.success, r.message)
+        self.assertAlmostEqual(r.result.distance, 3.5, places=9)
+        self.assertTrue(point_close(r.result.point_a, (0, -4, 0)), r.result.point_a)
+        self.assertTrue(point_close(r.result.point_b, (0, -0.5, 0)), r.result.point_b)
+
+    def test_33_pose_topic_stamped_0_in_a_moving_frame_ages_with_it(self):
+        # A PoseStamped stamped 0 in a frame that TF moves takes the time of that frame's
+        # transform (node.md): stale pose_timeout (0.5 s) after the frame's TF stops.
+        br = tf2_ros.TransformBroadcaster()
+        pub = rospy.Publisher('/mover/pose', PoseStamped, queue_size=10)
+        self.m.add(sphere_body('on_mover', 0.5, pose_topic='/mover/pose'))
+        self.assertTrue(self.m.wait_listed('on_mover'))
+        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 5.0))
+        p = PoseStamped()
+        p.header.frame_id = 'mover_frame'  # stamp 0
+        p.pose = pose(0, 0, 0)
+
+        def stale():
+            listed = self.m.list_bodies()
+            return listed.stale[listed.ids.index('on_mover')]
+        try:
+            # mover_frame at (10, 0, 0): 8.5 m from s1 (radius 1).
+            self.assertIsNotNone(wait_for(lambda: br.sendTransform(tf_transform(
+                'mover_frame', xyz=(10.0, 0.0, 0.0))) or pub.publish(p) or (
+                lambda r: r if r.success and abs(r.result.distance - 8.5) < 1e-9 else None)(
+                    self.distance('s1', 'on_mover')), 5.0))
+            stopped = time.monotonic()
+            self.assertTrue(wait_for(stale, 3.0), 'fresh after its frame stopped moving')
+            self.assertGreater(time.monotonic() - stopped, 0.3)
+        finally:
+            self.m.add(Body(id='on_mover', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('on_mover', present=False))
+
+    def test_34_a_static_frame_that_stops_resolving_is_unknown_at_once(self):
+        # A failed lookup marks a TF-attached body unresolved: its pairs turn UNKNOWN at once
+        # (node.md), also on a static frame (stamp 0, never stale), here re-parented to a frame
+        # with no path to world. static_frame at (0, -5, 0): 3.5 m from s1 (radius 1).
+        self.m.add(sphere_body('on_static', 0.5, frame='static_frame', pose_from_topic=False))
+        self.assertTrue(self.m.wait_listed('on_static'))
+        try:
+            self.static_tf.sendTransform(self.statics + [tf_transform(
+                'static_frame', stamp=rospy.Time(), xyz=(0.0, -5.0, 0.0))])
+            self.assertIsNotNone(self.wait_distance('s1', 'on_static', 3.5, timeout=5.0),
+                                 self.distance('s1', 'on_static'))
+            self.static_tf.sendTransform(self.statics + [tf_transform(
+                'static_frame', parent='island', stamp=rospy.Time())])
+            r = wait_for(lambda: (lambda x: x if not x.success else None)(
+                self.distance('s1', 'on_static')), 3.0)
+            self.assertIsNotNone(r, 'still posed after its frame lost its path to world')
+            self.assertEqual(r.result.status, PairState.UNKNOWN)
+            self.assertIn("'on_static'", r.message)
+        finally:
+            self.static_tf.sendTransform(self.statics)
+            self.m.add(Body(id='on_static', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('on_static', present=False))
+
+    def test_35_pose_topic_in_a_turned_frame(self):
+        # turned_frame is world turned +90 degrees about x (its y is world z): a PoseStamped at
+        # (0, 2, 0) there is at (0, 0, 2) in world, 0.5 m from s1 (radius 1), witness points
+        # (0, 0, 1) and (0, 0, 1.5).
+        pub = rospy.Publisher('/turned/pose', PoseStamped, queue_size=10)
+        self.m.add(sphere_body('turned', 0.5, pose_topic='/turned/pose'))
+        self.assertTrue(self.m.wait_listed('turned'))
+        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 5.0))
+        p = PoseStamped()
+        p.header.frame_id = 'turned_frame'
+        p.pose = pose(0, 2, 0)
+
+        def publish():
+            p.header.stamp = rospy.Time.now()
+            pub.publish(p)
+        try:
+            r = wait_for(lambda: publish() or (lambda x: x if x.success else None)(
+                self.distance('s1', 'turned')), 3.0)
+            self.assertIsNotNone(r, self.distance('s1', 'turned'))
+            self.assertAlmostEqual(r.result.distance, 0.5, places=9)
+            self.assertTrue(point_close(r.result.point_a, (0, 0, 1)), r.result.point_a)
+            self.assertTrue(point_close(r.result.point_b, (0, 0, 1.5)), r.result.point_b)
+        finally:
+            self.m.add(Body(id='turned', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('turned', present=False))
+
+    def test_36_a_pose_stamped_ahead_ages_from_its_arrival(self):
+        # A pose stamped 0.8 s ahead of ROS time (a publisher's clock ahead, within the 1 s
+        # tolerance) ages from its arrival (node.md, "Nothing from the future"): stale
+        # pose_timeout (0.5 s) after it came, not 0.8 s later. At (0, -3, 0): 1.5 m from s1.
+        self.m.add(sphere_body('ahead', 0.5))
+        self.assertTrue(self.m.wait_listed('ahead'))
+        msg = BodyPoses(ids=['ahead'], poses=[pose(0, -3, 0)])
+        msg.header.frame_id = 'world'
+
+        def stale():
+            listed = self.m.list_bodies()
+            return listed.stale[listed.ids.index('ahead')]
+        try:
+            msg.header.stamp = rospy.Time.now() + rospy.Duration(0.8)
+            sent = time.monotonic()
+            self.m.poses_pub.publish(msg)
+            self.assertIsNotNone(self.wait_distance('s1', 'ahead', 1.5, timeout=0.4),
+                                 self.distance('s1', 'ahead'))
+            self.assertTrue(wait_for(stale, 3.0), 'never stale')
+            self.assertLess(time.monotonic() - sent, 1.0, 'aged from its stamp, not its arrival')
+        finally:
+            self.m.add(Body(id='ahead', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('ahead', present=False))
 
 
 if __name__ == '__main__':
