@@ -125,6 +125,15 @@ class TopicBodies(unittest.TestCase):
         return wait_for(lambda: (lambda r: r if r.success and abs(r.result.distance - expected)
                                  <= tol else None)(self.distance(a, b)), timeout, 0.01)
 
+    def add_pose_topic_body(self, body_id, radius, topic):
+        """Adds a sphere posed by PoseStamped on `topic`; returns a publisher the monitor is
+        connected to."""
+        pub = rospy.Publisher(topic, PoseStamped, queue_size=10)
+        self.m.add(sphere_body(body_id, radius, pose_topic=topic))
+        self.assertTrue(self.m.wait_listed(body_id))
+        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 5.0))
+        return pub
+
     def rejected_now(self):
         """'rejected inputs (total)' of the first /diagnostics report after this call."""
         self.m.diagnostics = None
@@ -261,10 +270,7 @@ class TopicBodies(unittest.TestCase):
         self.assertTrue(self.m.wait_listed('s3', present=False))
 
     def test_06_pose_topic(self):
-        pub = rospy.Publisher('/tracker/pose', PoseStamped, queue_size=10)
-        self.m.add(sphere_body('tracked', 0.5, pose_topic='/tracker/pose'))
-        self.assertTrue(self.m.wait_listed('tracked'))
-        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 5.0))
+        pub = self.add_pose_topic_body('tracked', 0.5, '/tracker/pose')
 
         def publish(x):
             p = PoseStamped()
@@ -585,10 +591,7 @@ class TopicBodies(unittest.TestCase):
     def test_14_invalid_pose_topic_changes_nothing(self):
         # Bug: a pose_topic that is no ROS name replaced the body and dropped its working
         # subscription before roscpp's subscribe() threw; the body stayed UNKNOWN for good.
-        pub = rospy.Publisher('/tracker2/pose', PoseStamped, queue_size=10)
-        self.m.add(sphere_body('tracked2', 0.5, pose_topic='/tracker2/pose'))
-        self.assertTrue(self.m.wait_listed('tracked2'))
-        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 5.0))
+        pub = self.add_pose_topic_body('tracked2', 0.5, '/tracker2/pose')
 
         def publish():
             p = PoseStamped()
@@ -1200,10 +1203,7 @@ class TopicBodies(unittest.TestCase):
         # A PoseStamped stamped 0 in a frame that TF moves takes the time of that frame's
         # transform (node.md): stale pose_timeout (0.5 s) after the frame's TF stops.
         br = tf2_ros.TransformBroadcaster()
-        pub = rospy.Publisher('/mover/pose', PoseStamped, queue_size=10)
-        self.m.add(sphere_body('on_mover', 0.5, pose_topic='/mover/pose'))
-        self.assertTrue(self.m.wait_listed('on_mover'))
-        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 5.0))
+        pub = self.add_pose_topic_body('on_mover', 0.5, '/mover/pose')
         p = PoseStamped()
         p.header.frame_id = 'mover_frame'  # stamp 0
         p.pose = pose(0, 0, 0)
@@ -1251,10 +1251,7 @@ class TopicBodies(unittest.TestCase):
         # turned_frame is world turned +90 degrees about x (its y is world z): a PoseStamped at
         # (0, 2, 0) there is at (0, 0, 2) in world, 0.5 m from s1 (radius 1), witness points
         # (0, 0, 1) and (0, 0, 1.5).
-        pub = rospy.Publisher('/turned/pose', PoseStamped, queue_size=10)
-        self.m.add(sphere_body('turned', 0.5, pose_topic='/turned/pose'))
-        self.assertTrue(self.m.wait_listed('turned'))
-        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 5.0))
+        pub = self.add_pose_topic_body('turned', 0.5, '/turned/pose')
         p = PoseStamped()
         p.header.frame_id = 'turned_frame'
         p.pose = pose(0, 2, 0)
