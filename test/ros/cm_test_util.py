@@ -123,6 +123,11 @@ class Monitor:
     def ids(self):
         return sorted(self.list_bodies().ids)
 
+    def is_stale(self, body_id):
+        """~list_bodies' stale flag of a listed body."""
+        listed = self.list_bodies()
+        return listed.stale[listed.ids.index(body_id)]
+
     def add(self, body):
         self.bodies_pub.publish(body)
 

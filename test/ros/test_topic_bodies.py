@@ -1207,10 +1207,6 @@ class TopicBodies(unittest.TestCase):
         p = PoseStamped()
         p.header.frame_id = 'mover_frame'  # stamp 0
         p.pose = pose(0, 0, 0)
-
-        def stale():
-            listed = self.m.list_bodies()
-            return listed.stale[listed.ids.index('on_mover')]
         try:
             # mover_frame at (10, 0, 0): 8.5 m from s1 (radius 1).
             self.assertIsNotNone(wait_for(lambda: br.sendTransform(tf_transform(
@@ -1218,7 +1214,8 @@ class TopicBodies(unittest.TestCase):
                 lambda r: r if r.success and abs(r.result.distance - 8.5) < 1e-9 else None)(
                     self.distance('s1', 'on_mover')), 5.0))
             stopped = time.monotonic()
-            self.assertTrue(wait_for(stale, 3.0), 'fresh after its frame stopped moving')
+            self.assertTrue(wait_for(lambda: self.m.is_stale('on_mover'), 3.0),
+                            'fresh after its frame stopped moving')
             self.assertGreater(time.monotonic() - stopped, 0.3)
         finally:
             self.m.add(Body(id='on_mover', operation=Body.REMOVE))
@@ -1278,17 +1275,13 @@ class TopicBodies(unittest.TestCase):
         self.assertTrue(self.m.wait_listed('ahead'))
         msg = BodyPoses(ids=['ahead'], poses=[pose(0, -3, 0)])
         msg.header.frame_id = 'world'
-
-        def stale():
-            listed = self.m.list_bodies()
-            return listed.stale[listed.ids.index('ahead')]
         try:
             msg.header.stamp = rospy.Time.now() + rospy.Duration(0.8)
             sent = time.monotonic()
             self.m.poses_pub.publish(msg)
             self.assertIsNotNone(self.wait_distance('s1', 'ahead', 1.5, timeout=0.4),
                                  self.distance('s1', 'ahead'))
-            self.assertTrue(wait_for(stale, 3.0), 'never stale')
+            self.assertTrue(wait_for(lambda: self.m.is_stale('ahead'), 3.0), 'never stale')
             self.assertLess(time.monotonic() - sent, 1.0, 'aged from its stamp, not its arrival')
         finally:
             self.m.add(Body(id='ahead', operation=Body.REMOVE))
