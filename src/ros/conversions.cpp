@@ -131,6 +131,10 @@ std::string escapeInput(const std::string& s, std::size_t max_bytes) {
   return out;
 }
 
+std::string tfFrameName(const std::string& frame) {
+  return !frame.empty() && frame[0] == '/' ? frame.substr(1) : frame;
+}
+
 std::string quoteInput(const std::string& s, std::size_t max_bytes) {
   const std::size_t n = std::min(s.size(), max_bytes);
   std::string out = "'" + escapeInput(s, n);
@@ -335,11 +339,10 @@ Expected<world::BodySpec> bodyFromMsg(const collision_monitor::Body& msg, world:
                  std::to_string(limits.max_parts_per_body)};
   }
   const bool from_topic = msg.pose_from_topic || !msg.pose_topic.empty();
-  // tf2 frames have no leading '/' (tf2 drops one from a transform's frames too): the body's
-  // markers and ~list_bodies named "/f1", which tf2 (and so rviz) refuses. "/" names no frame:
-  // it was kept as the frame '', never posed and never refused.
+  // Without a leading '/': the body's markers and ~list_bodies named "/f1", which tf2 (and so
+  // rviz) refuses. "/" names no frame: it was kept as the frame '', never posed and never refused.
   const std::string& given = msg.header.frame_id;
-  std::string frame = !given.empty() && given[0] == '/' ? given.substr(1) : given;
+  std::string frame = tfFrameName(given);
   if (!from_topic && frame.empty()) {
     return Error{"header.frame_id " +
                  (given.empty() ? std::string("is empty") : quoteInput(given) + " names no frame") +

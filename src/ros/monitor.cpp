@@ -667,8 +667,7 @@ void Monitor::updatePoseSubscription(const std::string& id, const std::string& t
 
 std::optional<Transform3> Monitor::toFixed(const std::string& frame_in, const ros::Time& stamp,
                                            std::string* why, ros::Time* used) const {
-  std::string frame = frame_in;
-  if (!frame.empty() && frame[0] == '/') frame.erase(0, 1);
+  const std::string frame = tfFrameName(frame_in);
   if (used != nullptr) *used = ros::Time();
   if (frame == fixed_frame_) return Transform3::Identity();
   const auto taken = [used](const geometry_msgs::TransformStamped& tf) {
@@ -960,8 +959,7 @@ bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
     std::string note;
     if (!req.frame_id.empty() && req.frame_id != fixed_frame_ &&
         req.frame_id != "/" + fixed_frame_) {
-      std::string frame = req.frame_id;
-      if (frame[0] == '/') frame.erase(0, 1);
+      const std::string frame = tfFrameName(req.frame_id);
       // The frame where it was when the poses were taken: a frame moving at 1 m/s puts the latest
       // TF 0.1 m from the points of poses 0.1 s old. The latest TF when the frame has none for
       // that time (its publisher lags the bodies' poses), said in the message.

@@ -57,12 +57,11 @@ std::pair<std::size_t, std::string> TfReceiver::refused() const {
 }
 
 std::string TfReceiver::whyRefused(const geometry_msgs::TransformStamped& t) {
-  const auto strip = [](const std::string& f) {
-    return f.empty() || f[0] != '/' ? f : f.substr(1);
-  };
+  const std::string child = tfFrameName(t.child_frame_id);
+  const std::string parent = tfFrameName(t.header.frame_id);
   const auto& q = t.transform.rotation;
-  if (strip(t.child_frame_id).empty() || strip(t.header.frame_id).empty()) return "empty frame id";
-  if (strip(t.child_frame_id) == strip(t.header.frame_id)) return "frame is its own parent";
+  if (child.empty() || parent.empty()) return "empty frame id";
+  if (child == parent) return "frame is its own parent";
   if (!finite(t.transform.translation)) return "non-finite translation";
   // tf2's own test (TF_DENORMALIZED_QUATERNION): |q|^2 within 0.01 of 1.
   const double norm2 = q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w;

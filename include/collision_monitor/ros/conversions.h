@@ -59,6 +59,10 @@ constexpr std::size_t kQuoteLength = 120;
 /// input-derived text in a log line keeps it one line.
 std::string escapeInput(const std::string& s, std::size_t max_bytes = std::string::npos);
 
+/// A frame name as tf2 names it: without one leading '/' (tf2 drops one from a transform's frames;
+/// its lookups refuse it). "/" gives "".
+std::string tfFrameName(const std::string& frame);
+
 /// `s` in single quotes for an error message: at most `max_bytes` of it, then "...' (N bytes)";
 /// control characters and bytes >= 0x7f are escaped as \xNN (a log line stays one line).
 std::string quoteInput(const std::string& s, std::size_t max_bytes = kQuoteLength);
