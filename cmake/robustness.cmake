@@ -61,3 +61,17 @@ if(NOT COLLISION_MONITOR_CORE_ONLY AND CATKIN_ENABLE_TESTING)
   endif()
 endif()
 
+
+# Replays fuzz/regressions/ros and fuzz/corpus/ros with the ROS-input fuzzer's checks (g++; the
+# libFuzzer target is fuzz/fuzz_ros_input.cpp, built by scripts/fuzz.sh).
+if(NOT COLLISION_MONITOR_CORE_ONLY)
+  cm_add_gtest(test_ros_fuzz_regressions
+    SOURCES test/robustness/test_ros_fuzz_regressions.cpp
+    LIBS collision_monitor_ros)
+  if(TARGET test_ros_fuzz_regressions)
+    target_include_directories(test_ros_fuzz_regressions PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/fuzz)
+    target_include_directories(test_ros_fuzz_regressions SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
+    target_compile_definitions(test_ros_fuzz_regressions PRIVATE
+      CM_FUZZ_DIR="${CMAKE_CURRENT_SOURCE_DIR}/fuzz")
+  endif()
+endif()

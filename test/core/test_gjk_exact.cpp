@@ -834,6 +834,26 @@ TEST(ExactScale, MillimetreSphereAgainstTenMetreBox) {
   expectVecNear(r.normal, -Vec3::UnitX(), 1e-9);
 }
 
+TEST(ExactScale, UnitBoxNearTheCentreOfAHugeEllipsoidIsInside) {
+  // The ellipsoid's support overflowed along GJK's first direction, 1e-46 long: a unit box
+  // 1e-46 m off the centre of a 5e180 m ball-shaped ellipsoid was separated at +inf, and NaN in
+  // the other order (fuzz/regressions/ros/body-ellipsoid-5e180m-support-overflow). The box is
+  // inside: depth k + 0.5 (out through a face of the box), which is k to the queries' tolerance
+  // of the size. A deep overlap of a curved shape may end unconverged with that depth (query.h).
+  for (const double k : {5e180, 1e300}) {
+    const ConvexShape ball = ConvexShape::ellipsoid(Vec3(k, k, k));
+    EXPECT_TRUE(cm::intersect(ball, at(0, 1e-46, 0), kUnitCube, at(0, 0, 0))) << k;
+    EXPECT_TRUE(cm::intersect(kUnitCube, at(0, 0, 0), ball, at(0, 1e-46, 0))) << k;
+    for (const ContactResult& r :
+         {cm::signedDistance(ball, at(0, 1e-46, 0), kUnitCube, at(0, 0, 0)),
+          cm::signedDistance(kUnitCube, at(0, 0, 0), ball, at(0, 1e-46, 0))}) {
+      EXPECT_TRUE(r.status == Status::Penetrating || r.status == Status::FailedToConverge)
+          << static_cast<int>(r.status);
+      EXPECT_NEAR(r.distance / k, -1.0, 1e-9) << k;
+    }
+  }
+}
+
 TEST(ExactQuery, IntersectAgreesWithSignedDistanceOnAGrid) {
   // A box and a capsule walked across each other on a grid: intersect() is true exactly when the
   // hand-computed distance is <= 0. Capsule (axis z, length 1, r 0.25) beside a unit cube face:

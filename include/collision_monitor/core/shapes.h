@@ -263,14 +263,31 @@ struct EllipsoidShape {
   /// Where |S d| leaves [1e-150, 1e150] the squares below lose digits or overflow (a 7.3e-161 m
   /// ellipsoid's support was 7e-164 m off, 800 times the distance to a point beyond its tip:
   /// fuzz/regressions/core/gjk-ellipsoid-1e-161m-support-underflow): there S u / |u| with
-  /// u = S d scaled by its largest component instead.
+  /// u = S d scaled by its largest component instead, and u made from d scaled by its largest
+  /// component where S d itself overflows (along d of 1e200 the support was the centre).
+  /// Beyond about 1e154 m, S (S d) overflows where |S d| does not: then S (S d / |S d|) (a 5e180 m
+  /// ellipsoid along a direction 1e-46 long gave an infinite support point, and GJK a unit box at
+  /// its centre as separated at +inf: fuzz/regressions/ros/body-ellipsoid-5e180m-support-overflow).
   Vec<D> support(const Vec<D>& d) const {
     const Vec<D> sd = semi.cwiseProduct(d);
     const double n = sd.norm();
-    if (n >= 1e-150 && n <= 1e150) return semi.cwiseProduct(sd) / n;
-    const double m = sd.cwiseAbs().maxCoeff();
-    if (!(m > 0.0) || !(m < std::numeric_limits<double>::infinity())) return Vec<D>::Zero();
-    const Vec<D> u = sd / m;
+    if (n >= 1e-150 && n <= 1e150) {
+      const Vec<D> p = semi.cwiseProduct(sd) / n;
+      return p.allFinite() ? p : Vec<D>(semi.cwiseProduct(sd / n));
+    }
+    double m = sd.cwiseAbs().maxCoeff();
+    Vec<D> u;
+    if (m < std::numeric_limits<double>::infinity()) {
+      if (!(m > 0.0)) return Vec<D>::Zero();
+      u = sd / m;
+    } else {  // S d overflowed, or d is not finite
+      const double dm = d.cwiseAbs().maxCoeff();
+      if (!(dm < std::numeric_limits<double>::infinity())) return Vec<D>::Zero();
+      const Vec<D> sdm = semi.cwiseProduct(d / dm);  // each component at most its semi-axis
+      m = sdm.cwiseAbs().maxCoeff();
+      if (!(m > 0.0)) return Vec<D>::Zero();
+      u = sdm / m;
+    }
     return semi.cwiseProduct(u) / u.norm();
   }
   Vec<D> interiorPoint() const { return Vec<D>::Zero(); }
