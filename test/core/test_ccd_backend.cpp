@@ -124,6 +124,24 @@ TEST(Backend, GjkBackendForwardsToTheCoreQueries) {
   }
 }
 
+TEST(Backend, GjkBackendQueriesWithTheGivenOptions) {
+  // makeNarrowPhase(Gjk, options) answers with those options: with no GJK iterations allowed
+  // (QueryOptions::max_iterations = 0) GJK stops on its starting point, unconverged, so the
+  // answer is FailedToConverge; with the default options the gap of unit cubes 3 apart along x,
+  // 3 - 0.5 - 0.5 = 2.
+  const auto cube = cm::ConvexShape::box(Vec3(1, 1, 1));
+  cm::QueryOptions none;
+  none.max_iterations = 0;
+  const auto stopped = cm::makeNarrowPhase(cm::BackendType::Gjk, none);
+  const auto fine = cm::makeNarrowPhase(cm::BackendType::Gjk);
+  const cm::Transform3 pb = at(Vec3(3.0, 0.2, -0.1));
+  EXPECT_EQ(stopped->signedDistance(cube, at(Vec3::Zero()), cube, pb, nullptr).status,
+            cm::Status::FailedToConverge);
+  const cm::ContactResult r = fine->signedDistance(cube, at(Vec3::Zero()), cube, pb, nullptr);
+  EXPECT_EQ(r.status, cm::Status::Separated);
+  EXPECT_NEAR(r.distance, 2.0, 1e-12);
+}
+
 TEST(Backend, LibccdKnownAnswersOnUnitCubes) {
   const auto np = cm::makeNarrowPhase(cm::BackendType::Libccd);
   const auto cube = cm::ConvexShape::box(Vec3(1, 1, 1));
@@ -181,6 +199,166 @@ TEST(Backend, LibccdBackendKeepsLibccdsConsistentAnswerAndAddsTheRadii) {
   EXPECT_EQ(r.distance, direct.distance - 0.1);
   EXPECT_EQ(r.point_a, direct.point_a);
   EXPECT_EQ(r.point_b, Vec3(direct.point_b - 0.1 * direct.normal));
+}
+
+TEST(Backend, LibccdAddsTheRadiusOfAToItsWitnessPoint) {
+  // Pins the radius of A in the libccd backend's witness points. A capsule (A) of length 2 and
+  // radius 0.1 along z and a unit cube (B) centred at (0.4, 0.1, 0): the core segment x = 0 is 0.1
+  // inside B's face x = -0.1 (0.4 and 0.6 from its faces y = -0.4 and y = 0.6, 1.5 along z), so
+  // the cores overlap by 0.1 along +x and the shapes by 0.1 + 0.1 = 0.2. A's radius moves A's
+  // witness point 0.1 along the normal, towards B; B's is libccd's on the cores.
+  const auto np = cm::makeNarrowPhase(cm::BackendType::Libccd);
+  const auto capsule = cm::ConvexShape::capsule(2.0, 0.1);
+  const auto cube = cm::ConvexShape::box(Vec3(1, 1, 1));
+  const Vec3 o(700.0, -300.0, 20.0);
+  const cm::ContactResult r =
+      np->signedDistance(capsule, at(o), cube, at(o + Vec3(0.4, 0.1, 0.0)), nullptr);
+  EXPECT_EQ(r.status, cm::Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.2, 1e-9);
+  EXPECT_NEAR((r.normal - Vec3::UnitX()).norm(), 0.0, 1e-9);
+  EXPECT_NEAR((r.point_b - r.point_a).dot(r.normal), r.distance, 1e-9);
+  EXPECT_EQ(r.gjk_iterations, 0);  // libccd's answer, not the core query's
+  cm::CcdOptions cores;
+  cores.cores_only = true;
+  cm::ContactResult direct;
+  ASSERT_TRUE(
+      cm::ccdPenetration(capsule, at(o), cube, at(o + Vec3(0.4, 0.1, 0.0)), &direct, cores));
+  EXPECT_EQ(r.point_a, Vec3(direct.point_a + 0.1 * direct.normal));
+  EXPECT_EQ(r.point_b, direct.point_b);
+}
+
+TEST(Backend, LibccdPlacesTheOffsetCoreOfARotatedShape) {
+  // Pins the frame of B's core offset in the libccd backend: a point shape at (0.3, 0, 0) of B's
+  // frame (its core's offset), B turned 90 degrees about z and moved by (0.1, 0, 0), is at
+  // (0.1, 0.3, 0) in the unit cube A: 0.2 below A's face y = 0.5 (0.4 below x = 0.5, 0.5 below
+  // z = 0.5), so depth 0.2 along +y.
+  const auto np = cm::makeNarrowPhase(cm::BackendType::Libccd);
+  const auto cube = cm::ConvexShape::box(Vec3(1, 1, 1));
+  const auto point = cm::ConvexShape::point(Vec3(0.3, 0.0, 0.0));
+  cm::Transform3 pose_b = at(Vec3(0.1, 0.0, 0.0));
+  pose_b.R = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitZ()).toRotationMatrix();
+  const cm::ContactResult r = np->signedDistance(cube, at(Vec3::Zero()), point, pose_b, nullptr);
+  EXPECT_EQ(r.status, cm::Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.2, 1e-9);
+  EXPECT_NEAR((r.normal - Vec3::UnitY()).norm(), 0.0, 1e-9);
+  EXPECT_EQ(r.gjk_iterations, 0);  // libccd's answer, not the core query's
+}
+
+TEST(Backend, LibccdCoresTouchingWithinTheBandStillGetTheRadii) {
+  // Pins that a "touching" answer of libccd on the cores is not the shapes' answer: with a
+  // touching band of 1e-3 of the size, a capsule (B, length 2, radius 0.1) whose core segment is
+  // 1e-4 inside the unit cube A's face x = 0.5 has cores within the band, and libccd calls them
+  // touching; the shapes overlap by 1e-4 + 0.1 along +x.
+  cm::QueryOptions query;
+  query.touch_tolerance = 1e-3;
+  const auto np = cm::makeNarrowPhase(cm::BackendType::Libccd, query);
+  const auto cube = cm::ConvexShape::box(Vec3(1, 1, 1));
+  const auto capsule = cm::ConvexShape::capsule(2.0, 0.1);
+  const cm::ContactResult r =
+      np->signedDistance(cube, at(Vec3::Zero()), capsule, at(Vec3(0.5 - 1e-4, 0.1, 0.0)), nullptr);
+  EXPECT_EQ(r.status, cm::Status::Penetrating);
+  EXPECT_NEAR(r.distance, -(1e-4 + 0.1), 1e-9);
+  EXPECT_NEAR((r.normal - Vec3::UnitX()).norm(), 0.0, 1e-9);
+}
+
+TEST(Backend, LibccdPenetrationScalesTheTouchingBandWithThePairSize) {
+  // Pins the touching band of ccdPenetration: touch_tolerance times the pair's size (the sum of
+  // the bounding radii, sqrt(3) / 2 of the side per cube), not an absolute length. Touch
+  // tolerance 1e-3: cubes of side 1000 m (band 1.73 m) overlapping by 0.5 m are touching; cubes
+  // of side 1 mm (band 1.73e-6 m) overlapping by 0.5 mm are penetrating.
+  cm::QueryOptions query;
+  query.touch_tolerance = 1e-3;
+  const cm::CcdOptions options;
+  const auto big = cm::ConvexShape::box(Vec3(1000.0, 1000.0, 1000.0));
+  cm::ContactResult r;
+  ASSERT_TRUE(cm::ccdPenetration(big, at(Vec3::Zero()), big, at(Vec3(999.5, 100.0, 0.0)), &r,
+                                 options, query));
+  EXPECT_EQ(r.status, cm::Status::Touching);
+  EXPECT_EQ(r.distance, 0.0);
+  const auto small = cm::ConvexShape::box(Vec3(1e-3, 1e-3, 1e-3));
+  ASSERT_TRUE(cm::ccdPenetration(small, at(Vec3::Zero()), small, at(Vec3(0.5e-3, 0.1e-3, 0.0)), &r,
+                                 options, query));
+  EXPECT_EQ(r.status, cm::Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.5e-3, 1e-12);
+}
+
+TEST(Backend, LibccdOutOfSupportCallsIsFailedToConverge) {
+  // Pins the support-call budget: 4 calls are two support points of A - B, and GJK needs four
+  // affinely independent ones to enclose the origin, so libccd cannot finish on overlapping unit
+  // cubes. The query reports FailedToConverge with distance 0, never libccd's unfinished answer.
+  const auto cube = cm::ConvexShape::box(Vec3(1, 1, 1));
+  cm::CcdOptions options;
+  options.max_support_calls = 4;
+  cm::ContactResult r;
+  ASSERT_TRUE(
+      cm::ccdPenetration(cube, at(Vec3::Zero()), cube, at(Vec3(0.8, 0.1, -0.2)), &r, options));
+  EXPECT_EQ(r.status, cm::Status::FailedToConverge);
+  EXPECT_EQ(r.distance, 0.0);
+}
+
+TEST(Backend, LibccdScalesAFarApartPairByTheDistanceBetweenItsCores) {
+  // Pins the pair size of the libccd frame: the larger of the radii and the distance between the
+  // cores' origins. A cylinder 8.9e-308 m high and in radius and a point 1140 m away: scaled by the
+  // radii alone (1e-307), the point's coordinates overflow (1140 / 1e-307 = inf); by the distance,
+  // every coordinate is at most 1, and libccd finds the pair apart.
+  const auto tiny = cm::ConvexShape::cylinder(8.9e-308, 8.9e-308);
+  const auto point = cm::ConvexShape::point(Vec3::Zero());
+  const cm::Transform3 pose_b = at(Vec3(1140.0, 0.0, 0.0));
+  EXPECT_FALSE(cm::ccdIntersect(tiny, at(Vec3::Zero()), point, pose_b));
+  cm::ContactResult r;
+  EXPECT_FALSE(cm::ccdPenetration(tiny, at(Vec3::Zero()), point, pose_b, &r));
+}
+
+TEST(Backend, LibccdWitnessOfAPointInsideAShapeIsThePoint) {
+  // Pins A's core offset in ccdPenetration's witness points: a point shape A at p (its core is the
+  // origin, its offset p) and a unit cube B centred at p + (0.3, 0, 0): the point is 0.2 inside
+  // B's face x = p.x - 0.2 (0.8, 0.5 and 0.5 from the others), so depth 0.2 along +x, the witness
+  // on A is p itself and the one on B is p - (0.2, 0, 0).
+  const Vec3 p(3.0, -2.0, 1.0);
+  const auto point = cm::ConvexShape::point(p);
+  const auto cube = cm::ConvexShape::box(Vec3(1, 1, 1));
+  cm::ContactResult r;
+  ASSERT_TRUE(cm::ccdPenetration(point, at(Vec3::Zero()), cube, at(p + Vec3(0.3, 0.0, 0.0)), &r));
+  EXPECT_EQ(r.status, cm::Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.2, 1e-9);
+  EXPECT_NEAR((r.normal - Vec3::UnitX()).norm(), 0.0, 1e-9);
+  EXPECT_NEAR((r.point_a - p).norm(), 0.0, 1e-9);
+  EXPECT_NEAR((r.point_b - (p - Vec3(0.2, 0.0, 0.0))).norm(), 0.0, 1e-9);
+}
+
+TEST(Backend, LibccdIntersectCountsTouchingAsContact) {
+  // Pins the contact test of the libccd backend's intersect(): shapes whose signed distance is 0
+  // touch, and touching is contact (as in the GJK backend). Unit cubes with B at (1, 0.1, 0.2):
+  // the faces x = 0.5 of A and x = 0.5 of B's frame meet, distance exactly 0.
+  const auto cube = cm::ConvexShape::box(Vec3(1, 1, 1));
+  const cm::Transform3 pose_b = at(Vec3(1.0, 0.1, 0.2));
+  for (const auto type : {cm::BackendType::Libccd, cm::BackendType::Gjk}) {
+    const auto np = cm::makeNarrowPhase(type);
+    EXPECT_EQ(np->signedDistance(cube, at(Vec3::Zero()), cube, pose_b, nullptr).distance, 0.0)
+        << cm::toString(type);
+    EXPECT_TRUE(np->intersect(cube, at(Vec3::Zero()), cube, pose_b, nullptr)) << cm::toString(type);
+  }
+}
+
+TEST(Backend, LibccdKeepsItsConsistentAnswerForARotatedShape) {
+  // Pins the frame of the backend's check of libccd's answer (the supports along its normal): the
+  // unit cube A turned 90 degrees about z is the same set, so the pair of
+  // LibccdBackendKeepsLibccdsConsistentAnswerAndAddsTheRadii has the same answer (cores overlapping
+  // by 0.1 along +x, shapes by 0.2), and the supports, taken in each shape's own frame, confirm
+  // libccd's: no fallback to the core query.
+  const auto np = cm::makeNarrowPhase(cm::BackendType::Libccd);
+  const auto cube = cm::ConvexShape::box(Vec3(1, 1, 1));
+  const auto capsule = cm::ConvexShape::capsule(2.0, 0.1);
+  const Vec3 o(700.0, -300.0, 20.0);
+  cm::Transform3 pose_a = at(o);
+  pose_a.R = Eigen::AngleAxisd(M_PI / 2, Vec3::UnitZ()).toRotationMatrix();
+  const cm::ContactResult r =
+      np->signedDistance(cube, pose_a, capsule, at(o + Vec3(0.4, 0.1, 0.0)), nullptr);
+  EXPECT_EQ(r.status, cm::Status::Penetrating);
+  EXPECT_NEAR(r.distance, -0.2, 1e-9);
+  EXPECT_NEAR((r.normal - Vec3::UnitX()).norm(), 0.0, 1e-9);
+  EXPECT_EQ(r.gjk_iterations, 0);  // libccd's answer, not the core query's
+  EXPECT_EQ(r.epa_iterations, 0);
 }
 
 // Measures libccd's two algorithms against the oracle and pins the choice made in

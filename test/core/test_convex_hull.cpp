@@ -248,6 +248,30 @@ TEST(ConvexHull, CollinearPointsGiveTheTwoExtremePoints) {
   EXPECT_EQ(neighbours(*poly, 1), std::set<int>{0});
 }
 
+TEST(ConvexHull, PointsWithinTheRoundingFloorOfEachOtherGiveOneVertex) {
+  // Pins the noise floor of the point test: 1000 and the next double above it differ by
+  // 2^-43 = 1.1e-13, below the floor 16 eps * 1000 = 3.6e-12 of coordinates that size, so the set
+  // is one point (the first input point), not a segment 1 ulp long.
+  const Vec3 p(1000.0, -2.0, 5.0);
+  const Vec3 q(std::nextafter(1000.0, 2000.0), -2.0, 5.0);
+  ASSERT_NE(p, q);
+  const auto poly = cm::buildConvexHull({p, q, p, q});
+  ASSERT_EQ(poly->size(), 1);
+  EXPECT_EQ(poly->vertices()[0], p);
+}
+
+TEST(ConvexHull, PointsWithinTheFlatnessThresholdOfALineGiveASegment) {
+  // Pins kFlatRel for the line test: (1, 1e-11, 0) is 1e-11 off the line through (0, 0, 0) and
+  // (2, 0, 0), below 1e-10 of the extent 2 (2e-10): the set is the segment between the two
+  // extreme points, not a sliver triangle.
+  const Vec3 a(0.0, 0.0, 0.0), b(2.0, 0.0, 0.0), c(1.0, 1e-11, 0.0);
+  const auto poly = cm::buildConvexHull({a, c, b});
+  ASSERT_EQ(poly->size(), 2);
+  EXPECT_EQ(poly->support(Vec3::UnitX()), b);
+  EXPECT_EQ(poly->support(-Vec3::UnitX()), a);
+  EXPECT_EQ(neighbours(*poly, 0), std::set<int>{1});
+}
+
 TEST(ConvexHull, CoplanarPointsGiveThePolygonCycle) {
   // A 5x5 grid on a tilted plane far from the origin: the hull is the 4 corners, a 4-cycle.
   const Vec3 o(100.0, -50.0, 7.0);

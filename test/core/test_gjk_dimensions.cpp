@@ -158,6 +158,55 @@ TEST(Gjk2D, IntersectWithMargins) {
   EXPECT_EQ(cm::gjkDistance(overlap, settings(5)).status, cm::GjkStatus::Intersecting);
 }
 
+TEST(Gjk2D, IntersectAtExactlyTheMarginIsTrue) {
+  // Pins gjkIntersect's early exit: a support plane at exactly the margin is not a separating
+  // plane. The square of half side 1 and the point (2.5, 0) are 1.5 apart (the face x = 1); GJK
+  // starts at the centres' difference (-2.5, 0), whose support point (-1.5, +-1) has
+  // v.w / |v| = 3.75 / 2.5 = 1.5, the margin itself, and goes on to v = (-1.5, 0): |v| = 1.5 is
+  // within a margin of 1.5 (no tolerance: abs_tolerance 0).
+  const Box2 a{cm::Vec2(1, 1)};
+  const Pt2 p{cm::Vec2(0, 0)};
+  const cm::MinkowskiDifference<2, Box2, Pt2> md(a, p, shift<2>(cm::Vec2(2.5, 0)));
+  const cm::GjkSettings exact;
+  EXPECT_TRUE(cm::gjkIntersect(md, 1.5, exact));
+  EXPECT_FALSE(cm::gjkIntersect(md, 1.25, exact));
+  EXPECT_EQ(cm::gjkDistance(md, exact).distance, 1.5);
+}
+
+TEST(Gjk2D, IntersectOutOfIterationsIsConservativelyTrue) {
+  // Pins gjkIntersect's answer when the iteration bound is hit undecided: true (contact assumed, as
+  // a collision monitor must), even for squares 1.5 apart; with iterations left it is false.
+  const Box2 a{cm::Vec2(1, 1)};
+  const Box2 b{cm::Vec2(0.5, 0.5)};
+  const cm::MinkowskiDifference<2, Box2, Box2> apart(a, b, shift<2>(cm::Vec2(3, 0.2)));
+  cm::GjkSettings none = settings(5);
+  none.max_iterations = 0;
+  int iterations = -1;
+  EXPECT_TRUE(cm::gjkIntersect(apart, 0.0, none, nullptr, &iterations));
+  EXPECT_EQ(iterations, 0);
+  EXPECT_EQ(cm::gjkDistance(apart, none).status, cm::GjkStatus::MaxIterations);
+  EXPECT_FALSE(cm::gjkIntersect(apart, 0.0, settings(5)));
+}
+
+TEST(Epa3D, CollinearSegmentsAreFlatWithANormalAcrossTheLine) {
+  // Pins EPA's answer for A - B a segment in 3D (flat_dimension 1): the line's direction in
+  // flat_direction and a unit normal perpendicular to it. Two overlapping segments on the x axis:
+  // A - B is the segment [-1.7, 0.8] x {0} x {0} through the origin.
+  const cm::SegmentShape<3> a{cm::Vec3(-1, 0, 0), cm::Vec3(1, 0, 0)};
+  const cm::SegmentShape<3> b{cm::Vec3(0, 0, 0), cm::Vec3(0.5, 0, 0)};
+  const cm::MinkowskiDifference<3, cm::SegmentShape<3>, cm::SegmentShape<3>> md(
+      a, b, shift<3>(cm::Vec3(0.2, 0, 0)));
+  const auto g = cm::gjkDistance(md, settings(3));
+  ASSERT_EQ(g.status, cm::GjkStatus::Intersecting);
+  const auto e = cm::epaPenetration(md, g.simplex, epaSettings(3));
+  EXPECT_EQ(e.status, cm::EpaStatus::Flat);
+  EXPECT_EQ(e.flat_dimension, 1);
+  EXPECT_EQ(e.depth, 0.0);
+  EXPECT_NEAR(std::abs(e.flat_direction.x()), 1.0, 1e-15);
+  EXPECT_NEAR(e.normal.norm(), 1.0, 1e-15);
+  EXPECT_NEAR(e.normal.x(), 0.0, 1e-15);
+}
+
 TEST(Epa2D, SquaresDepthNormalWitness) {
   // Squares half 1, B at (1.5, 0.2): overlaps 0.5 (x), 1.8 (y): depth 0.5 along +x.
   const Box2 a{cm::Vec2(1, 1)};

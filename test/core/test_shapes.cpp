@@ -6,6 +6,7 @@
 #include <memory>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -43,6 +44,17 @@ void expectVecNear(const Vec3& a, const Vec3& b, double tol) {
   EXPECT_NEAR(a.z(), b.z(), tol);
 }
 
+/// n points of the unit sphere on a golden-angle spiral: all of them vertices of their hull.
+std::vector<Vec3> sphereSpiral(int n) {
+  std::vector<Vec3> pts;
+  for (int i = 0; i < n; ++i) {
+    const double z = -1.0 + (2.0 * i + 1.0) / n;
+    const double r = std::sqrt(1.0 - z * z);
+    pts.emplace_back(r * std::cos(2.399963229728653 * i), r * std::sin(2.399963229728653 * i), z);
+  }
+  return pts;
+}
+
 }  // namespace
 
 TEST(ShapeValidation, RejectsNegativeSizesNamingShapeAndValue) {
@@ -56,6 +68,18 @@ TEST(ShapeValidation, RejectsNegativeSizesNamingShapeAndValue) {
                  {"ellipsoid", "semi_axes.z", "-4"});
   expectRejected([] { ConvexShape::box(Vec3(1.0, 1.0, 1.0)).padded(-0.1); },
                  {"padded", "padding", "-0.1"});
+}
+
+TEST(ShapeValidation, RejectsANegativeSizeOnEveryAxis) {
+  // Every axis of a box's sides and of an ellipsoid's semi-axes is checked, each by its name.
+  static const char* const kAxis[3] = {"x", "y", "z"};
+  for (int k = 0; k < 3; ++k) {
+    Vec3 v = Vec3::Ones();
+    v[k] = -2.0;
+    expectRejected([v] { ConvexShape::box(v); }, {"box", std::string("sides.") + kAxis[k], "-2"});
+    expectRejected([v] { ConvexShape::ellipsoid(v); },
+                   {"ellipsoid", std::string("semi_axes.") + kAxis[k], "-2"});
+  }
 }
 
 TEST(ShapeValidation, RejectsNaNAndInf) {
@@ -135,6 +159,44 @@ TEST(ShapeValidation, RejectsPolytopeAdjacencyThatIsNotTheHullsEdgeGraph) {
       std::make_shared<cm::Polytope<3>>(few, std::vector<int>(13, 0), std::vector<int>{})));
 }
 
+TEST(ShapeValidation, RejectsAdjacencyOffsetsThatDoNotStartAtZero) {
+  // The first offset must be 0 (else vertex 0's first neighbours are never read), also where the
+  // graph is never climbed: a cube (8 vertices, scanned) whose nine offsets all read 1, ending at
+  // its one neighbour entry, passes every other check.
+  std::vector<Vec3> cube;
+  for (int i = 0; i < 8; ++i)
+    cube.emplace_back(i & 1 ? 0.5 : -0.5, i & 2 ? 0.5 : -0.5, i & 4 ? 0.5 : -0.5);
+  expectRejected(
+      [&cube] {
+        ConvexShape::polytope(
+            std::make_shared<cm::Polytope<3>>(cube, std::vector<int>(9, 1), std::vector<int>{1}));
+      },
+      {"polytope", "offsets must run from 0 to the neighbour count (1)"});
+}
+
+TEST(ShapeValidation, PolytopesOfUpTo48VerticesScanAndNeedNoEdgeGraph) {
+  // Polytope::kLinearScanMax = 48: up to 48 vertices the support scans every vertex, so empty
+  // neighbour lists are accepted (never climbed) and the support is still the farthest vertex;
+  // from 49 vertices it hill-climbs, and the same lists are refused.
+  const std::vector<Vec3> pts48 = sphereSpiral(48);
+  const auto at =
+      std::make_shared<cm::Polytope<3>>(pts48, std::vector<int>(49, 0), std::vector<int>{});
+  EXPECT_TRUE(at->usesLinearScan());
+  const ConvexShape shape = ConvexShape::polytope(at);
+  for (int k = 0; k < 20; ++k) {
+    const Vec3 d(std::cos(0.7 * k), std::sin(1.3 * k), std::cos(2.1 * k + 0.4));
+    double best = -kInf;
+    for (const Vec3& p : pts48)
+      best = std::max(best, p.dot(d));
+    EXPECT_EQ(shape.support(d).dot(d), best) << "direction " << k;
+  }
+  const auto over = std::make_shared<cm::Polytope<3>>(sphereSpiral(49), std::vector<int>(50, 0),
+                                                      std::vector<int>{});
+  EXPECT_FALSE(over->usesLinearScan());
+  expectRejected([&over] { ConvexShape::polytope(over); },
+                 {"polytope", "not the hull's edge graph"});
+}
+
 TEST(ShapeValidation, ZeroSizesAreValidDegenerateShapes) {
   EXPECT_NO_THROW(ConvexShape::sphere(0.0));
   EXPECT_NO_THROW(ConvexShape::box(Vec3::Zero()));
@@ -198,6 +260,35 @@ TEST(ShapeSupport, EllipsoidAtTinyAndHugeScales) {
   }
 }
 
+TEST(ShapeSupport, EllipsoidSupportDoesNotDependOnTheDirectionsLength) {
+  // support(s d) = support(d) for s > 0: on semi-axes k (1, 2, 3) along d = (0, 1, 1) it is
+  // k (0, 4, 9) / sqrt(13). With k = 1e200, s = 1e-48, |S d| = 3.6e152 is finite but
+  // S^2 d = 1e352 (0, 4, 9) overflowed to inf (a 5e180 m ellipsoid along a direction 1e-46 long
+  // made GJK call a unit box at its centre separated at +inf:
+  // fuzz/regressions/ros/body-ellipsoid-5e180m-support-overflow); with k = 1e300, s = 1e200,
+  // S d itself overflows (the support was the centre). The other pairs (k, s) take either way of
+  // computing it.
+  const std::pair<double, double> cases[] = {
+      {1e200, 1e-48}, {1e200, 1e-300}, {1e300, 1e-300}, {1e150, 1.0},    {1e150, 1e-300},
+      {1.0, 1e-10},   {1.0, 1e100},    {1e-150, 1.0},   {1e-150, 1e250}, {1e300, 1e200}};
+  for (const auto& [k, s] : cases) {
+    const ConvexShape e = ConvexShape::ellipsoid(Vec3(1.0, 2.0, 3.0) * k);
+    const Vec3 got = e.support(Vec3(0.0, s, s));
+    expectVecNear(got / k, Vec3(0.0, 4.0, 9.0) / std::sqrt(13.0), 1e-15);
+  }
+}
+
+TEST(ShapeSupport, EllipsoidSupportOfAnInfiniteDirectionIsAPointOfTheShape) {
+  // A direction with an infinite component leaves S d / |S d| undefined (inf / inf): the answer is
+  // still a point of the ellipsoid, never NaN.
+  const cm::EllipsoidShape<3> e{Vec3(1.0, 2.0, 3.0)};
+  for (const Vec3& d : {Vec3(kInf, 0.0, 0.0), Vec3(0.0, -kInf, 1.0), Vec3(kInf, kInf, -kInf)}) {
+    const Vec3 p = e.support(d);
+    ASSERT_TRUE(p.allFinite()) << d.transpose();
+    EXPECT_LE(std::pow(p.x(), 2) + std::pow(p.y() / 2.0, 2) + std::pow(p.z() / 3.0, 2), 1.0);
+  }
+}
+
 TEST(ShapeSupport, CylinderAndConeRimsForTinyDirections) {
   // radius * d.x / |d_xy| made radius * d.x sub-normal for a 1.3e-163 m rim and an 8.6e-159
   // direction (GJK's first direction on such a pair, in metres): the rim point came out 1e-3 of
@@ -233,6 +324,27 @@ TEST(ShapeSupport, PolytopeLinearScanAndHillClimbAgree) {
   }
 }
 
+TEST(ShapeSupport, ClimbStartsAtTheVertexOfTheDirectionsCell) {
+  // Polytope::startVertex(d) is the extreme vertex of the centre direction of d's cube-map cell.
+  // The cells split each face at 0, so a centre has the signs of d's components (and none zero).
+  // On a box (+-2, +-1, +-0.5) the extreme vertex along a direction without zero components is
+  // the corner with its signs: that corner is the start vertex. 44 points inside the box make it
+  // 52 vertices with (empty) adjacency: a climbing polytope.
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 8; ++i)
+    pts.emplace_back(i & 1 ? 2.0 : -2.0, i & 2 ? 1.0 : -1.0, i & 4 ? 0.5 : -0.5);
+  for (int i = 0; i < 44; ++i)
+    pts.emplace_back(0.1 * (i % 5 - 2), 0.1 * (i % 7 - 3), 0.05 * (i % 3 - 1));
+  const cm::Polytope<3> box(pts, std::vector<int>(53, 0), std::vector<int>{});
+  ASSERT_FALSE(box.usesLinearScan());
+  for (const Vec3& d : {Vec3(1.0, 0.3, -0.2), Vec3(-0.1, 0.9, 0.5), Vec3(0.2, -0.3, -1.0),
+                        Vec3(-1.0, -0.999, 0.999), Vec3(1.0, -1.0, 0.5), Vec3(-3e-3, 2e-3, 1e-3),
+                        Vec3(0.7, 0.05, 0.6), Vec3(-0.02, -0.5, -0.49)}) {
+    const int corner = (d.x() > 0.0 ? 1 : 0) + (d.y() > 0.0 ? 2 : 0) + (d.z() > 0.0 ? 4 : 0);
+    EXPECT_EQ(box.startVertex(d), corner) << d.transpose();
+  }
+}
+
 TEST(ShapeAabb, ExactBoxesOfRotatedShapes) {
   // Unit cube rotated 45 degrees about z at (10, 0, 0): x, y half extents sqrt(2)/2, z 1/2.
   cm::Transform3 pose = cm::makeTransform(
@@ -264,6 +376,51 @@ TEST(ShapeAabb, ExactBoxesOfRotatedShapes) {
   expectVecNear(sph.max, Vec3::Constant(1.25), 0.0);
 }
 
+TEST(ShapeAabb, OnlyABoxWithoutPointsIsEmpty) {
+  // An Aabb is empty until extended; one point makes a box of zero size, not an empty one.
+  cm::Aabb box;
+  EXPECT_TRUE(box.empty());
+  box.extend(Vec3(1.0, -2.0, 3.0));
+  EXPECT_FALSE(box.empty());
+  EXPECT_EQ(box.min, Vec3(1.0, -2.0, 3.0));
+  EXPECT_EQ(box.max, Vec3(1.0, -2.0, 3.0));
+  box.extend(Vec3(4.0, -2.0, 0.0));  // flat in y
+  EXPECT_FALSE(box.empty());
+  EXPECT_EQ(box.min, Vec3(1.0, -2.0, 0.0));
+  EXPECT_EQ(box.max, Vec3(4.0, -2.0, 3.0));
+}
+
+TEST(ShapeAabb, InflatedMovesEverySideOutByTheMargin) {
+  // inflated(r): min - r and max + r on every axis.
+  const cm::Aabb box{Vec3(0.0, -1.0, 2.0), Vec3(1.0, 1.0, 6.0)};
+  const cm::Aabb big = box.inflated(0.5);
+  EXPECT_EQ(big.min, Vec3(-0.5, -1.5, 1.5));
+  EXPECT_EQ(big.max, Vec3(1.5, 1.5, 6.5));
+}
+
+TEST(ShapeAabb, TouchingBoxesOverlapInBothOrders) {
+  // Closed boxes: sharing a face counts as overlapping, either way round; any gap does not.
+  const cm::Aabb a{Vec3(0.0, 0.0, 0.0), Vec3(1.0, 1.0, 1.0)};
+  const cm::Aabb touching{Vec3(1.0, 0.5, -0.5), Vec3(2.0, 1.5, 0.5)};
+  const cm::Aabb apart{Vec3(1.0 + 1e-12, 0.5, -0.5), Vec3(2.0, 1.5, 0.5)};
+  EXPECT_TRUE(a.overlaps(touching));
+  EXPECT_TRUE(touching.overlaps(a));
+  EXPECT_FALSE(a.overlaps(apart));
+  EXPECT_FALSE(apart.overlaps(a));
+}
+
+TEST(ShapeAabb, DistanceIsTheGapBetweenTheBoxesOrZero) {
+  // The Euclidean length of the per-axis gaps, in either order; 0 for overlapping boxes. Unit
+  // cubes at (0, 0, 0) and (4, -5, 0.5): gaps 3, 4 and none: 5.
+  const cm::Aabb a{Vec3(0.0, 0.0, 0.0), Vec3(1.0, 1.0, 1.0)};
+  const cm::Aabb b{Vec3(4.0, -5.0, 0.5), Vec3(5.0, -4.0, 1.5)};
+  EXPECT_EQ(a.distance(b), 5.0);
+  EXPECT_EQ(b.distance(a), 5.0);
+  const cm::Aabb inside{Vec3(0.25, 0.25, 0.25), Vec3(2.0, 0.5, 0.75)};
+  EXPECT_EQ(a.distance(inside), 0.0);
+  EXPECT_EQ(inside.distance(a), 0.0);
+}
+
 TEST(ShapeBoundingRadius, ContainsTheFullShape) {
   EXPECT_DOUBLE_EQ(ConvexShape::sphere(2.0).boundingRadius(), 2.0);
   EXPECT_DOUBLE_EQ(ConvexShape::box(Vec3(2.0, 4.0, 4.0)).boundingRadius(), 3.0);
@@ -272,6 +429,21 @@ TEST(ShapeBoundingRadius, ContainsTheFullShape) {
   EXPECT_DOUBLE_EQ(ConvexShape::cone(6.0, 4.0).boundingRadius(), 5.0);
   EXPECT_DOUBLE_EQ(ConvexShape::ellipsoid(Vec3(1.0, 3.0, 2.0)).boundingRadius(), 3.0);
   EXPECT_DOUBLE_EQ(ConvexShape::point(Vec3(3.0, 4.0, 0.0)).padded(1.0).boundingRadius(), 6.0);
+}
+
+TEST(ShapeBoundingRadius, ASegmentIsBoundedByItsFartherEndAlsoFarOut) {
+  // boundingRadius() about the shape frame's origin, localRadius() about offset(), each to the
+  // farther end. Near the origin: (0, 0, 0) to (3, 4, 0), 5 for both. Far out: (1000, 0, 0) to
+  // (1001, 1, 0) has offset() (1000.5, 0, 0), core (-0.5, 0, 0) to (0.5, 1, 0): local radius
+  // |(0.5, 1, 0)| = sqrt(1.25), bounding radius |(1001, 1, 0)| = sqrt(1002002).
+  const ConvexShape near = ConvexShape::segment(Vec3::Zero(), Vec3(3.0, 4.0, 0.0));
+  EXPECT_DOUBLE_EQ(near.boundingRadius(), 5.0);
+  EXPECT_DOUBLE_EQ(near.localRadius(), 5.0);
+  const ConvexShape far = ConvexShape::segment(Vec3(1000.0, 0.0, 0.0), Vec3(1001.0, 1.0, 0.0));
+  ASSERT_EQ(far.offset(), Vec3(1000.5, 0.0, 0.0));
+  EXPECT_DOUBLE_EQ(far.localRadius(), std::sqrt(1.25));
+  EXPECT_DOUBLE_EQ(far.boundingRadius(), std::sqrt(1002002.0));
+  EXPECT_DOUBLE_EQ(far.padded(0.5).boundingRadius(), std::sqrt(1002002.0) + 0.5);
 }
 
 TEST(ShapeOffset, FarCoordinatesAreKeptAboutTheirCentreExactly) {
@@ -322,6 +494,47 @@ TEST(ShapeOffset, FarCoordinatesAreKeptAboutTheirCentreExactly) {
   EXPECT_EQ(ConvexShape::box(Vec3(1, 2, 3)).offset(), Vec3::Zero());
 }
 
+TEST(ShapeOffset, OnlyTheAxesFarOutAreOffset) {
+  // offset() moves an axis only where the bounding box's centre lies further out than four
+  // half-extents. A box 1e5 m out along x but across y in [-0.3, 0.7] and z in [-1.1, 2.9]
+  // (centres 0.2 and 0.9, within 4 x 0.5 and 4 x 2) is offset along x only, and its core plus
+  // offset() is every corner again, bit for bit.
+  std::vector<Vec3> pts;
+  for (int i = 0; i < 8; ++i)
+    pts.emplace_back(i & 1 ? 100000.5 : 99999.5, i & 2 ? 0.7 : -0.3, i & 4 ? 2.9 : -1.1);
+  const ConvexShape hull = ConvexShape::convexHull(pts);
+  EXPECT_EQ(hull.offset(), Vec3(1e5, 0.0, 0.0));
+  const auto& poly = std::get<std::shared_ptr<const cm::Polytope<3>>>(hull.core());
+  ASSERT_EQ(poly->size(), 8);
+  for (const Vec3& v : poly->vertices()) {
+    const Vec3 back = v + hull.offset();
+    EXPECT_TRUE(std::find(pts.begin(), pts.end(), back) != pts.end()) << back.transpose();
+  }
+}
+
+TEST(ShapeOffset, AFarPolytopeKeepsItsEdgeGraph) {
+  // A hill-climbing polytope given far out is recentred as a copy less offset() that keeps the
+  // adjacency: it still climbs, and its support is the farthest given point.
+  const auto ball = cm::buildConvexHull(sphereSpiral(60));
+  std::vector<Vec3> far = ball->vertices();
+  for (Vec3& v : far)
+    v += Vec3(1e5, 0.0, 0.0);
+  const ConvexShape shape = ConvexShape::polytope(
+      std::make_shared<cm::Polytope<3>>(far, ball->adjacencyOffsets(), ball->adjacency()));
+  ASSERT_NE(shape.offset().x(), 0.0);
+  const auto& core = std::get<std::shared_ptr<const cm::Polytope<3>>>(shape.core());
+  EXPECT_EQ(core->adjacencyOffsets(), ball->adjacencyOffsets());
+  EXPECT_EQ(core->adjacency(), ball->adjacency());
+  EXPECT_FALSE(core->usesLinearScan());
+  for (int k = 0; k < 20; ++k) {
+    const Vec3 d(std::cos(0.7 * k), std::sin(1.3 * k), std::cos(2.1 * k + 0.4));
+    const Vec3 s = shape.support(d);
+    EXPECT_TRUE(std::find(far.begin(), far.end(), s) != far.end()) << s.transpose();
+    for (const Vec3& p : far)
+      EXPECT_GE(s.dot(d), p.dot(d)) << "direction " << k;
+  }
+}
+
 TEST(ShapeDescribe, NamesTheCore) {
   EXPECT_EQ(ConvexShape::sphere(1.0).describe(), "sphere");
   EXPECT_EQ(ConvexShape::box(Vec3::Ones()).describe(), "box");
@@ -350,4 +563,30 @@ TEST(SupportAdapters, TransformedSumPadded) {
   const cm::Padded<3, cm::BoxShape<3>> pad(box, 2.0);
   expectVecNear(pad.support(Vec3(0.0, 0.0, -7.0)), Vec3(1.0, 2.0, -5.0), 0.0);
   expectVecNear(pad.support(Vec3::Zero()), Vec3(1.0, 2.0, 3.0), 0.0);  // defined, no NaN
+}
+
+TEST(MathHelpers, IsValidRotationRefusesReflectionsAndNonOrthonormalMatrices) {
+  // A rotation is orthonormal with determinant +1 (within the tolerance, 1e-6 by default).
+  EXPECT_TRUE(cm::isValidRotation<3>(cm::Mat3::Identity()));
+  const cm::Mat3 R = Eigen::AngleAxisd(0.7, Vec3(1.0, 2.0, 3.0).normalized()).toRotationMatrix();
+  EXPECT_TRUE(cm::isValidRotation<3>(R));
+  EXPECT_FALSE(cm::isValidRotation<3>(cm::Mat3(Vec3(1.0, 1.0, -1.0).asDiagonal())));  // mirror
+  EXPECT_FALSE(cm::isValidRotation<3>(cm::Mat3(-R)));  // orthonormal, determinant -1
+  EXPECT_FALSE(cm::isValidRotation<3>(cm::Mat3(1.01 * R)));
+  cm::Mat3 bad = R;
+  bad(1, 2) = kNaN;
+  EXPECT_FALSE(cm::isValidRotation<3>(bad));
+}
+
+TEST(MathHelpers, TransformProductAppliesTheRightOperandFirst) {
+  // (A B) x = A (B x). B: a quarter turn about x, (x, y, z) -> (x, -z, y), then + (0, 0, 2);
+  // A: a quarter turn about z, (x, y, z) -> (-y, x, z), then + (1, 0, 0). x = (1, 2, 3):
+  // B x = (1, -3, 4), A B x = (4, 1, 4).
+  cm::Transform3 A, B;
+  A.R << 0, -1, 0, 1, 0, 0, 0, 0, 1;
+  A.t = Vec3(1.0, 0.0, 0.0);
+  B.R << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+  B.t = Vec3(0.0, 0.0, 2.0);
+  EXPECT_EQ((A * B) * Vec3(1.0, 2.0, 3.0), Vec3(4.0, 1.0, 4.0));
+  EXPECT_EQ((A * B).inverse() * Vec3(4.0, 1.0, 4.0), Vec3(1.0, 2.0, 3.0));
 }
