@@ -262,15 +262,16 @@ TEST(ShapeSupport, EllipsoidAtTinyAndHugeScales) {
 
 TEST(ShapeSupport, EllipsoidSupportDoesNotDependOnTheDirectionsLength) {
   // support(s d) = support(d) for s > 0: on semi-axes k (1, 2, 3) along d = (0, 1, 1) it is
-  // k (0, 4, 9) / sqrt(13). With k = 1e200, s = 1e-48, |S d| = 3.6e152 is finite but
-  // S^2 d = 1e352 (0, 4, 9) overflowed to inf (a 5e180 m ellipsoid along a direction 1e-46 long
+  // k (0, 4, 9) / sqrt(13). With k = 1e200, s = 1e-60, |S d| = 3.6e140 is in range but
+  // S^2 d = 1e340 (0, 4, 9) overflowed to inf (a 5e180 m ellipsoid along a direction 1e-46 long
   // made GJK call a unit box at its centre separated at +inf:
   // fuzz/regressions/ros/body-ellipsoid-5e180m-support-overflow); with k = 1e300, s = 1e200,
-  // S d itself overflows (the support was the centre). The other pairs (k, s) take either way of
+  // S d itself overflowed (the support was the centre). The other pairs (k, s) take either way of
   // computing it.
-  const std::pair<double, double> cases[] = {
-      {1e200, 1e-48}, {1e200, 1e-300}, {1e300, 1e-300}, {1e150, 1.0},    {1e150, 1e-300},
-      {1.0, 1e-10},   {1.0, 1e100},    {1e-150, 1.0},   {1e-150, 1e250}, {1e300, 1e200}};
+  const std::pair<double, double> cases[] = {{1e200, 1e-60},  {1e300, 1e200},  {1e200, 1e-48},
+                                             {1e200, 1e-300}, {1e300, 1e-300}, {1e150, 1.0},
+                                             {1e150, 1e-300}, {1.0, 1e-10},    {1.0, 1e100},
+                                             {1e-150, 1.0},   {1e-150, 1e250}};
   for (const auto& [k, s] : cases) {
     const ConvexShape e = ConvexShape::ellipsoid(Vec3(1.0, 2.0, 3.0) * k);
     const Vec3 got = e.support(Vec3(0.0, s, s));
