@@ -170,21 +170,16 @@ TEST(Backend, LibccdKnownAnswersOnUnitCubes) {
   EXPECT_NEAR((r.normal - Vec3::UnitZ()).norm(), 0.0, 1e-2);
 }
 
-// The libccd backend answers an overlap of the cores with libccd's own penetration, the radii
-// added after (ccd_backend.cpp), and falls back to our GJK/EPA only when that answer is
-// contradicted along its normal. A unit cube (A) and a capsule (B) of length 2 and radius 0.1
-// standing along z at x = 0.4: the core segment is 0.1 inside the face x = 0.5, so the cores
-// overlap by 0.1 along +x (0.5 along y, 1.5 along z) and the shapes by 0.1 + 0.1 = 0.2. The
-// backend's answer must be libccd's on the cores (no GJK iterations) with B's radius subtracted.
-TEST(Backend, LibccdBackendKeepsLibccdsConsistentAnswerAndAddsTheRadii) {
+/// The libccd backend on A at (700, -300, 20) and B 0.4 m along x and 0.1 m along y from it, whose
+/// cores overlap by 0.1 along +x: libccd's answer on the cores (no GJK or EPA iterations), the
+/// distance less both radii and each witness point moved along the normal by its shape's radius.
+void expectLibccdCoresAnswerPlusRadii(const cm::ConvexShape& a, double radius_a,
+                                      const cm::ConvexShape& b, double radius_b) {
   const auto np = cm::makeNarrowPhase(cm::BackendType::Libccd);
-  const auto cube = cm::ConvexShape::box(Vec3(1, 1, 1));
-  const auto capsule = cm::ConvexShape::capsule(2.0, 0.1);
   const Vec3 o(700.0, -300.0, 20.0);
-  const cm::ContactResult r =
-      np->signedDistance(cube, at(o), capsule, at(o + Vec3(0.4, 0.1, 0.0)), nullptr);
+  const cm::ContactResult r = np->signedDistance(a, at(o), b, at(o + Vec3(0.4, 0.1, 0.0)), nullptr);
   EXPECT_EQ(r.status, cm::Status::Penetrating);
-  EXPECT_NEAR(r.distance, -0.2, 1e-9);
+  EXPECT_NEAR(r.distance, -0.1 - radius_a - radius_b, 1e-9);
   EXPECT_NEAR((r.normal - Vec3::UnitX()).norm(), 0.0, 1e-9);
   EXPECT_NEAR((r.point_b - r.point_a).dot(r.normal), r.distance, 1e-9);
   // libccd's answer, not the core query's (which counts its GJK iterations).
@@ -193,38 +188,26 @@ TEST(Backend, LibccdBackendKeepsLibccdsConsistentAnswerAndAddsTheRadii) {
   cm::CcdOptions cores;
   cores.cores_only = true;
   cm::ContactResult direct;
-  ASSERT_TRUE(
-      cm::ccdPenetration(cube, at(o), capsule, at(o + Vec3(0.4, 0.1, 0.0)), &direct, cores));
+  ASSERT_TRUE(cm::ccdPenetration(a, at(o), b, at(o + Vec3(0.4, 0.1, 0.0)), &direct, cores));
   EXPECT_NEAR(direct.distance, -0.1, 1e-9);
-  EXPECT_EQ(r.distance, direct.distance - 0.1);
-  EXPECT_EQ(r.point_a, direct.point_a);
-  EXPECT_EQ(r.point_b, Vec3(direct.point_b - 0.1 * direct.normal));
+  EXPECT_EQ(r.distance, direct.distance - (radius_a + radius_b));
+  EXPECT_EQ(r.point_a, Vec3(direct.point_a + radius_a * direct.normal));
+  EXPECT_EQ(r.point_b, Vec3(direct.point_b - radius_b * direct.normal));
 }
 
-TEST(Backend, LibccdAddsTheRadiusOfAToItsWitnessPoint) {
-  // Pins the radius of A in the libccd backend's witness points. A capsule (A) of length 2 and
-  // radius 0.1 along z and a unit cube (B) centred at (0.4, 0.1, 0): the core segment x = 0 is 0.1
-  // inside B's face x = -0.1 (0.4 and 0.6 from its faces y = -0.4 and y = 0.6, 1.5 along z), so
-  // the cores overlap by 0.1 along +x and the shapes by 0.1 + 0.1 = 0.2. A's radius moves A's
-  // witness point 0.1 along the normal, towards B; B's is libccd's on the cores.
-  const auto np = cm::makeNarrowPhase(cm::BackendType::Libccd);
-  const auto capsule = cm::ConvexShape::capsule(2.0, 0.1);
+// The libccd backend answers an overlap of the cores with libccd's own penetration, the radii
+// added after (ccd_backend.cpp), and falls back to our GJK/EPA only when that answer is
+// contradicted along its normal. A unit cube (A) and a capsule (B) of length 2 and radius 0.1
+// standing along z at x = 0.4: the core segment is 0.1 inside the face x = 0.5, so the cores
+// overlap by 0.1 along +x (0.5 along y, 1.5 along z) and the shapes by 0.1 + 0.1 = 0.2. The
+// backend's answer must be libccd's on the cores (no GJK iterations) with B's radius subtracted.
+TEST(Backend, LibccdBackendKeepsLibccdsConsistentAnswerAndAddsTheRadii) {
   const auto cube = cm::ConvexShape::box(Vec3(1, 1, 1));
-  const Vec3 o(700.0, -300.0, 20.0);
-  const cm::ContactResult r =
-      np->signedDistance(capsule, at(o), cube, at(o + Vec3(0.4, 0.1, 0.0)), nullptr);
-  EXPECT_EQ(r.status, cm::Status::Penetrating);
-  EXPECT_NEAR(r.distance, -0.2, 1e-9);
-  EXPECT_NEAR((r.normal - Vec3::UnitX()).norm(), 0.0, 1e-9);
-  EXPECT_NEAR((r.point_b - r.point_a).dot(r.normal), r.distance, 1e-9);
-  EXPECT_EQ(r.gjk_iterations, 0);  // libccd's answer, not the core query's
-  cm::CcdOptions cores;
-  cores.cores_only = true;
-  cm::ContactResult direct;
-  ASSERT_TRUE(
-      cm::ccdPenetration(capsule, at(o), cube, at(o + Vec3(0.4, 0.1, 0.0)), &direct, cores));
-  EXPECT_EQ(r.point_a, Vec3(direct.point_a + 0.1 * direct.normal));
-  EXPECT_EQ(r.point_b, direct.point_b);
+  const auto capsule = cm::ConvexShape::capsule(2.0, 0.1);
+  expectLibccdCoresAnswerPlusRadii(cube, 0.0, capsule, 0.1);
+  // The same pair the other way round (the capsule A at the origin, the cube B at (0.4, 0.1, 0)):
+  // now A's radius moves A's witness point 0.1 along the normal, towards B.
+  expectLibccdCoresAnswerPlusRadii(capsule, 0.1, cube, 0.0);
 }
 
 TEST(Backend, LibccdPlacesTheOffsetCoreOfARotatedShape) {

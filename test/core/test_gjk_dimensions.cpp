@@ -44,6 +44,20 @@ cm::EpaSettings epaSettings(double size) {
   s.abs_tolerance = s.rel_tolerance * size;
   return s;
 }
+
+/// EPA on two overlapping segments on the x axis, [-1, 1] and [0, 0.5] moved by 0.2: A - B is the
+/// segment [-1.7, 0.8] along x through the origin, flat of dimension 1, depth 0.
+template <int D>
+cm::EpaResult<D> collinearSegmentsEpa() {
+  const Vec<D> x = Vec<D>::UnitX();
+  const cm::SegmentShape<D> a{-x, x};
+  const cm::SegmentShape<D> b{Vec<D>::Zero(), 0.5 * x};
+  const cm::MinkowskiDifference<D, cm::SegmentShape<D>, cm::SegmentShape<D>> md(a, b,
+                                                                                shift<D>(0.2 * x));
+  const auto g = cm::gjkDistance(md, settings(3));
+  EXPECT_EQ(g.status, cm::GjkStatus::Intersecting);
+  return cm::epaPenetration(md, g.simplex, epaSettings(3));
+}
 template <int D>
 cm::Simplex<D> simplexOf(const std::vector<Vec<D>>& pts) {
   cm::Simplex<D> s;
@@ -190,15 +204,8 @@ TEST(Gjk2D, IntersectOutOfIterationsIsConservativelyTrue) {
 
 TEST(Epa3D, CollinearSegmentsAreFlatWithANormalAcrossTheLine) {
   // Pins EPA's answer for A - B a segment in 3D (flat_dimension 1): the line's direction in
-  // flat_direction and a unit normal perpendicular to it. Two overlapping segments on the x axis:
-  // A - B is the segment [-1.7, 0.8] x {0} x {0} through the origin.
-  const cm::SegmentShape<3> a{cm::Vec3(-1, 0, 0), cm::Vec3(1, 0, 0)};
-  const cm::SegmentShape<3> b{cm::Vec3(0, 0, 0), cm::Vec3(0.5, 0, 0)};
-  const cm::MinkowskiDifference<3, cm::SegmentShape<3>, cm::SegmentShape<3>> md(
-      a, b, shift<3>(cm::Vec3(0.2, 0, 0)));
-  const auto g = cm::gjkDistance(md, settings(3));
-  ASSERT_EQ(g.status, cm::GjkStatus::Intersecting);
-  const auto e = cm::epaPenetration(md, g.simplex, epaSettings(3));
+  // flat_direction and a unit normal perpendicular to it.
+  const auto e = collinearSegmentsEpa<3>();
   EXPECT_EQ(e.status, cm::EpaStatus::Flat);
   EXPECT_EQ(e.flat_dimension, 1);
   EXPECT_EQ(e.depth, 0.0);
@@ -262,15 +269,9 @@ TEST(Epa2D, TriangleInSquare) {
 }
 
 TEST(Epa2D, CollinearSegmentsAreFlat) {
-  // Two overlapping segments on the x axis: A - B is a segment through the origin: flat, depth 0,
-  // normal +-y (a defined answer, not a degenerate polygon).
-  const cm::SegmentShape<2> a{cm::Vec2(-1, 0), cm::Vec2(1, 0)};
-  const cm::SegmentShape<2> b{cm::Vec2(0, 0), cm::Vec2(0.5, 0)};
-  const cm::MinkowskiDifference<2, cm::SegmentShape<2>, cm::SegmentShape<2>> md(
-      a, b, shift<2>(cm::Vec2(0.2, 0)));
-  const auto g = cm::gjkDistance(md, settings(3));
-  ASSERT_EQ(g.status, cm::GjkStatus::Intersecting);
-  const auto e = cm::epaPenetration(md, g.simplex, epaSettings(3));
+  // A - B a segment through the origin: flat, depth 0, normal +-y (a defined answer, not a
+  // degenerate polygon).
+  const auto e = collinearSegmentsEpa<2>();
   EXPECT_EQ(e.status, cm::EpaStatus::Flat);
   EXPECT_EQ(e.flat_dimension, 1);
   EXPECT_EQ(e.depth, 0.0);
