@@ -154,11 +154,8 @@ inline void fuzzCheckCollision(const std::uint8_t* data, std::size_t size) {
   const auto req = readChecked<cm::CheckCollision::Request>(data, size);
   if (!req.refused.empty()) return note("~check_collision layout refused: " + req.refused);
   if (!std::isfinite(req.margin)) return note("margin not finite");
-  cm::Body body = req.body;  // as Monitor::checkCollision prepares it
-  if (body.id.empty()) body.id = "check_collision";
-  body.operation = cm::Body::ADD;
-  body.pose_from_topic = false;
-  if (body.header.frame_id.empty()) body.header.frame_id = "world";
+  bool anonymous = false;
+  const cm::Body body = rl::hypotheticalBody(req.body, "world", &anonymous);
   auto spec = rl::bodyFromMsg(body, world::BodyOrigin::Topic, rl::Limits(), kNoMeshes);
   if (!spec) return refusedWithReason(spec.error(), "bodyFromMsg (check_collision)");
   checkSpec(*spec, "~check_collision");
@@ -168,7 +165,7 @@ inline void fuzzCheckCollision(const std::uint8_t* data, std::size_t size) {
   addBox(w);
   std::string why;
   const auto pairs =
-      w.checkHypothetical(*spec, *pose, req.margin, world::Stamp(1.0), false, nullptr, &why);
+      w.checkHypothetical(*spec, *pose, req.margin, world::Stamp(1.0), anonymous, nullptr, &why);
   if (!pairs) return refusedWithReason(why, "checkHypothetical");
   checkPairs(*pairs, "checkHypothetical()");
   note("check_collision: " + std::to_string(pairs->size()) + " pair(s)");

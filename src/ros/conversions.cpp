@@ -310,6 +310,18 @@ Expected<std::vector<world::Part>> partsFromMsg(const collision_monitor::Shape& 
   }
 }
 
+collision_monitor::Body hypotheticalBody(const collision_monitor::Body& msg,
+                                         const std::string& fixed_frame, bool* anonymous) {
+  collision_monitor::Body body = msg;
+  *anonymous = body.id.empty();
+  if (*anonymous) body.id = "check_collision";
+  body.operation = collision_monitor::Body::ADD;
+  body.pose_from_topic = false;
+  body.pose_topic.clear();
+  if (body.header.frame_id.empty()) body.header.frame_id = fixed_frame;
+  return body;
+}
+
 Expected<world::BodySpec> bodyFromMsg(const collision_monitor::Body& msg, world::BodyOrigin origin,
                                       const Limits& limits, const MeshLoader& load_mesh) {
   if (msg.id.empty()) return Error{"body id is empty"};

@@ -1001,14 +1001,9 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
       return true;
     }
     const world::Stamp now = toStamp(ros::Time::now());
-    collision_monitor::Body body = req.body;
     // An empty id is a label only ("check_collision" in the answer), never a tracked body's id.
-    const bool anonymous = body.id.empty();
-    if (anonymous) body.id = "check_collision";
-    body.operation = collision_monitor::Body::ADD;
-    body.pose_from_topic = false;
-    body.pose_topic.clear();
-    if (body.header.frame_id.empty()) body.header.frame_id = fixed_frame_;
+    bool anonymous = false;
+    const collision_monitor::Body body = hypotheticalBody(req.body, fixed_frame_, &anonymous);
     if (!std::isfinite(req.margin)) {
       res.message = "margin is not finite";
       return true;

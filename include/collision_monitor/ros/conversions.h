@@ -119,6 +119,13 @@ Expected<std::vector<world::Part>> partsFromMsg(const collision_monitor::Shape& 
 Expected<world::BodySpec> bodyFromMsg(const collision_monitor::Body& msg, world::BodyOrigin origin,
                                       const Limits& limits, const MeshLoader& load_mesh);
 
+/// The body of a `~check_collision` request as the service checks it: an ADD posed by the request
+/// (pose_from_topic and pose_topic cleared), in `fixed_frame` when its frame is empty, labelled
+/// "check_collision" when its id is empty. `anonymous`: the id was empty (a label only, never a
+/// tracked body's id).
+collision_monitor::Body hypotheticalBody(const collision_monitor::Body& msg,
+                                         const std::string& fixed_frame, bool* anonymous);
+
 /// One validated entry of a BodyPoses message, still in the message's header frame.
 struct PoseUpdate {
   std::string id;
