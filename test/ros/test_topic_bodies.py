@@ -31,6 +31,15 @@ from cm_test_util import (NS, Monitor, PoseStreamer, point_close, pose, shape, s
 E = CollisionEvent
 
 
+def publish_stamped_now(pub, frame_id, pose_msg):
+    """Publishes pose_msg as a PoseStamped in frame_id, stamped with the current ROS time."""
+    p = PoseStamped()
+    p.header.frame_id = frame_id
+    p.header.stamp = rospy.Time.now()
+    p.pose = pose_msg
+    pub.publish(p)
+
+
 def body_ids(arrays):
     """The ids of the body markers that `arrays` (MarkerArray messages) add."""
     return {m.id for a in arrays for m in a.markers if m.ns == 'bodies' and m.action == m.ADD}
@@ -273,11 +282,7 @@ class TopicBodies(unittest.TestCase):
         pub = self.add_pose_topic_body('tracked', 0.5, '/tracker/pose')
 
         def publish(x):
-            p = PoseStamped()
-            p.header.frame_id = 'world'
-            p.header.stamp = rospy.Time.now()
-            p.pose = pose(x, 0, 0)
-            pub.publish(p)
+            publish_stamped_now(pub, 'world', pose(x, 0, 0))
         publish(10.0)
         r = wait_for(lambda: (lambda x: x if x.success and abs(x.result.distance - 5.5) < 1e-9
                               else None)(self.distance('tracked', 's2')), 3.0)
@@ -594,11 +599,7 @@ class TopicBodies(unittest.TestCase):
         pub = self.add_pose_topic_body('tracked2', 0.5, '/tracker2/pose')
 
         def publish():
-            p = PoseStamped()
-            p.header.frame_id = 'world'
-            p.header.stamp = rospy.Time.now()
-            p.pose = pose(10.0, 0, 0)
-            pub.publish(p)
+            publish_stamped_now(pub, 'world', pose(10.0, 0, 0))
         try:
             publish()
             self.assertIsNotNone(wait_for(lambda: publish() or (lambda x: x if x.success and abs(
@@ -625,16 +626,10 @@ class TopicBodies(unittest.TestCase):
             self.m.add(sphere_body('tracked2', 1.0, pose_topic='~tracker2_pose'))
             self.assertTrue(wait_for(lambda: private.get_num_connections() > 0, 5.0))
             self.assertTrue(wait_for(lambda: pub.get_num_connections() == 0, 5.0))
-            p = PoseStamped()
-            p.header.frame_id = 'world'
-            p.pose = pose(20.0, 0, 0)
-
-            def publish_private():
-                p.header.stamp = rospy.Time.now()
-                private.publish(p)
-            self.assertIsNotNone(wait_for(lambda: publish_private() or (
-                lambda x: x if x.success and abs(x.result.distance - 15.0) < 1e-9 else None)(
-                    self.distance('tracked2', 's2')), 3.0))
+            self.assertIsNotNone(wait_for(
+                lambda: publish_stamped_now(private, 'world', pose(20.0, 0, 0)) or (
+                    lambda x: x if x.success and abs(x.result.distance - 15.0) < 1e-9 else None)(
+                        self.distance('tracked2', 's2')), 3.0))
         finally:
             self.m.add(Body(id='tracked2', operation=Body.REMOVE))
         self.assertTrue(self.m.wait_listed('tracked2', present=False))
@@ -1068,11 +1063,7 @@ class TopicBodies(unittest.TestCase):
             self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 5.0))
 
             def publish(x, w):
-                p = PoseStamped()
-                p.header.frame_id = 'world'
-                p.header.stamp = rospy.Time.now()
-                p.pose = pose(x, 0, 0, qw=w)
-                pub.publish(p)
+                publish_stamped_now(pub, 'world', pose(x, 0, 0, qw=w))
             self.assertIsNotNone(wait_for(lambda: publish(10.0, 1.0) or (
                 lambda r: r if r.success and abs(r.result.distance - 5.5) < 1e-9 else None)(
                     self.distance('zq', 's2')), 3.0), self.distance('zq', 's2'))
@@ -1249,16 +1240,9 @@ class TopicBodies(unittest.TestCase):
         # (0, 2, 0) there is at (0, 0, 2) in world, 0.5 m from s1 (radius 1), witness points
         # (0, 0, 1) and (0, 0, 1.5).
         pub = self.add_pose_topic_body('turned', 0.5, '/turned/pose')
-        p = PoseStamped()
-        p.header.frame_id = 'turned_frame'
-        p.pose = pose(0, 2, 0)
-
-        def publish():
-            p.header.stamp = rospy.Time.now()
-            pub.publish(p)
         try:
-            r = wait_for(lambda: publish() or (lambda x: x if x.success else None)(
-                self.distance('s1', 'turned')), 3.0)
+            r = wait_for(lambda: publish_stamped_now(pub, 'turned_frame', pose(0, 2, 0)) or (
+                lambda x: x if x.success else None)(self.distance('s1', 'turned')), 3.0)
             self.assertIsNotNone(r, self.distance('s1', 'turned'))
             self.assertAlmostEqual(r.result.distance, 0.5, places=9)
             self.assertTrue(point_close(r.result.point_a, (0, 0, 1)), r.result.point_a)
