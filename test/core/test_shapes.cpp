@@ -422,6 +422,23 @@ TEST(ShapeAabb, DistanceIsTheGapBetweenTheBoxesOrZero) {
   EXPECT_EQ(inside.distance(a), 0.0);
 }
 
+TEST(ShapeAabb, DistanceOfGapsWhoseSquaresOverflowIsFinite) {
+  // Gaps of 3 * 2^600 and 4 * 2^600 m (about 1.2e181 and 1.6e181 m; their squares overflow): the
+  // distance is 5 * 2^600, exactly, as for gaps 3 and 4. It was +inf, above any finite reach, so a
+  // broad phase with a warning_distance that large dropped the pair. (Adding 1 m to 3 * 2^600
+  // rounds back to it, so the gap is exact.)
+  const double unit = std::ldexp(1.0, 600);
+  const cm::Aabb a{Vec3(0.0, 0.0, 0.0), Vec3(1.0, 1.0, 1.0)};
+  const cm::Aabb b{Vec3(3.0 * unit, -5.0 * unit, 0.5), Vec3(5.0 * unit, -4.0 * unit, 1.5)};
+  EXPECT_EQ(a.distance(b), 5.0 * unit);
+  EXPECT_EQ(b.distance(a), 5.0 * unit);
+  // The largest finite gap, on one axis (huge - 1 rounds to huge).
+  const double huge = std::numeric_limits<double>::max();
+  const cm::Aabb far{Vec3(huge, 0.0, 0.0), Vec3(huge, 1.0, 1.0)};
+  EXPECT_EQ(a.distance(far), huge);
+  EXPECT_EQ(far.distance(a), huge);
+}
+
 TEST(ShapeBoundingRadius, ContainsTheFullShape) {
   EXPECT_DOUBLE_EQ(ConvexShape::sphere(2.0).boundingRadius(), 2.0);
   EXPECT_DOUBLE_EQ(ConvexShape::box(Vec3(2.0, 4.0, 4.0)).boundingRadius(), 3.0);

@@ -2928,6 +2928,23 @@ TEST(WorldModel, TimeToCollisionOfHugeBodies) {
   EXPECT_NEAR(d->time_to_collision, 10.0, 0.05);
 }
 
+TEST(WorldModel, PairFartherThanSquaresCanHoldIsWithinAFartherWarningDistance) {
+  // Unit spheres 3 * 2^600 m and 4 * 2^600 m apart on two axes (centres 5 * 2^600, about
+  // 2.1e181 m), warning_distance 1e200 m: WARNING at 5 * 2^600 - 2, which rounds to 5 * 2^600. The
+  // broad phase squared the boxes' gaps to +inf and dropped the pair: no pair at all.
+  const double unit = std::ldexp(1.0, 600);
+  Settings s = dyadic();
+  s.warning_distance = 1e200;
+  WorldModel w(s);
+  addSpheres(w, {"a", "b"}, 1.0);
+  ASSERT_TRUE(w.setPose("a", at(0), 1.0));
+  ASSERT_TRUE(w.setPose("b", at(3.0 * unit, 4.0 * unit), 1.0));
+  const CycleResult r = w.check(1.0);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_EQ(r.pairs[0].status, S::Warning);
+  EXPECT_NEAR(r.pairs[0].distance / (5.0 * unit), 1.0, 1e-12);
+}
+
 TEST(WorldModel, TimeToCollisionOfTranslatingBodiesIsExact) {
   // Unit-radius spheres; the first-order estimate (distance / closing speed at the witness
   // points) said 1 s for a pass that never touches. Oracle: |c_b(t) - c_a| = 2 in closed form.
