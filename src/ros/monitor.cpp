@@ -615,7 +615,7 @@ std::string Monitor::addBody(world::BodySpec spec) {
   t.origin = spec.origin;
   t.pose_topic = topic;
   {
-    std::lock_guard<std::mutex> lock(world_mutex_);
+    const auto lock = lockWorld();
     std::string err = world_->addBody(std::move(spec));
     if (!err.empty()) return err;
     tracked_[id] = t;
@@ -627,7 +627,7 @@ std::string Monitor::addBody(world::BodySpec spec) {
 
 bool Monitor::removeBody(const std::string& id, std::string* why) {
   {
-    std::lock_guard<std::mutex> lock(world_mutex_);
+    const auto lock = lockWorld();
     auto it = tracked_.find(id);
     if (it == tracked_.end()) {
       // Nothing to do: a second REMOVE, or a latched one replayed to a restarted monitor.
@@ -723,61 +723,103 @@ std::optional<Transform3> Monitor::toFixed(const std::string& frame_in, const ro
 
 void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time& stamp,
                          const std::string& source, const std::string* pose_topic) {
-  std::vector<std::string> unknown, attached;
-  std::size_t superseded = 0;
+  PendingPoses p{updates, stamp, ros::Time::now(), source,
+                 pose_topic ? std::optional<std::string>(*pose_topic) : std::nullopt};
   {
-    std::unique_lock<std::mutex> lock(world_mutex_);
-    // A pose from the future of ROS time would count as fresh until the clock caught up with it:
-    // data from before a time jump still in flight, ROS time 0 (simulated time before the first
-    // /clock), or clocks out of sync. Read under the lock that runCycle clears the poses with.
-    const ros::Time now_time = ros::Time::now();
-    const double now = now_time.toSec();
-    const double t = stamp.toSec();
-    if (t > now + kTimeJumpTolerance) {
-      std::ostringstream os;
-      os.setf(std::ios::fixed);
-      os.precision(3);
-      os << source << " refused: stamped " << t << " s, " << t - now
-         << " s after the current ROS time " << now
-         << " (data from before a time jump, no /clock yet, or unsynchronised clocks)";
-      lock.unlock();
-      reject(source, os.str());
+    std::unique_lock<std::mutex> world(world_mutex_, std::try_to_lock);
+    if (world.owns_lock()) {
+      applyPendingPoses();  // those that came first
+      const bool ours = applyPosesLocked(p);
+      world.unlock();
+      if (ours && check_on_pose_) trigger();
       return;
     }
-    bool applied = false;
-    for (const auto& u : updates) {
-      auto it = tracked_.find(u.id);
-      if (it == tracked_.end()) {
-        unknown.push_back(u.id);
-      } else if (pose_topic && it->second.pose_topic != *pose_topic) {
-        // Sent to the body this one replaced: it posed the new body with a pose nobody sent it
-        // (stamped 0, for good), or was refused as for a TF body.
-        ++superseded;
-      } else if (it->second.from_tf) {
-        attached.push_back(u.id + " (frame " + it->second.frame + ")");
-      } else {
-        // Stamped ahead (within the tolerance, a publisher's clock ahead of ours): it ages from
-        // now, when it came. By its own stamp it would stay fresh for as long as it is ahead
-        // after its publisher stopped. (Not before the clock starts: 0 is no time.)
-        applied =
-            world_->setPose(u.id, u.pose, toStamp(stamp), u.twist, arrivedAt(now_time)) || applied;
-      }
-    }
-    if (applied) {  // statistics: see pose_msgs_applied_
-      ++pose_msgs_applied_;
-      new_poses_ = true;
+  }
+  {
+    std::lock_guard<std::mutex> lock(pending_mutex_);
+    pending_updates_ += std::max<std::size_t>(1, p.updates.size());
+    pending_poses_.push_back(std::move(p));
+    ++poses_deferred_;
+    while (pending_updates_ > kMaxPendingPoseUpdates && pending_poses_.size() > 1) {
+      pending_updates_ -= std::max<std::size_t>(1, pending_poses_.front().updates.size());
+      pending_poses_.pop_front();
+      ++poses_dropped_;
     }
   }
+  // The next check applies them (and sooner any service or ~bodies message, lockWorld()).
+  if (check_on_pose_) trigger();
+}
+
+std::unique_lock<std::mutex> Monitor::lockWorld() {
+  std::unique_lock<std::mutex> lock(world_mutex_);
+  applyPendingPoses();
+  return lock;
+}
+
+void Monitor::applyPendingPoses() {
+  std::deque<PendingPoses> pending;
+  {
+    std::lock_guard<std::mutex> lock(pending_mutex_);
+    pending.swap(pending_poses_);
+    pending_updates_ = 0;
+  }
+  for (const PendingPoses& p : pending)
+    applyPosesLocked(p);
+}
+
+bool Monitor::applyPosesLocked(const PendingPoses& p) {
+  // A pose from the future of ROS time would count as fresh until the clock caught up with it:
+  // data from before a time jump still in flight, ROS time 0 (simulated time before the first
+  // /clock), or clocks out of sync. Read under the lock that runCycle clears the poses with.
+  const ros::Time now_time = ros::Time::now();
+  const double now = now_time.toSec();
+  const double t = p.stamp.toSec();
+  if (t > now + kTimeJumpTolerance) {
+    std::ostringstream os;
+    os.setf(std::ios::fixed);
+    os.precision(3);
+    os << p.source << " refused: stamped " << t << " s, " << t - now
+       << " s after the current ROS time " << now
+       << " (data from before a time jump, no /clock yet, or unsynchronised clocks)";
+    reject(p.source, os.str());
+    return false;
+  }
+  // Stamped ahead (within the tolerance, a publisher's clock ahead of ours): it ages from when
+  // it came. By its own stamp it would stay fresh for as long as it is ahead after its publisher
+  // stopped. (Not before the clock starts: 0 is no time. Not after now: it came before a jump
+  // back.)
+  const std::optional<world::Stamp> arrived = arrivedAt(std::min(p.arrived, now_time));
+  std::vector<std::string> unknown, attached;
+  std::size_t superseded = 0;
+  bool applied = false;
+  for (const auto& u : p.updates) {
+    auto it = tracked_.find(u.id);
+    if (it == tracked_.end()) {
+      unknown.push_back(u.id);
+    } else if (p.pose_topic && it->second.pose_topic != *p.pose_topic) {
+      // Sent to the body this one replaced: it posed the new body with a pose nobody sent it
+      // (stamped 0, for good), or was refused as for a TF body.
+      ++superseded;
+    } else if (it->second.from_tf) {
+      attached.push_back(u.id + " (frame " + it->second.frame + ")");
+    } else {
+      applied = world_->setPose(u.id, u.pose, toStamp(p.stamp), u.twist, arrived) || applied;
+    }
+  }
+  if (applied) {  // statistics: see pose_msgs_applied_
+    ++pose_msgs_applied_;
+    new_poses_ = true;
+  }
   if (!unknown.empty() || !attached.empty()) {
-    std::string what = source + ": poses ignored for";
+    std::string what = p.source + ": poses ignored for";
     if (!unknown.empty()) what += " unknown bodies: " + joined(unknown);
     if (!attached.empty()) {
       what += std::string(unknown.empty() ? "" : ";") +
               " bodies attached to TF (not pose_from_topic): " + joined(attached);
     }
-    reject(source, what);
+    reject(p.source, what);
   }
-  if (check_on_pose_ && unknown.size() + attached.size() + superseded < updates.size()) trigger();
+  return unknown.size() + attached.size() + superseded < p.updates.size();
 }
 
 void Monitor::onBody(const ros::MessageEvent<const Checked<collision_monitor::Body>>& event) {
@@ -932,7 +974,7 @@ bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
     world::Stamp stamp;  // the poses' time (zero: both static)
     std::string why;
     {
-      std::lock_guard<std::mutex> lock(world_mutex_);
+      const auto lock = lockWorld();
       if (!world_->hasBody(req.body_a)) {
         why = "unknown body " + quoteInput(req.body_a);
       } else if (req.body_b.empty()) {
@@ -1030,7 +1072,7 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
     std::size_t unknown = 0;  // listed or not (max_unknown_pairs)
     std::string refused;  // the world's own rules: an id of white space only, the limits in force
     {
-      std::lock_guard<std::mutex> lock(world_mutex_);
+      const auto lock = lockWorld();
       pairs = world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now, anonymous,
                                         &unknown, &refused);
       contact_distance = settings_.contact_distance;
@@ -1069,7 +1111,7 @@ bool Monitor::listBodies(collision_monitor::ListBodies::Request& /*req*/,
   const world::Stamp now = toStamp(ros::Time::now());
   std::vector<world::BodyInfo> infos;
   {
-    std::lock_guard<std::mutex> lock(world_mutex_);
+    const auto lock = lockWorld();
     infos = world_->listBodies(now);
   }
   // By id (WorldModel::listBodies).
@@ -1278,7 +1320,7 @@ void Monitor::runCycle() {
   const std::uint32_t marker_subscribers = markers_pub_.getNumSubscribers();
   const bool want_markers = markers_on && marker_subscribers > 0;
   {
-    std::lock_guard<std::mutex> lock(world_mutex_);
+    const auto lock = lockWorld();
     for (const auto& [id, frame] : attached) {
       auto it = tracked_.find(id);
       if (it == tracked_.end() || !it->second.from_tf || it->second.frame != frame) continue;
@@ -1521,6 +1563,11 @@ void Monitor::setupDiagnostics() {
     s.add("last refused TF transform", tf_last_refusal);
     s.add("pose messages coalesced (total)",
           now.pose_msgs_applied - std::min(now.pose_msgs_applied, now.checks_with_new_poses));
+    {
+      std::lock_guard<std::mutex> lock(pending_mutex_);
+      s.add("pose messages deferred during a check (total)", poses_deferred_);
+      s.add("pose messages dropped while waiting for a check (total)", poses_dropped_);
+    }
     for (const auto& e : param_errors_)
       s.add("invalid parameter", e);
     // The first 10 (a hostile URDF refuses thousands of links); the summary counts them all.

@@ -166,6 +166,45 @@ class Overload(unittest.TestCase):
         d = self.report(DiagnosticStatus.OK, 'ok', timeout=20.0)
         self.assertIsNotNone(d, self.m.diagnostics)
 
+    def test_2b_poses_during_a_long_check_wait_and_apply_in_order(self):
+        """Pose messages that come while a check of seconds holds the world wait for it in the
+        node (the callback returns at once: roscpp's other spinner threads spun on the
+        subscription meanwhile) and apply in the order they came: s1 ends at the last pose sent,
+        the unknown id in the middle is refused with its reason, /diagnostics counts them."""
+        self.add_piles(10.0)
+        d = self.report(DiagnosticStatus.WARN, 'a check has been running for', timeout=60.0)
+        self.assertIsNotNone(d, self.m.diagnostics)
+        deferred_before = int(self.m.diag_value('pose messages deferred during a check (total)', d))
+        n = 25
+        for k in range(n):
+            ids = ['ghost'] if k == n // 2 else ['s1']
+            msg = BodyPoses(ids=ids, poses=[pose(0.5 + 0.01 * k, 0, 0)])
+            msg.header.frame_id = 'world'
+            msg.header.stamp = rospy.Time(0)  # static: a later one always replaces an earlier one
+            self.m.poses_pub.publish(msg)
+            time.sleep(0.05)
+        d = wait_for(lambda: (lambda d: d if d is not None and int(self.m.diag_value(
+            'pose messages deferred during a check (total)', d)) > deferred_before else None)(
+                self.m.diagnostics), 20.0, 0.05)
+        self.assertIsNotNone(d, self.m.diagnostics)
+        for name in ('big_a', 'big_b', 'big_c'):
+            self.m.add(Body(id=name, operation=Body.REMOVE))
+        self.assertTrue(wait_for(lambda: len(self.m.list_bodies().ids) == 2, 30.0))
+        # s0 (radius 0.1) at the origin (test_1), s1 (radius 0.1) at the last x sent, 0.74.
+        r = self.m.get_distance('s0', 's1', '')
+        self.assertTrue(r.success, r.message)
+        self.assertAlmostEqual(r.result.distance, 0.5 + 0.01 * (n - 1) - 0.2, places=9)
+        d = self.report(DiagnosticStatus.OK, 'ok', timeout=20.0)
+        self.assertIsNotNone(d, self.m.diagnostics)
+        deferred = int(self.m.diag_value('pose messages deferred during a check (total)', d))
+        dropped = int(self.m.diag_value('pose messages dropped while waiting for a check (total)',
+                                        d))
+        print('poses during long checks: %d of %d messages deferred, %d dropped' %
+              (deferred - deferred_before, n, dropped), flush=True)
+        self.assertEqual(dropped, 0)
+        self.assertIn('~body_poses: poses ignored for unknown bodies: ghost',
+                      self.m.diag_value('last rejection', d))
+
     def test_3_sigint_during_a_long_check(self):
         """SIGINT while such a check runs: the node stops it and exits at once. It used to finish
         the check first (13.9 s on a loaded machine), and roslaunch turns SIGINT into SIGTERM

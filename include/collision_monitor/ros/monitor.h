@@ -133,11 +133,31 @@ class Monitor {
   /// time of the transform taken (zero for the fixed frame and static chains).
   std::optional<core::Transform3> toFixed(const std::string& frame, const ros::Time& stamp,
                                           std::string* why, ros::Time* used = nullptr) const;
-  /// `pose_topic`: the topic the updates came from, for a body's own `pose_topic`; they apply
-  /// only while the body still follows it (a message in flight on the subscription a replacement
-  /// shut down is dropped).
+  /// Pose messages that came while the world was locked (a check in progress), in the order they
+  /// came. `pose_topic`: the topic of a body's own `pose_topic` subscription, for those.
+  struct PendingPoses {
+    std::vector<PoseUpdate> updates;
+    ros::Time stamp;
+    ros::Time arrived;  ///< ROS time when the message came
+    std::string source;
+    std::optional<std::string> pose_topic;
+  };
+  /// Applies the poses now if the world is free; while it is locked (a check in progress) they
+  /// wait in `pending_poses_` and the callback returns, so that no spinner thread waits for a
+  /// check (roscpp's other threads then spun on the subscription's next message, "try again":
+  /// half a core taken from the check). `pose_topic`: the updates apply only while the body still
+  /// follows that topic (a message in flight on the subscription a replacement shut down is
+  /// dropped).
   void applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time& stamp,
                   const std::string& source, const std::string* pose_topic = nullptr);
+  /// Under world_mutex_: applies one message's poses (or refuses them). True when some update
+  /// was for a body posed this way (unknown, TF-attached and superseded ones are not).
+  bool applyPosesLocked(const PendingPoses& p);
+  /// Under world_mutex_: applies the messages that waited for it, in the order they came.
+  void applyPendingPoses();
+  /// world_mutex_, locked, with the poses that waited for it applied first: every reader and
+  /// writer of bodies and poses takes it this way, so that none sees the world without them.
+  std::unique_lock<std::mutex> lockWorld();
 
   // services
   bool getDistance(collision_monitor::GetDistance::Request& req,
@@ -172,9 +192,12 @@ class Monitor {
       20;  ///< rejection log lines per second, all sources
   static constexpr std::size_t kMaxRejectionText = 1024;  ///< bytes of a rejection message
   static constexpr std::uint32_t kEventsQueue = 10000;    ///< ~events messages per subscriber
-  std::map<std::string, ros::WallTime> last_logged_;      ///< guarded by stats_mutex_
-  ros::WallTime log_window_start_;                        ///< guarded by stats_mutex_
-  std::size_t logged_in_window_ = 0;                      ///< guarded by stats_mutex_
+  /// Pose updates kept while a check holds the world (a message counts at least 1): 100 full
+  /// ~body_poses queues of 1,000 ids, about 20 MB.
+  static constexpr std::size_t kMaxPendingPoseUpdates = 100000;
+  std::map<std::string, ros::WallTime> last_logged_;  ///< guarded by stats_mutex_
+  ros::WallTime log_window_start_;                    ///< guarded by stats_mutex_
+  std::size_t logged_in_window_ = 0;                  ///< guarded by stats_mutex_
   std::size_t not_logged_ = 0;   ///< rejections over the budget since the last line (stats_mutex_)
   std::string last_not_logged_;  ///< the last of them (stats_mutex_)
   void disablePair(const std::string& a, const std::string& b, const std::string& reason);
@@ -227,6 +250,12 @@ class Monitor {
   // number of pose messages superseded before a check used them (coalesced), on /diagnostics.
   std::size_t pose_msgs_applied_ = 0, checks_with_new_poses_ = 0;
   bool new_poses_ = false;
+  /// applyPoses(): messages waiting for the world lock, their updates counted (bounded by
+  /// kMaxPendingPoseUpdates: the oldest are dropped, as roscpp drops the oldest beyond a
+  /// subscription's queue), and the totals deferred and dropped (diagnostics).
+  std::mutex pending_mutex_;
+  std::deque<PendingPoses> pending_poses_;
+  std::size_t pending_updates_ = 0, poses_deferred_ = 0, poses_dropped_ = 0;
 
   std::mutex subs_mutex_;
   /// toFixed(): per frame, the latest TF time when a wait for it last failed (no new wait
