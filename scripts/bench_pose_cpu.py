@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """CPU per thread of a running collision_monitor_node while checks of seconds run (three bodies of
 1,000 overlapping boxes) and ~body_poses comes at 20 Hz (scripts/bench_pose_cpu.sh runs it).
-Usage: bench_pose_cpu.py <node pid> [seconds]"""
+With `bodies`, a ~bodies ADD (a small sphere, three ids in turn) comes with each pose message.
+Usage: bench_pose_cpu.py <node pid> [seconds] [bodies]"""
 import os
 import sys
 import time
@@ -34,6 +35,7 @@ def cpu(pid):
 
 def main():
     pid, seconds = int(sys.argv[1]), float(sys.argv[2]) if len(sys.argv) > 2 else 20.0
+    with_bodies = len(sys.argv) > 3 and sys.argv[3] == 'bodies'
     rospy.init_node('spin_cpu')
     bodies = rospy.Publisher('/collision_monitor/bodies', Body, queue_size=10, latch=True)
     poses = rospy.Publisher('/collision_monitor/body_poses', BodyPoses, queue_size=10)
@@ -56,6 +58,10 @@ def main():
                         poses=[pose(10.0), pose(10.05 + 1e-4 * k), pose(10.0, 0.05 + 1e-4 * k)])
         msg.header.frame_id = 'world'
         poses.publish(msg)
+        if with_bodies:
+            probe = Body(id='probe%d' % (k % 3), operation=Body.ADD, pose_from_topic=True)
+            probe.parts.append(Shape(type=Shape.SPHERE, dimensions=[0.1]))
+            bodies.publish(probe)
         k += 1
         if before is None and time.monotonic() - t0 >= 5.0:
             before, t_before = cpu(pid), time.monotonic()
@@ -64,8 +70,9 @@ def main():
     dt = t_after - t_before
     use = sorted(((after[t] - before.get(t, 0.0)) / dt, t) for t in after)
     use.reverse()
-    print('%d pose messages at 20 Hz; CPU per thread over %.1f s: %s; total %.2f' % (
-        k, dt, ', '.join('%.2f' % u for u, _ in use[:5]), sum(u for u, _ in use)))
+    print('%d pose messages%s at 20 Hz; CPU per thread over %.1f s: %s; total %.2f' % (
+        k, ' and ~bodies messages' if with_bodies else '', dt,
+        ', '.join('%.2f' % u for u, _ in use[:5]), sum(u for u, _ in use)))
 
 
 if __name__ == '__main__':

@@ -3,7 +3,8 @@
 # overlapping boxes) and ~body_poses moves them at 20 Hz: the check thread should have a core to
 # itself, no callback thread spinning beside it (docs/reliability.md, "pose callbacks no longer
 # wait for a check"). Uses the node of an existing build, on a private ROS master.
-#   scripts/bench_pose_cpu.sh [seconds]       # default 20; CM_BUILD: the build (default build/)
+#   scripts/bench_pose_cpu.sh [seconds] [bodies]   # default 20 s; `bodies`: a ~bodies ADD with
+#                                                  # each pose message. CM_BUILD: the build (build/)
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 # shellcheck source=scripts/env.sh
@@ -21,4 +22,4 @@ for _ in $(seq 50); do rostopic list >/dev/null 2>&1 && break; sleep 0.2; done
   >"$LOG/node.log" 2>&1 &
 node_pid=$!
 sleep 2
-/usr/bin/python3 "$ROOT/scripts/bench_pose_cpu.py" "$node_pid" "${1:-20}"
+/usr/bin/python3 "$ROOT/scripts/bench_pose_cpu.py" "$node_pid" "${1:-20}" ${2:+"$2"}

@@ -181,7 +181,16 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   const auto hints = ros::TransportHints().tcpNoDelay();
   // Checked<M>: every length prefix is checked against the message size before anything is
   // allocated (wire_check.h).
-  bodies_sub_ = pnh_.subscribe("bodies", 1000, &Monitor::onBody, this, hints);
+  ros::SubscribeOptions bodies_ops;
+  bodies_ops
+      .initByFullCallbackType<const ros::MessageEvent<const Checked<collision_monitor::Body>>&>(
+          "bodies", 1000,
+          [this](const ros::MessageEvent<const Checked<collision_monitor::Body>>& e) {
+            onBody(e);
+          });
+  bodies_ops.transport_hints = hints;
+  bodies_ops.callback_queue = &bodies_queue_;
+  bodies_sub_ = pnh_.subscribe(bodies_ops);
   poses_sub_ = pnh_.subscribe("body_poses", 100, &Monitor::onBodyPoses, this, hints);
   setupDiagnostics();
   // ~set_parameters, ~parameter_descriptions, ~parameter_updates. The server reads the raw
@@ -214,6 +223,8 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   const unsigned threads = std::clamp(std::thread::hardware_concurrency(), 2u, 8u);
   spinner_ = std::make_unique<ros::AsyncSpinner>(threads, &callback_queue_);
   spinner_->start();
+  bodies_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &bodies_queue_);
+  bodies_spinner_->start();
 }
 
 Monitor::~Monitor() {
@@ -231,7 +242,9 @@ Monitor::~Monitor() {
   if (diagnostics_thread_.joinable()) diagnostics_thread_.join();
   // No callback starts from here on; one in progress finishes (no check holds the world now).
   callback_queue_.disable();
+  bodies_queue_.disable();
   if (spinner_) spinner_->stop();
+  if (bodies_spinner_) bodies_spinner_->stop();
   tf_receiver_.reset();  // after the loop, which reads through it; its trigger()s are harmless
   bodies_sub_.shutdown();
   poses_sub_.shutdown();

@@ -78,6 +78,11 @@ class Monitor {
   /// after everything that subscribes or advertises on it (the dynamic_reconfigure server too).
   ros::CallbackQueue callback_queue_;
   std::unique_ptr<ros::AsyncSpinner> spinner_;
+  /// ~bodies alone, on one thread: its callback waits for a check in progress, and while it did
+  /// on callback_queue_, the other threads took the subscription's next message again and again
+  /// without sleeping (roscpp's "try again"), half a core taken from the check.
+  ros::CallbackQueue bodies_queue_;
+  std::unique_ptr<ros::AsyncSpinner> bodies_spinner_;
 
   struct Tracked {
     std::string frame;  ///< TF frame (PoseSource::Tf) or empty
