@@ -1,5 +1,6 @@
 // gjkDistance / gjkIntersect / EPA in 2D (footprints), 3D sub-algorithms, and 4D/5D: exact answers
 // by hand, plus the optimality condition of the simplex sub-algorithms on random simplices.
+#include <array>
 #include <cmath>
 #include <memory>
 #include <random>
@@ -57,6 +58,32 @@ cm::EpaResult<D> collinearSegmentsEpa() {
   const auto g = cm::gjkDistance(md, settings(3));
   EXPECT_EQ(g.status, cm::GjkStatus::Intersecting);
   const cm::EpaResult<D> e = cm::epaPenetration(md, g.simplex, epaSettings(3));
+  EXPECT_EQ(e.status, cm::EpaStatus::Flat);
+  EXPECT_EQ(e.flat_dimension, 1);
+  EXPECT_EQ(e.depth, 0.0);
+  return e;
+}
+
+/// EPA from the triangle (-1, 0), (1, 0), (0, -1e-13) (first two coordinates; 0 beyond) of A - B
+/// for A the segment [-1, 1] along x and B the segment from 0 to 1e-13 along y: A - B is the
+/// rectangle [-1, 1] x [-1e-13, 0], thinner than EPA's tolerance (2e-12): a segment to it. The
+/// triangle's height, 1e-13, is below the tolerance (twice its area 2e-13 <= 2e-12 x its longest
+/// edge 2): EPA treats it as collinear, keeps its two far points, and finds nothing beyond the
+/// tolerance off their line: flat, of dimension 1, along x, depth 0.
+template <int D>
+cm::EpaResult<D> thinRectangleEpa() {
+  const Vec<D> x = Vec<D>::UnitX();
+  const Vec<D> y = Vec<D>::UnitY();
+  const cm::SegmentShape<D> a{-x, x};
+  const cm::SegmentShape<D> b{Vec<D>::Zero(), 1e-13 * y};
+  const cm::MinkowskiDifference<D, cm::SegmentShape<D>, cm::SegmentShape<D>> md(
+      a, b, shift<D>(Vec<D>::Zero()));
+  cm::Simplex<D> start;
+  start.v[0] = md.fromLocal(-x, Vec<D>::Zero());         // w = (-1, 0)
+  start.v[1] = md.fromLocal(x, Vec<D>::Zero());          // w = (1, 0)
+  start.v[2] = md.fromLocal(Vec<D>::Zero(), 1e-13 * y);  // w = (0, -1e-13)
+  start.size = 3;
+  const cm::EpaResult<D> e = cm::epaPenetration(md, start, epaSettings(2));
   EXPECT_EQ(e.status, cm::EpaStatus::Flat);
   EXPECT_EQ(e.flat_dimension, 1);
   EXPECT_EQ(e.depth, 0.0);
@@ -216,6 +243,50 @@ TEST(Epa3D, CollinearSegmentsAreFlatWithANormalAcrossTheLine) {
   EXPECT_NEAR(e.normal.x(), 0.0, 1e-15);
 }
 
+TEST(Epa3D, OnLineAllowsTheRoundingOfTheCoordinates) {
+  // detail::onLine() (EPA's test for a horizon edge through the new point): on the line to within
+  // 64 eps times the largest coordinate. a = 0, b = (1, 1, 1): p = (0.1 + 0.2, 0.3, 0.3) is off
+  // the diagonal only by the rounding of 0.1 + 0.2 (0.30000000000000004 against 0.3: one ulp,
+  // d = 2^-54), so u x p = (0, d, -d), |u x p|^2 = 2^-107, within (64 eps)^2 |u|^2 = 3 x 2^-92.
+  const cm::Vec3 a = cm::Vec3::Zero();
+  const cm::Vec3 b(1, 1, 1);
+  EXPECT_TRUE(cm::detail::onLine(a, b, cm::Vec3(0.1 + 0.2, 0.3, 0.3)));
+  EXPECT_TRUE(cm::detail::onLine(a, b, cm::Vec3(0.5, 0.5, 0.5)));  // exactly on it
+  // 1e-6 off it is not rounding: |u x p|^2 = 2e-12.
+  EXPECT_FALSE(cm::detail::onLine(a, b, cm::Vec3(0.3, 0.3, 0.3 + 1e-6)));
+}
+
+TEST(Epa3D, AStartTetrahedronWithoutVolumeIsLiftedAgain) {
+  // A start simplex of four points with volume 0 (three of them on a line: (2, 2, 1.5), (-2, -2,
+  // -0.5) and their midpoint (0, 0, 0.5)) is not used as EPA's first polytope (its faces through
+  // the line have no area): the lift starts again from its first face, here cut back to the two
+  // far points of the line. A point A at the origin in the box B with half sides (2, 2, 1) at
+  // (0, 0, -0.5), i.e. [-2, 2]^2 x [-1.5, 0.5]: A - B = -B = [-2, 2]^2 x [-0.5, 1.5], the four
+  // points above are points of it. Its nearest face is z = -0.5: depth 0.5 along (0, 0, -1) (B
+  // moved down by 0.5 clears the point), witnesses the point and B's top-face point (0, 0, 0.5).
+  const cm::PointShape<3> point{cm::Vec3::Zero()};
+  const cm::BoxShape<3> box{cm::Vec3(2, 2, 1)};
+  const cm::Vec3 t(0, 0, -0.5);
+  const cm::MinkowskiDifference<3, cm::PointShape<3>, cm::BoxShape<3>> md(point, box, shift<3>(t));
+  const std::array<cm::Vec3, 4> w{cm::Vec3(2, 2, 1.5), cm::Vec3(-2, -2, -0.5), cm::Vec3(0, 0, 0.5),
+                                  cm::Vec3(2, -2, -0.5)};
+  cm::Simplex<3> start;
+  for (int i = 0; i < 4; ++i)
+    start.v[i] = md.fromLocal(cm::Vec3::Zero(), -w[i] - t);  // b = -w, in B's frame b - t
+  start.size = 4;
+  const auto e = cm::epaPenetration(md, start, epaSettings(4));
+  EXPECT_EQ(e.status, cm::EpaStatus::Converged);
+  EXPECT_NEAR(e.depth, 0.5, 1e-12);
+  expectVecNear<3>(e.normal, cm::Vec3(0, 0, -1), 1e-12);
+  expectVecNear<3>(e.point_a, cm::Vec3::Zero(), 1e-12);
+  expectVecNear<3>(e.point_b, cm::Vec3(0, 0, 0.5), 1e-12);
+}
+
+TEST(Epa3D, ATriangleThinnerThanTheToleranceIsALine) {
+  const auto e = thinRectangleEpa<3>();
+  EXPECT_NEAR(std::abs(e.flat_direction.x()), 1.0, 1e-15);
+}
+
 TEST(Epa2D, SquaresDepthNormalWitness) {
   // Squares half 1, B at (1.5, 0.2): overlaps 0.5 (x), 1.8 (y): depth 0.5 along +x.
   const Box2 a{cm::Vec2(1, 1)};
@@ -277,6 +348,11 @@ TEST(Epa2D, CollinearSegmentsAreFlat) {
   EXPECT_NEAR(std::abs(e.normal.y()), 1.0, 1e-15);
 }
 
+TEST(Epa2D, ATriangleThinnerThanTheToleranceIsALine) {
+  const auto e = thinRectangleEpa<2>();
+  EXPECT_NEAR(std::abs(e.normal.y()), 1.0, 1e-15);  // across the line
+}
+
 TEST(Epa2D, CrossingSegmentsFormASquare) {
   // Segment along x and one along y, crossing at their midpoints: A - B is the square
   // [-1, 1]^2: depth 1.
@@ -289,6 +365,49 @@ TEST(Epa2D, CrossingSegmentsFormASquare) {
   const auto e = cm::epaPenetration(md, g.simplex, epaSettings(3));
   EXPECT_EQ(e.status, cm::EpaStatus::Converged);
   EXPECT_NEAR(e.depth, 1.0, 1e-12);
+}
+
+TEST(Epa2D, OutOfIterationsWithinToleranceOfItsUpperBoundIsConverged) {
+  // EPA stopped by its iteration bound, but with its least support depth seen (the upper bound)
+  // within the tolerance of its nearest edge (the lower bound): the depth is known, so the
+  // answer is that bound, Converged, not an estimate (epa.h EpaProgress::settle(),
+  // EpaUpperBound::applyTo()). A point A at the centre of the square B = [-1, 1]^2: A - B = -B,
+  // the same square, depth 1 along each axis. Start triangle (points w = -b of A - B):
+  // (-1, -1/2), (1, -1/2), (0, 1), holding the origin; its edges: the bottom one at distance 1/2
+  // (normal (0, -1)), the two sides at 1 / sqrt(1.5^2 + 1) = 2 / sqrt(13) = 0.5547 (normals
+  // (+-3, 2) / sqrt(13)). One iteration: along (0, -1) the support point is a corner (+-1, -1)
+  // of depth 1 (the upper bound, exact: 0 x +-1 + (-1) x (-1)), a gain of 1 - 1/2 = 1/2 over the
+  // edge, more than need = 0.9 x 1/2 = 0.45: the corner joins the polygon. Its new edges are at
+  // 1 (on x = +-1) and 3 / sqrt(17) = 0.728 (to the far end of the bottom edge), so the nearest
+  // edge is a side, 2 / sqrt(13). Out of iterations there: 1 - 2 / sqrt(13) = 0.445 <= need =
+  // 0.9 x 2 / sqrt(13) = 0.499, so the bound 1 is certified: depth 1 along (0, -1), witnesses A's
+  // point and B's bottom-face point (0, 1) (B moved by (0, -1) touches A there).
+  const Pt2 point{cm::Vec2::Zero()};
+  const Box2 square{cm::Vec2(1, 1)};
+  const cm::MinkowskiDifference<2, Pt2, Box2> md(point, square, shift<2>(cm::Vec2::Zero()));
+  cm::Simplex<2> start;
+  const std::array<cm::Vec2, 3> w{cm::Vec2(-1, -0.5), cm::Vec2(1, -0.5), cm::Vec2(0, 1)};
+  for (int i = 0; i < 3; ++i)
+    start.v[i] = md.fromLocal(cm::Vec2::Zero(), -w[i]);
+  start.size = 3;
+  cm::EpaSettings st;
+  st.rel_tolerance = 0.9;
+  st.abs_tolerance = 0.0;
+  st.max_iterations = 1;
+  const auto e = cm::epaPenetration(md, start, st);
+  EXPECT_EQ(e.status, cm::EpaStatus::Converged);
+  EXPECT_FALSE(e.depth_is_upper_bound);
+  EXPECT_EQ(e.iterations, 1);
+  EXPECT_EQ(e.depth, 1.0);
+  EXPECT_EQ(e.normal, cm::Vec2(0, -1));
+  EXPECT_EQ(e.point_a, cm::Vec2(0, 0));
+  EXPECT_EQ(e.point_b, cm::Vec2(0, 1));
+  // Asked to 1e-12 instead, the same iteration leaves the gap 0.445 open: an upper bound only.
+  st.rel_tolerance = 1e-12;
+  const auto u = cm::epaPenetration(md, start, st);
+  EXPECT_EQ(u.status, cm::EpaStatus::MaxIterations);
+  EXPECT_TRUE(u.depth_is_upper_bound);
+  EXPECT_NEAR(u.depth, 1.0, 1e-12);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -394,6 +513,31 @@ TEST(GjkSeed, SeedKeptNamesTheSeedVerticesOfTheTerminalSimplex) {
 
   // No seed: nothing to name.
   EXPECT_EQ(cm::gjkDistance(md, settings(5)).seed_kept, 0u);
+}
+
+TEST(GjkSeed, SegmentSeedWhoseNearEndIsClosestKeepsThatEnd) {
+  // Box [-1, 1]^3 minus the point (3, 0.5, 0.2): A - B = [-4, -2] x [-1.5, 0.5] x [-1.2, 0.8],
+  // closest point w = (-2, 0, 0), distance 2. A seed segment along x from that point, w0 =
+  // (-2, 0, 0) (a = (1, 0.5, 0.2) on the box), to w1 = (-4, 0, 0) (a = (-1, 0.5, 0.2)): with
+  // t = w1 - w0 = (-2, 0, 0) the origin projects before w0 (w1.t = 8 > 0, -w0.t = -4 < 0), so
+  // the seed's closest point is w0 alone. The support along -w0 = (2, 0, 0) is a corner of the
+  // face x = 1, w = (-2, 0.5, 0.8), with v.w = 4 = |v|^2: certified at once, seed vertex 0 kept.
+  using Box3 = cm::BoxShape<3>;
+  using Pt3 = cm::PointShape<3>;
+  const Box3 cube{cm::Vec3::Ones()};
+  const Pt3 p{cm::Vec3(3, 0.5, 0.2)};
+  const cm::MinkowskiDifference<3, Box3, Pt3> md(cube, p, shift<3>(cm::Vec3::Zero()));
+  cm::Simplex<3> seed;
+  seed.size = 2;
+  seed.v[0] = supportPointOf(cm::Vec3(1, 0.5, 0.2), p.p);
+  seed.v[1] = supportPointOf(cm::Vec3(-1, 0.5, 0.2), p.p);
+  const auto r = cm::gjkDistance(md, settings(5), &seed);
+  EXPECT_EQ(r.status, cm::GjkStatus::Separated);
+  EXPECT_EQ(r.distance, 2.0);
+  EXPECT_EQ(r.iterations, 1);
+  EXPECT_EQ(r.seed_kept, 0b01u);
+  ASSERT_EQ(r.simplex.size, 1);
+  EXPECT_EQ(r.simplex.v[0].w, cm::Vec3(-2, 0, 0));
 }
 
 TEST(GjkSeed, TetrahedronSeedWithTheOriginBeyondItsFirstFaceIsNotAnIntersection) {
