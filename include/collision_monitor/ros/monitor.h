@@ -160,8 +160,9 @@ class Monitor {
   bool applyPosesLocked(const PendingPoses& p);
   /// Under world_mutex_: applies the messages that waited for it, in the order they came.
   void applyPendingPoses();
-  /// world_mutex_, locked, with the poses that waited for it applied first: every reader and
-  /// writer of bodies and poses takes it this way, so that none sees the world without them.
+  /// world_mutex_, locked, with the poses that waited for it applied first. The check, the
+  /// services and body changes take it this way, so that none of them sees the world without
+  /// those poses (the check's TF lookup of tracked_ and a time jump's clearPoses() need not).
   std::unique_lock<std::mutex> lockWorld();
 
   // services
