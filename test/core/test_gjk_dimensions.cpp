@@ -110,6 +110,20 @@ cm::SupportPoint<3> supportPointOf(const cm::Vec3& a, const cm::Vec3& b) {
   return q;
 }
 
+/// The box [-1, 1]^3 (A) minus a point (B), unposed: A - B = [-1, 1]^3 - point, for seeds made by
+/// hand. at(a): the point of A - B of the box point `a`.
+struct CubeMinusPoint {
+  explicit CubeMinusPoint(const cm::Vec3& p) : point{p} {}
+  CubeMinusPoint(const CubeMinusPoint&) = delete;  // md refers to the two shapes
+  CubeMinusPoint& operator=(const CubeMinusPoint&) = delete;
+  cm::SupportPoint<3> at(const cm::Vec3& a) const { return supportPointOf(a, point.p); }
+
+  const cm::BoxShape<3> cube{cm::Vec3::Ones()};
+  const cm::PointShape<3> point;
+  const cm::MinkowskiDifference<3, cm::BoxShape<3>, cm::PointShape<3>> md{
+      cube, point, shift<3>(cm::Vec3::Zero())};
+};
+
 using Box2 = cm::BoxShape<2>;
 using Pt2 = cm::PointShape<2>;
 
@@ -478,17 +492,14 @@ TEST(GjkHighD, HypercubeToPoint5D) {
 TEST(GjkSeed, SeedKeptNamesTheSeedVerticesOfTheTerminalSimplex) {
   // Box [-1, 1]^3 minus the point (3, 0.5, 0.2): the distance is 2 along x, realised by the
   // face x = 1 of the difference (w = box vertex - point). Seeds are points of A - B.
-  using Box3 = cm::BoxShape<3>;
-  using Pt3 = cm::PointShape<3>;
-  const Box3 cube{cm::Vec3::Ones()};
-  const Pt3 p{cm::Vec3(3, 0.5, 0.2)};
-  const cm::MinkowskiDifference<3, Box3, Pt3> md(cube, p, shift<3>(cm::Vec3::Zero()));
-  const auto corner = [&](double y, double z) { return supportPointOf(cm::Vec3(1, y, z), p.p); };
+  const CubeMinusPoint pair(cm::Vec3(3, 0.5, 0.2));
+  const auto& md = pair.md;
+  const auto corner = [&](double y, double z) { return pair.at(cm::Vec3(1, y, z)); };
   cm::Simplex<3> seed;
   // The face's triangle (the origin projects into it) plus a vertex on the far side: GJK keeps
   // vertices 1, 2, 3, certifies with one support point and adds none.
   seed.size = 4;
-  seed.v[0] = supportPointOf(cm::Vec3(-1, -1, -1), p.p);
+  seed.v[0] = pair.at(cm::Vec3(-1, -1, -1));
   seed.v[1] = corner(1, 1);
   seed.v[2] = corner(-1, 1);
   seed.v[3] = corner(0, -1);
@@ -522,16 +533,12 @@ TEST(GjkSeed, SegmentSeedWhoseNearEndIsClosestKeepsThatEnd) {
   // t = w1 - w0 = (-2, 0, 0) the origin projects before w0 (w1.t = 8 > 0, -w0.t = -4 < 0), so
   // the seed's closest point is w0 alone. The support along -w0 = (2, 0, 0) is a corner of the
   // face x = 1, w = (-2, 0.5, 0.8), with v.w = 4 = |v|^2: certified at once, seed vertex 0 kept.
-  using Box3 = cm::BoxShape<3>;
-  using Pt3 = cm::PointShape<3>;
-  const Box3 cube{cm::Vec3::Ones()};
-  const Pt3 p{cm::Vec3(3, 0.5, 0.2)};
-  const cm::MinkowskiDifference<3, Box3, Pt3> md(cube, p, shift<3>(cm::Vec3::Zero()));
+  const CubeMinusPoint pair(cm::Vec3(3, 0.5, 0.2));
   cm::Simplex<3> seed;
   seed.size = 2;
-  seed.v[0] = supportPointOf(cm::Vec3(1, 0.5, 0.2), p.p);
-  seed.v[1] = supportPointOf(cm::Vec3(-1, 0.5, 0.2), p.p);
-  const auto r = cm::gjkDistance(md, settings(5), &seed);
+  seed.v[0] = pair.at(cm::Vec3(1, 0.5, 0.2));
+  seed.v[1] = pair.at(cm::Vec3(-1, 0.5, 0.2));
+  const auto r = cm::gjkDistance(pair.md, settings(5), &seed);
   EXPECT_EQ(r.status, cm::GjkStatus::Separated);
   EXPECT_EQ(r.distance, 2.0);
   EXPECT_EQ(r.iterations, 1);
@@ -547,17 +554,14 @@ TEST(GjkSeed, TetrahedronSeedWithTheOriginBeyondItsFirstFaceIsNotAnIntersection)
   // on the far face x = -4: the origin is (2/3) (w0 + w1 + w2) - w3 (weights 2/3, 2/3, 2/3, -1),
   // beyond the face 0-1-2 only. That face is the one the loop's lean sub-algorithm leaves out
   // (it holds no newest vertex), so the seed's closest point must come from the full one.
-  using Box3 = cm::BoxShape<3>;
-  using Pt3 = cm::PointShape<3>;
-  const Box3 cube{cm::Vec3::Ones()};
-  const Pt3 p{cm::Vec3(3, 0, 0)};
-  const cm::MinkowskiDifference<3, Box3, Pt3> md(cube, p, shift<3>(cm::Vec3::Zero()));
+  const CubeMinusPoint pair(cm::Vec3(3, 0, 0));
+  const auto& md = pair.md;
   cm::Simplex<3> seed;
   seed.size = 4;
-  seed.v[0] = supportPointOf(cm::Vec3(1, -1, -1), p.p);
-  seed.v[1] = supportPointOf(cm::Vec3(1, 1, -1), p.p);
-  seed.v[2] = supportPointOf(cm::Vec3(1, -1, 1), p.p);
-  seed.v[3] = supportPointOf(cm::Vec3(-1, -2.0 / 3.0, -2.0 / 3.0), p.p);
+  seed.v[0] = pair.at(cm::Vec3(1, -1, -1));
+  seed.v[1] = pair.at(cm::Vec3(1, 1, -1));
+  seed.v[2] = pair.at(cm::Vec3(1, -1, 1));
+  seed.v[3] = pair.at(cm::Vec3(-1, -2.0 / 3.0, -2.0 / 3.0));
   const auto r = cm::gjkDistance(md, settings(5), &seed);
   EXPECT_EQ(r.status, cm::GjkStatus::Separated);
   EXPECT_NEAR(r.distance, 2.0, 1e-12);
