@@ -120,17 +120,15 @@ struct Aabb {
     return (min.array() <= o.max.array()).all() && (o.min.array() <= max.array()).all();
   }
   /// Euclidean distance between the boxes (0 when they overlap). A lower bound on the distance
-  /// between anything inside them. Gaps beyond 1.3e154 m are scaled before they are squared: the
-  /// plain norm overflowed to +inf there, above any finite reach, so a broad phase dropped the
-  /// pair.
+  /// between anything inside them. Gaps beyond 1.3e154 m, whose squares overflow, are scaled
+  /// first: the plain norm was +inf there, above any finite reach, so a broad phase dropped the
+  /// pair. (Only then: this is the broad phase's per-pair test.)
   double distance(const Aabb& o) const {
     const Vec3 gap = (o.min - max).cwiseMax(min - o.max).cwiseMax(Vec3::Zero());
-    constexpr double kScaleAbove = 1e150;  // squares up to 1e300: no overflow below
-    const double largest = gap.maxCoeff();
-    if (largest > kScaleAbove && largest < std::numeric_limits<double>::infinity()) {
-      return largest * (gap / largest).norm();
-    }
-    return gap.norm();
+    const double d = gap.norm();
+    if (d < std::numeric_limits<double>::infinity()) return d;
+    const double largest = gap.maxCoeff();  // an infinite gap stays +inf
+    return std::isfinite(largest) ? largest * (gap / largest).norm() : largest;
   }
 };
 
