@@ -734,9 +734,9 @@ std::optional<Transform3> Monitor::toFixed(const std::string& frame_in, const ro
   return std::nullopt;
 }
 
-void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time& stamp,
+void Monitor::applyPoses(std::vector<PoseUpdate> updates, const ros::Time& stamp,
                          const std::string& source, const std::string* pose_topic) {
-  PendingPoses p{updates, stamp, ros::Time::now(), source,
+  PendingPoses p{std::move(updates), stamp, ros::Time::now(), source,
                  pose_topic ? std::optional<std::string>(*pose_topic) : std::nullopt};
   {
     std::unique_lock<std::mutex> world(world_mutex_, std::try_to_lock);
@@ -748,13 +748,17 @@ void Monitor::applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time
       return;
     }
   }
+  // A message counts at least one update against kMaxPendingPoseUpdates.
+  const auto weight = [](const PendingPoses& q) {
+    return std::max<std::size_t>(1, q.updates.size());
+  };
   {
     std::lock_guard<std::mutex> lock(pending_mutex_);
-    pending_updates_ += std::max<std::size_t>(1, p.updates.size());
+    pending_updates_ += weight(p);
     pending_poses_.push_back(std::move(p));
     ++poses_deferred_;
     while (pending_updates_ > kMaxPendingPoseUpdates && pending_poses_.size() > 1) {
-      pending_updates_ -= std::max<std::size_t>(1, pending_poses_.front().updates.size());
+      pending_updates_ -= weight(pending_poses_.front());
       pending_poses_.pop_front();
       ++poses_dropped_;
     }
@@ -903,7 +907,7 @@ void Monitor::onBodyPoses(
     }
     for (auto& u : *updates)
       u = transformUpdate(u, *to_fixed);
-    applyPoses(*updates, poseStamp(msg->header.stamp, used), "~body_poses");
+    applyPoses(std::move(*updates), poseStamp(msg->header.stamp, used), "~body_poses");
   } catch (const std::exception& e) {
     reject("~body_poses", std::string("~body_poses: internal error: ") + e.what());
   }

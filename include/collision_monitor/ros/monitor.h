@@ -153,7 +153,7 @@ class Monitor {
   /// half a core taken from the check). `pose_topic`: the updates apply only while the body still
   /// follows that topic (a message in flight on the subscription a replacement shut down is
   /// dropped).
-  void applyPoses(const std::vector<PoseUpdate>& updates, const ros::Time& stamp,
+  void applyPoses(std::vector<PoseUpdate> updates, const ros::Time& stamp,
                   const std::string& source, const std::string* pose_topic = nullptr);
   /// Under world_mutex_: applies one message's poses (or refuses them). True when some update
   /// was for a body posed this way (unknown, TF-attached and superseded ones are not).
