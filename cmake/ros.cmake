@@ -70,7 +70,7 @@ if(CATKIN_ENABLE_TESTING)
   # Plain gtests, no master: conversions, validation, URDF/SRDF, parameters, mesh URIs.
   cm_add_gtest(test_ros_conversions
     SOURCES test/ros/test_conversions.cpp test/ros/test_robot_model.cpp
-      test/ros/test_logger_services.cpp test/ros/test_tunables.cpp
+      test/ros/test_logger_services.cpp test/ros/test_tunables.cpp test/ros/test_tf_receiver.cpp
     LIBS collision_monitor_ros)
   if(TARGET test_ros_conversions)
     target_include_directories(test_ros_conversions SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})

@@ -1221,7 +1221,7 @@ void Monitor::runCycle() {
       recent_jumps_.push_back(ros::WallTime::now());
       if (recent_jumps_.size() > kJumpsWarn) recent_jumps_.pop_front();
     }
-    tf_buffer_->clear();
+    tf_receiver_->clear();
     tf_seen_.clear();
     {
       std::lock_guard<std::mutex> lock(world_mutex_);
@@ -1257,13 +1257,16 @@ void Monitor::runCycle() {
   if (stamp_now.isZero() && !clock_started_) return;
   clock_started_ = true;
 
-  // TF lookups outside the world lock: one per distinct frame.
+  // TF lookups outside the world lock: one per distinct frame, and while the world keeps timed
+  // poses, one per TF stamp since the frame's last lookup (a check that TF outran).
   std::vector<std::pair<std::string, std::string>> attached;  // id, frame
+  bool keeps_poses = false;
   {
     std::lock_guard<std::mutex> lock(world_mutex_);
     for (const auto& [id, t] : tracked_) {
       if (t.from_tf) attached.emplace_back(id, t.frame);
     }
+    keeps_poses = world_->keepsPoses();
   }
   struct FramePose {
     Transform3 pose;
@@ -1271,6 +1274,10 @@ void Monitor::runCycle() {
     std::optional<world::Stamp> arrived;  ///< when the check first saw that transform
   };
   std::map<std::string, std::optional<FramePose>> frames;
+  // Per frame, its poses at the TF stamps between its last lookup and this one, in order.
+  std::map<std::string, std::vector<FramePose>> frames_between;
+  const std::size_t between_most = std::clamp<std::size_t>(
+      kMaxTfLookupsBetween / std::max<std::size_t>(1, attached.size()), 1, kMaxTfStampsBetween);
   std::vector<std::string> future_frames;
   std::map<std::string, TfSeen> seen;  // tf_seen_ for this cycle's frames
   // Every frame from the same TF messages: none goes in while these lookups run (TfReceiver).
@@ -1287,7 +1294,7 @@ void Monitor::runCycle() {
     }
     try {
       const auto tf = tf_buffer_->lookupTransform(fixed_frame_, frame, ros::Time(0));
-      const double stamp = tf.header.stamp.toSec();
+      const ros::Time& stamp = tf.header.stamp;
       // When this transform was first seen (this cycle if it is new): a frame stamped ahead of
       // ROS time (its publisher's clock ahead of ours) ages from then, as timed poses do. By its
       // own stamp it would stay fresh for as long as it is ahead after its publisher stopped,
@@ -1297,16 +1304,30 @@ void Monitor::runCycle() {
       const TfSeen& first = seen[frame] = before != tf_seen_.end() && before->second.stamp == stamp
                                               ? before->second
                                               : TfSeen{stamp, seen_at};
-      if (stamp > now + kTimeJumpTolerance) {
+      if (stamp.toSec() > now + kTimeJumpTolerance) {
         // From the future of ROS time: not fresh data (it would stay "fresh" until the clock
         // caught up). Right after a backward jump it is data from before the jump that arrived
         // after the buffer was cleared, and it blocks the new data (tf2 refuses data older than
         // its cache behind the latest): clear again.
         frames[frame] = std::nullopt;
-        future_frames.push_back(frame + " (" + std::to_string(stamp - now) + " s ahead)");
+        future_frames.push_back(frame + " (" + std::to_string(stamp.toSec() - now) + " s ahead)");
       } else {
         frames[frame] =
             FramePose{toTransform3(tf.transform), toStamp(tf.header.stamp), arrivedAt(first.at)};
+        if (keeps_poses && before != tf_seen_.end()) {
+          // What the frame did since its last lookup, for catch-up: where TF moved it between
+          // two checks that it outran (WorldModel keeps these poses only while it catches up).
+          for (const ros::Time& at : tf_receiver_->stampsBetween(tf_snapshot, before->second.stamp,
+                                                                 stamp, between_most)) {
+            try {
+              const auto t = tf_buffer_->lookupTransform(fixed_frame_, frame, at);
+              frames_between[frame].push_back(
+                  FramePose{toTransform3(t.transform), toStamp(t.header.stamp), std::nullopt});
+            } catch (const tf2::TransformException&) {
+              // Not every frame of the chain known at that time (a source that started since).
+            }
+          }
+        }
       }
     } catch (const tf2::TransformException&) {
       frames[frame] = std::nullopt;
@@ -1316,7 +1337,7 @@ void Monitor::runCycle() {
   // Frames not looked up this cycle (no body on them, a failed lookup) keep the time they were
   // first seen while their stamp is still ahead: seen again later, they are not new data.
   for (auto& [frame, first] : tf_seen_) {
-    if (first.stamp > now) seen.emplace(frame, first);
+    if (first.stamp > stamp_now) seen.emplace(frame, first);
   }
   tf_seen_.swap(seen);
   if (!future_frames.empty()) {
@@ -1327,7 +1348,7 @@ void Monitor::runCycle() {
                             << joined(future_frames)
                             << (clear ? "; cleared the TF buffer (time jumped back)" : ""));
     }
-    if (clear) tf_buffer_->clear();
+    if (clear) tf_receiver_->clear();
   }
 
   world::CycleResult cycle;
@@ -1343,6 +1364,11 @@ void Monitor::runCycle() {
       if (it == tracked_.end() || !it->second.from_tf || it->second.frame != frame) continue;
       const auto& f = frames[frame];
       if (f) {
+        // Not to a body new since the last check: nothing of it before it came.
+        if (world_->pose(id)) {
+          for (const FramePose& b : frames_between[frame])
+            world_->setPose(id, b.pose, b.stamp);
+        }
         world_->setPose(id, f->pose, f->stamp, std::nullopt, f->arrived);
       } else {
         world_->markUnresolved(id);

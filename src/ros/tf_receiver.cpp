@@ -1,6 +1,7 @@
 #include "collision_monitor/ros/tf_receiver.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <sstream>
 #include <utility>
@@ -56,6 +57,36 @@ std::pair<std::size_t, std::string> TfReceiver::refused() const {
   return {refused_, last_refusal_};
 }
 
+std::vector<ros::Time> TfReceiver::stampsBetween(const std::unique_lock<std::mutex>& held,
+                                                 const ros::Time& after, const ros::Time& before,
+                                                 std::size_t most) const {
+  assert(held.owns_lock() && held.mutex() == &batch_mutex_);
+  (void)held;
+  if (!(after < before)) return {};
+  return spread({stamps_.upper_bound(after), stamps_.lower_bound(before)}, most);
+}
+
+std::vector<ros::Time> TfReceiver::spread(const std::vector<ros::Time>& stamps, std::size_t most) {
+  const std::size_t n = stamps.size();
+  if (n <= most) return stamps;
+  std::vector<ros::Time> picked;
+  picked.reserve(most);
+  // The k-th of `most` picks, counted back from the last: index n - 1 - floor(k n / most).
+  for (std::size_t k = most; k-- > 0;)
+    picked.push_back(stamps[n - 1 - k * n / most]);
+  return picked;
+}
+
+void TfReceiver::clear() {
+  std::lock_guard<std::mutex> lock(batch_mutex_);
+  clearLocked();
+}
+
+void TfReceiver::clearLocked() {
+  buffer_.clear();
+  stamps_.clear();
+}
+
 std::string TfReceiver::whyRefused(const geometry_msgs::TransformStamped& t) {
   const std::string child = tfFrameName(t.child_frame_id);
   const std::string parent = tfFrameName(t.header.frame_id);
@@ -106,7 +137,7 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
       if (!why.empty()) {
         ROS_WARN_STREAM(name_ << ": TF received before ROS time started is " << why
                               << ": clearing the TF buffer");
-        buffer_.clear();
+        clearLocked();
       }
       taken_before_time_ = ros::Time();
     }
@@ -118,7 +149,7 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
         ROS_WARN_STREAM(name_ << ": detected jump back in time of " << (last_update_ - now).toSec()
                               << " s, clearing the TF buffer (logged at most once every 5 s)");
       }
-      buffer_.clear();
+      clearLocked();
     }
     last_update_ = now;
     for (const auto& t : event.getConstMessage()->transforms) {
@@ -163,6 +194,10 @@ void TfReceiver::onMessage(const ros::MessageEvent<const tf2_msgs::TFMessage>& e
       if (why.empty()) {
         try {
           buffer_.setTransform(*in, authority, is_static);
+          if (!is_static) {
+            stamps_.insert(in->header.stamp);
+            if (stamps_.size() > kStampsKept) stamps_.erase(stamps_.begin());
+          }
         } catch (const std::exception& e) {
           // tf2::TransformException, and std::runtime_error from ros::Time for a stamp within
           // the cache time of the largest ROS time: it escaped this thread and aborted the

@@ -114,11 +114,12 @@ class Monitor:
             return None
         return wait_for(find, timeout, period=0.001)
 
-    def events_for(self, pairs):
-        """Every event so far whose pair is one of `pairs` (a set of frozensets)."""
+    def events_for(self, pairs, since=0.0):
+        """Every event received after `since` (monotonic) whose pair is one of `pairs` (a set
+        of frozensets)."""
         with self.lock:
-            return [e for _, e in self.events
-                    if frozenset((e.pair.body_a, e.pair.body_b)) in pairs]
+            return [e for t, e in self.events
+                    if t >= since and frozenset((e.pair.body_a, e.pair.body_b)) in pairs]
 
     def ids(self):
         return sorted(self.list_bodies().ids)

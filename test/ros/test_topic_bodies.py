@@ -20,6 +20,7 @@ from collision_monitor.msg import (Body, BodyPoses, CollisionEvent, CollisionSta
                                    Shape)
 from collision_monitor.srv import CheckCollision, CheckCollisionRequest, CheckCollisionResponse
 from diagnostic_msgs.msg import DiagnosticStatus
+from dynamic_reconfigure.client import Client
 from geometry_msgs.msg import Point, PoseStamped, Twist
 from roscpp.srv import GetLoggers, SetLoggerLevel
 from rosgraph_msgs.msg import Log
@@ -949,7 +950,31 @@ class TopicBodies(unittest.TestCase):
         # poses, the target interpolated: COLLISION_BEGIN and COLLISION_END come, stamped between
         # the two poses, each with the distance at its stamp. Checked only at the target's
         # stamps, the pass was not seen.
+        self._dart_through_target()
+
+    def test_23b_a_pass_between_checks_that_tf_outran_is_caught_up(self):
+        # The same with no check in the pass: check_on_tf off, a heartbeat every 5 s and the pose
+        # stream of the other bodies paused, so the monitor checks only at the target's poses
+        # (stamped 5 ms behind the dart's TF, so that every check sees the stamps apart). It looks
+        # the dart's frame up at the TF stamps between two checks (node.md, Catch-up): the same
+        # two events, at the dart's stamps, with their distances. Before, a TF body kept only
+        # the transforms its checks saw, all 0.7 m or more off the target: no event.
+        client = Client(NS.rstrip('/'), timeout=10.0)
+        client.update_configuration({'check_on_tf': False, 'rate': 0.2})
+        with self.poses.lock:
+            paused = set(self.poses.poses) - self.poses.paused
+            self.poses.paused |= paused
+        try:
+            self._dart_through_target(lag=0.005)
+        finally:
+            with self.poses.lock:
+                self.poses.paused -= paused
+            client.update_configuration({'check_on_tf': True, 'rate': 2.0})
+
+    def _dart_through_target(self, lag=0.0):
+        # lag: the target's poses are stamped this many seconds before the dart's TF of the time.
         pair = frozenset(('dart', 'target'))
+        since = time.monotonic()  # test_23b's run after test_23's
         br = tf2_ros.TransformBroadcaster()
         t0 = rospy.Time.now()
 
@@ -976,13 +1001,14 @@ class TopicBodies(unittest.TestCase):
                 if len(posed) < len(places) and dart_x(now) >= places[len(posed)]:
                     msg = BodyPoses()
                     msg.header.frame_id = 'world'
-                    msg.header.stamp = now
+                    msg.header.stamp = now - rospy.Duration(lag)
                     msg.ids = ['target']
-                    msg.poses = [pose(0.0, target_y(now), 0.0)]
+                    msg.poses = [pose(0.0, target_y(msg.header.stamp), 0.0)]
                     self.m.poses_pub.publish(msg)
-                    posed.append(now)
+                    posed.append(msg.header.stamp)
                 time.sleep(max(0.0, start + (k + 1) * 0.01 - time.monotonic()))
-            self.assertIsNotNone(self.m.wait_event(E.COLLISION_END, 'dart', 'target', 3.0))
+            self.assertIsNotNone(
+                self.m.wait_event(E.COLLISION_END, 'dart', 'target', 3.0, since=since))
         finally:
             for i in pair:
                 self.m.add(Body(id=i, operation=Body.REMOVE))
@@ -992,7 +1018,7 @@ class TopicBodies(unittest.TestCase):
         self.assertGreater(gap(before), 0.2)
         self.assertGreater(gap(after), 0.2)
         self.assertGreaterEqual(len(posed), 6)  # the target moving before the pass
-        hits = [e for e in self.m.events_for({pair})
+        hits = [e for e in self.m.events_for({pair}, since)
                 if e.type in (E.COLLISION_BEGIN, E.COLLISION_END)]
         self.assertEqual([e.type for e in hits], [E.COLLISION_BEGIN, E.COLLISION_END], hits)
         for e in hits:

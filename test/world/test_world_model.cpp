@@ -2287,6 +2287,36 @@ TEST(WorldModel, SourcesOfDifferentRatesWhoseStampsMeetAtEveryCheckAreCaughtUp) 
   EXPECT_EQ(events, expected);
 }
 
+TEST(WorldModel, KeepsPosesOnlyWhileChecksFindStampsApart) {
+  // keepsPoses() tells a source that knows poses between two checks (TF) whether to give them:
+  // only with align_poses, and only while a check within pose_timeout found timed stamps apart.
+  for (const bool align : {true, false}) {
+    SCOPED_TRACE(align ? "align_poses" : "align_poses false");
+    Settings s = dyadic();
+    s.align_poses = align;
+    const auto w = twoSpheres(s, "a", "b", 0.1);
+    EXPECT_FALSE(w->keepsPoses());
+    ASSERT_TRUE(w->setPose("a", at(0), 10.0));
+    ASSERT_TRUE(w->setPose("b", at(1), 10.0));
+    w->check(10.0);
+    EXPECT_FALSE(w->keepsPoses()) << "posed at one time";
+    ASSERT_TRUE(w->setPose("a", at(0), 10.1));
+    w->check(10.1);  // b still at 10.0
+    EXPECT_EQ(w->keepsPoses(), align) << "stamps apart";
+    ASSERT_TRUE(w->setPose("b", at(1), 10.1));
+    w->check(10.1);
+    EXPECT_EQ(w->keepsPoses(), align) << "stamps together again, 0 s after they were apart";
+    ASSERT_TRUE(w->setPose("a", at(0), 10.6));
+    ASSERT_TRUE(w->setPose("b", at(1), 10.6));
+    w->check(10.6);
+    EXPECT_EQ(w->keepsPoses(), align) << "0.5 s (pose_timeout) after";
+    ASSERT_TRUE(w->setPose("a", at(0), 10.7));
+    ASSERT_TRUE(w->setPose("b", at(1), 10.7));
+    w->check(10.7);
+    EXPECT_FALSE(w->keepsPoses()) << "0.6 s after";
+  }
+}
+
 TEST(WorldModel, AStillBodyThatTurnsOutToMoveStandsAsCheckedLive) {
   // An obstacle posed at the same pose at 1.0 and 1.2 s (still: held since, the pair at the
   // dart's stamps), then at 1.4 s elsewhere. Interpolated between its last two poses, it would

@@ -246,7 +246,7 @@ class Monitor {
   /// runCycle(): per attached frame, the stamp of its latest transform and the ROS time it was
   /// first seen (a frame stamped ahead of ROS time ages from then). Loop thread only.
   struct TfSeen {
-    double stamp = 0.0;
+    ros::Time stamp;
     ros::Time at;
   };
   std::map<std::string, TfSeen> tf_seen_;
@@ -327,6 +327,10 @@ class Monitor {
   /// pose and the TF buffer are forgotten. Poses stamped more than this after ROS time are
   /// refused, and TF that far ahead leaves its frame unresolved.
   static constexpr double kTimeJumpTolerance = 1.0;
+  /// runCycle(): TF lookups at the stamps between two checks of a frame (catch-up), at most this
+  /// many a cycle over all frames and kMaxTfStampsBetween a frame (the last stamps kept).
+  static constexpr std::size_t kMaxTfLookupsBetween = 1024;
+  static constexpr std::size_t kMaxTfStampsBetween = 32;
   /// For this long (s, steady clock) after a backward jump, TF from the future (data from before
   /// the jump that arrived after the buffer was cleared) clears the TF buffer again.
   static constexpr int kTfClearWindow = 10;

@@ -12,11 +12,14 @@
 /// message's insertion or one check's lookups (microseconds per frame).
 #pragma once
 
+#include <cstddef>
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <set>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
@@ -42,6 +45,21 @@ class TfReceiver {
   /// Hold while looking up frames that must come from the same messages. No message is
   /// inserted meanwhile: keep it short, and never wait for TF while holding it.
   std::unique_lock<std::mutex> snapshot() { return std::unique_lock<std::mutex>(batch_mutex_); }
+
+  /// The stamps of the /tf transforms taken (distinct; the latest kStampsKept of them) strictly
+  /// between `after` and `before`, at most `most` of them (spread(): the last always among
+  /// them). They are the times at which some frame's transform is known rather than
+  /// interpolated: a reader that looked up a frame at `after` before and at `before` now can
+  /// look it up in between at these. `held` is snapshot()'s lock, which the call needs.
+  std::vector<ros::Time> stampsBetween(const std::unique_lock<std::mutex>& held,
+                                       const ros::Time& after, const ros::Time& before,
+                                       std::size_t most) const;
+  /// At most `most` of the increasing `stamps`, evenly spread over them, the last always among
+  /// them (it is the nearest to the time looked up next).
+  static std::vector<ros::Time> spread(const std::vector<ros::Time>& stamps, std::size_t most);
+  /// Empties the buffer (static transforms stay, as tf2 keeps them) and forgets the stamps.
+  void clear();
+  static constexpr std::size_t kStampsKept = 4096;
 
   /// Messages inserted so far (/tf and /tf_static).
   std::size_t messages() const;
@@ -71,7 +89,10 @@ class TfReceiver {
   ros::CallbackQueue queue_;
   std::unique_ptr<ros::AsyncSpinner> spinner_;
   ros::Subscriber tf_sub_, static_sub_;
+  void clearLocked();  ///< clear() with batch_mutex_ held
+
   mutable std::mutex batch_mutex_;  ///< held while a message goes in and by snapshot()
+  std::set<ros::Time> stamps_;      ///< guarded by batch_mutex_; see stampsBetween()
   ros::Time last_update_;           ///< receiving thread only
   /// Latest /tf stamp taken while ROS time was 0 (simulated time before /clock), until time
   /// starts (receiving thread only).

@@ -234,6 +234,11 @@ class WorldModel {
   bool setPose(const std::string& id, const Transform3& pose, Stamp stamp,
                const std::optional<Twist>& twist = std::nullopt,
                std::optional<Stamp> received = std::nullopt);
+  /// Whether setPose() keeps every timed pose (for catch-up, Settings::align_poses) rather than
+  /// the last two: while the last checks within pose_timeout found fresh timed poses of
+  /// different stamps, or bodies posed at different rates. A source that knows poses between
+  /// two checks (TF) gives them only then.
+  bool keepsPoses() const;
   /// Marks a body's pose as unresolvable now (e.g. TF lookup failed): its pairs turn UNKNOWN.
   void markUnresolved(const std::string& id);
   /// Forgets every held pose (e.g. time jumped backwards) except static ones (stamp 0, which
