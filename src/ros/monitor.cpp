@@ -1461,6 +1461,10 @@ void Monitor::diagnosticsThread() {
 std::string Monitor::checkDiagnosticPeriod() {
   XmlRpc::XmlRpcValue v;
   if (!pnh_.getParamCached("diagnostic_period", v)) return "";
+  // Deleted since it was cached: the master sends an empty struct ("nodelet load" clears the
+  // nodelet's namespace so; a reloaded nodelet refused it and wrote 1 s over it).
+  // diagnostic_updater keeps its period then, as when it is not set.
+  if (v.getType() == XmlRpc::XmlRpcValue::TypeStruct && v.size() == 0) return "";
   double period = 0.0;
   if (v.getType() == XmlRpc::XmlRpcValue::TypeDouble) {
     period = static_cast<double>(v);

@@ -149,6 +149,25 @@ class BadParams(unittest.TestCase):
         self.assertTrue(wait_for(lambda: self.m.state_count >= n0 + 10 and
                                  self.m.diagnostics is not last, 5.0))
 
+    def test_04b_diagnostic_period_deleted_while_running(self):
+        # The master tells a cached parameter's deletion as an empty struct ("nodelet load" clears
+        # the nodelet's namespace so): it was refused as "not a number", counted and written over
+        # with 1 s, every time the nodelet was reloaded. Deleted is as not set: nothing refused.
+        rospy.set_param(NS + 'diagnostic_period', 0.5)
+        n0 = self.m.state_count
+        last = self.m.diagnostics
+        self.assertTrue(wait_for(lambda: self.m.diagnostics is not last, 5.0))
+        rejected0 = int(self.m.diag_value('rejected inputs (total)') or 0)
+        rospy.delete_param(NS + 'diagnostic_period')
+        for _ in range(3):  # three reports after the deletion
+            last = self.m.diagnostics
+            self.assertTrue(wait_for(lambda: self.m.diagnostics is not last, 5.0))
+        self.assertEqual(int(self.m.diag_value('rejected inputs (total)') or 0), rejected0,
+                         self.m.diag_value('last rejection'))
+        self.assertFalse(rospy.has_param(NS + 'diagnostic_period'))
+        self.assertGreater(self.m.state_count, n0)
+        rospy.set_param(NS + 'diagnostic_period', 1.0)  # as test_04 left it
+
     def test_05_first_check_at_once_with_a_long_min_check_interval(self):
         # /slow_checks (min_check_interval 20 s) started with this test: its first check waited
         # the 20 s out, /diagnostics saying 'checks (total)' 0 and OK meanwhile.
