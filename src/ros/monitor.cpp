@@ -116,9 +116,10 @@ std::optional<world::Stamp> arrivedAt(const ros::Time& t) {
 }  // namespace
 
 Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name)
-    : nh_(nh), pnh_(pnh), name_(name) {
+    : nh_(nh), pnh_(pnh), srv_pnh_(pnh), name_(name) {
   nh_.setCallbackQueue(&callback_queue_);
   pnh_.setCallbackQueue(&callback_queue_);
+  srv_pnh_.setCallbackQueue(&services_queue_);
   readParameters();
   world_ = std::make_unique<world::WorldModel>(settings_);
   applyTunables(tunables_);
@@ -197,15 +198,15 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   // parameters (and writes them back): it is then given the checked values in force, which
   // also go back to the parameter server, before the callback is set (which calls it once).
   reconfigure_ = std::make_unique<dynamic_reconfigure::Server<collision_monitor::MonitorConfig>>(
-      reconfigure_mutex_, pnh_);
+      reconfigure_mutex_, srv_pnh_);
   reconfigure_->updateConfig(toConfig(tunables_));
   reconfigure_->setCallback([this](collision_monitor::MonitorConfig& config, std::uint32_t level) {
     onReconfigure(config, level);
   });
   // Last: a client that waits for a service finds the checked values on the parameter server.
-  distance_srv_ = pnh_.advertiseService("get_distance", &Monitor::getDistance, this);
-  check_srv_ = pnh_.advertiseService("check_collision", &Monitor::checkCollision, this);
-  list_srv_ = pnh_.advertiseService("list_bodies", &Monitor::listBodies, this);
+  distance_srv_ = srv_pnh_.advertiseService("get_distance", &Monitor::getDistance, this);
+  check_srv_ = srv_pnh_.advertiseService("check_collision", &Monitor::checkCollision, this);
+  list_srv_ = srv_pnh_.advertiseService("list_bodies", &Monitor::listBodies, this);
 
   {
     // rate_, not tunables_.rate: ~set_parameters is served once the spinner below starts, and
@@ -218,13 +219,16 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   }
   loop_thread_ = std::thread([this] { loopThread(); });
   diagnostics_thread_ = std::thread([this] { diagnosticsThread(); });
-  // As many threads as a manager would give (at least 2, at most 8): a service answers while a
-  // pose callback waits for the check in progress.
+  // As many threads as a manager would give (at least 2, at most 8), for pose input and for the
+  // services: several calls are answered at once (those that wait for a check, one after the
+  // other).
   const unsigned threads = std::clamp(std::thread::hardware_concurrency(), 2u, 8u);
   spinner_ = std::make_unique<ros::AsyncSpinner>(threads, &callback_queue_);
   spinner_->start();
   bodies_spinner_ = std::make_unique<ros::AsyncSpinner>(1, &bodies_queue_);
   bodies_spinner_->start();
+  services_spinner_ = std::make_unique<ros::AsyncSpinner>(threads, &services_queue_);
+  services_spinner_->start();
 }
 
 Monitor::~Monitor() {
@@ -243,8 +247,10 @@ Monitor::~Monitor() {
   // No callback starts from here on; one in progress finishes (no check holds the world now).
   callback_queue_.disable();
   bodies_queue_.disable();
+  services_queue_.disable();
   if (spinner_) spinner_->stop();
   if (bodies_spinner_) bodies_spinner_->stop();
+  if (services_spinner_) services_spinner_->stop();
   tf_receiver_.reset();  // after the loop, which reads through it; its trigger()s are harmless
   bodies_sub_.shutdown();
   poses_sub_.shutdown();

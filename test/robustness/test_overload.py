@@ -12,10 +12,11 @@ import unittest
 import rospy
 import rostest
 from collision_monitor.msg import Body, BodyPoses, CollisionEvent, PairState, Shape
+from collision_monitor.srv import GetDistance
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 
 from robust_util import alive, node_pid  # (also puts test/ros on the path)
-from cm_test_util import Monitor, pose, shape, sphere_body, wait_for
+from cm_test_util import NS, Monitor, pose, shape, sphere_body, wait_for
 
 
 class Overload(unittest.TestCase):
@@ -204,6 +205,53 @@ class Overload(unittest.TestCase):
         self.assertEqual(dropped, 0)
         self.assertIn('~body_poses: poses ignored for unknown bodies: ghost',
                       self.m.diag_value('last rejection', d))
+
+    def test_2c_services_waiting_for_a_check_leave_pose_input_flowing(self):
+        """Eight ~get_distance calls wait for a check of seconds (the node has 2 to 8 threads for
+        pose input) while 400 pose messages come: every one reaches the node ('~body_poses
+        messages (total)'). When services shared pose input's threads, such calls took them all,
+        and roscpp dropped the messages beyond its queue of 100."""
+        pub = rospy.Publisher(NS + 'body_poses', BodyPoses, queue_size=1000)
+        self.assertTrue(wait_for(lambda: pub.get_num_connections() > 0, 10.0))
+        self.add_piles(10.0)
+        d = self.report(DiagnosticStatus.WARN, 'a check has been running for', timeout=60.0)
+        self.assertIsNotNone(d, self.m.diagnostics)
+        received_before = int(self.m.diag_value('~body_poses messages (total)', d))
+
+        def call():
+            try:
+                rospy.ServiceProxy(NS + 'get_distance', GetDistance)('s0', 'big_a', '')
+            except rospy.ServiceException:
+                pass
+        callers = [threading.Thread(target=call, daemon=True) for _ in range(8)]
+        for c in callers:
+            c.start()
+        time.sleep(0.2)
+        n = 400
+        t_sent = time.monotonic()
+        for k in range(n):
+            msg = BodyPoses(ids=['s1'], poses=[pose(0.5 + 0.001 * k, 0, 0)])
+            msg.header.frame_id = 'world'
+            msg.header.stamp = rospy.Time(0)
+            pub.publish(msg)
+            time.sleep(0.001)
+        t_sent = time.monotonic() - t_sent
+        answered = sum(not c.is_alive() for c in callers)
+        received = wait_for(lambda: int(self.m.diag_value('~body_poses messages (total)') or 0) >=
+                            received_before + n, 30.0, 0.05)
+        got = int(self.m.diag_value('~body_poses messages (total)')) - received_before
+        print('pose messages during waiting services: %d of %d received (%.2f s to send them; '
+              '%d of 8 calls answered by then)' % (got, n, t_sent, answered), flush=True)
+        self.assertTrue(received, '%d of %d pose messages received' % (got, n))
+        self.assertEqual(got, n)
+        for name in ('big_a', 'big_b', 'big_c'):
+            self.m.add(Body(id=name, operation=Body.REMOVE))
+        self.assertTrue(wait_for(lambda: len(self.m.list_bodies().ids) == 2, 30.0))
+        for c in callers:
+            c.join(30.0)
+        r = self.m.get_distance('s0', 's1', '')
+        self.assertTrue(r.success, r.message)
+        self.assertAlmostEqual(r.result.distance, 0.5 + 0.001 * (n - 1) - 0.2, places=9)
 
     def test_3_sigint_during_a_long_check(self):
         """SIGINT while such a check runs: the node stops it and exits at once. It used to finish
