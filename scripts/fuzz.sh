@@ -32,6 +32,7 @@ if [[ " $TARGETS " == *" ros "* ]] && [ ! -f "$MSG_INCLUDE/collision_monitor/Bod
   TARGETS="${TARGETS//ros/}"
   MSG_INCLUDE=""
 fi
+if [[ " $TARGETS " != *" ros "* ]]; then MSG_INCLUDE=""; fi
 CXX=clang++ CC=clang cmake -S "$CM_ROOT/fuzz" -B "$B" -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCM_MSG_INCLUDE="$MSG_INCLUDE" >"$B.configure.log" 2>&1 || { cat "$B.configure.log"; exit 1; }
 export ASAN_OPTIONS="detect_leaks=1:abort_on_error=1:${ASAN_OPTIONS:-}"

@@ -30,6 +30,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -69,16 +70,20 @@ inline V3 closestPointSegment(const V3& p, const V3& a, const V3& b) {
 }
 
 /// Closest point to p on triangle abc: the projection of p onto the plane when it lies inside
-/// (signs of the three sub-triangle areas, long double), else the nearest of the three edges
-/// (closestPointSegment). Not Ericson 5.1.5's dot-product regions: on a needle triangle they
-/// difference products of dot products that cancel by up to 12 digits (a point on a 1 m x
-/// 3.4e6 m box face came out 0.0029 m away in double and 0.06 m in long double; a point 1.47e-6 m
-/// from a 1.02 m x 1.3e-6 m face, 1.4756e-6 m for 1.4734375e-6 m: fuzz/regressions/core/
-/// oracle-needle-*). The areas multiply long edges by short ones.
+/// (signs of the three sub-triangle areas, long double) and is nearer than the nearest point of
+/// the three edges (closestPointSegment), else that point. On a triangle flat to rounding (1e-17
+/// of its length wide) the weights passed for inside with a point 1.96e-10 m along it from the
+/// nearest: fuzz/regressions/core/oracle-near-collinear-triangle-0.1m-out.
+/// Not Ericson 5.1.5's dot-product regions: on a needle triangle they difference products of dot
+/// products that cancel by up to 12 digits (a point on a 1 m x 3.4e6 m box face came out
+/// 0.0029 m away in double and 0.06 m in long double; a point 1.47e-6 m from a 1.02 m x 1.3e-6 m
+/// face, 1.4756e-6 m for 1.4734375e-6 m: fuzz/regressions/core/oracle-needle-*). The areas
+/// multiply long edges by short ones.
 inline V3 closestPointTriangle(const V3& p_, const V3& a_, const V3& b_, const V3& c_) {
   using L = long double;
   using LV = Eigen::Matrix<L, 3, 1>;
   const LV p = p_.cast<L>(), a = a_.cast<L>(), b = b_.cast<L>(), c = c_.cast<L>();
+  std::optional<V3> inside;
   const LV n = (b - a).cross(c - a);
   const L nn = n.squaredNorm();
   if (nn > 0) {
@@ -96,11 +101,13 @@ inline V3 closestPointTriangle(const V3& p_, const V3& a_, const V3& b_, const V
     // (fuzz/regressions/core/oracle-sliver-triangle-projection-off-plane).
     const L sum = u + v + w;
     if (u >= 0 && v >= 0 && w >= 0 && std::abs(sum - nn) <= 1e-6L * nn)
-      return ((u * a + v * b + w * c) / sum).template cast<double>();
+      inside = ((u * a + v * b + w * c) / sum).template cast<double>();
   }
   V3 best = closestPointSegment(p_, a_, b_);
   for (const V3& e : {closestPointSegment(p_, b_, c_), closestPointSegment(p_, c_, a_)})
     if ((e - p_).squaredNorm() < (best - p_).squaredNorm()) best = e;
+  // Both candidates are points of the triangle (upper bounds); the nearer one is the answer.
+  if (inside && (*inside - p_).squaredNorm() < (best - p_).squaredNorm()) best = *inside;
   return best;
 }
 

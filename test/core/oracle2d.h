@@ -72,7 +72,11 @@ inline LD signedDistance(const std::vector<P2>& h) {
     const P2& a = h[i];
     const P2& b = h[(i + 1) % h.size()];
     d = std::min(d, originToSegment(a, b));
-    if (cross(b - a, P2{0, 0} - a) < 0) inside = false;
+    // On an edge's line is not inside: d is then the distance to the boundary. A sliver along the
+    // origin's line (three collinear points, SVD axes 5e-17 off) had every cross exactly 0 and
+    // took the origin 1.16e-5 m from it for inside
+    // (fuzz/regressions/core/oracle-collinear-axis-hull-point-on-its-line).
+    if (cross(b - a, P2{0, 0} - a) <= 0) inside = false;
   }
   return inside ? -d : d;
 }

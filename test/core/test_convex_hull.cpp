@@ -571,6 +571,41 @@ TEST(Oracle, ClosestPointOnTriangleInEveryVoronoiRegion) {
   EXPECT_NEAR((q - p).norm(), (oracle::closestPointSegment(p, tip, b6) - p).norm(), 1.6e-6);
 }
 
+TEST(Oracle, ClosestPointOnATriangleFlatToRoundingIsNoFartherThanItsEdges) {
+  // Three points 1.66 mm along one line through (0.1, 0, 0), given there as A's hull's vertices
+  // plus (0.1, 0, 0) (so flat to rounding, 1e-17 of its length wide), and the point (0.1, 0, 0),
+  // all times 1024 (the oracle's scale): the weights passed for inside with a point 2.0e-7 from
+  // p, where the edges come within 2.2e-16 (1.96e-10 m and 2e-19 m unscaled; fuzz/regressions/
+  // core/oracle-near-collinear-triangle-0.1m-out). Each candidate is a point of the triangle:
+  // the nearer one is the answer.
+  const Vec3 t(0.1, 0, 0);
+  const Vec3 a =
+      (Vec3(-0.00033458851292702581, 0.00019471913943827887, 0.00010171895343790688) + t) * 1024;
+  const Vec3 b =
+      (Vec3(0.00020911782057939115, -0.00012169946214892429, -6.3574345898691795e-05) + t) * 1024;
+  const Vec3 c =
+      (Vec3(-0.001449883556017112, 0.00084378293756587504, 0.00044078213156426314) + t) * 1024;
+  const Vec3 p = t * 1024;
+  double edges = (oracle::closestPointSegment(p, a, b) - p).norm();
+  edges = std::min(edges, (oracle::closestPointSegment(p, b, c) - p).norm());
+  edges = std::min(edges, (oracle::closestPointSegment(p, c, a) - p).norm());
+  EXPECT_LT(edges, 1e-15);
+  EXPECT_LE((oracle::closestPointTriangle(p, a, b, c) - p).norm(), edges);  // was 2.0e-7
+}
+
+TEST(Oracle, OriginBesideACollinearSetOnItsLineIsOutside) {
+  // Three points on the x axis, the nearest 1.164e-5 m from the origin, times 4096 (the oracle's
+  // scale): flat, they are measured in their plane (oracle2d.h), where the SVD's axes (5e-17 off)
+  // made them a sliver along the origin's line, every edge's cross product with the origin
+  // exactly 0: "inside", distance 0 (fuzz/regressions/core/
+  // oracle-collinear-axis-hull-point-on-its-line).
+  const double near = 1.1640402187054374e-05;
+  const std::vector<Vec3> points = {Vec3(6.9842413122326238e-05 * 4096, 0, 0),
+                                    Vec3(0.00043069488092101183 * 4096, 0, 0),
+                                    Vec3(near * 4096, 0, 0)};
+  EXPECT_NEAR(oracle::originSignedDistance(points) / 4096, near, 1e-15);  // was 0
+}
+
 TEST(Oracle, SegmentSegmentClosestPoints) {
   Vec3 c1, c2;
   // Nearly parallel: two 16.875 m segments, the second 1.7e-8 rad off the first in the plane
