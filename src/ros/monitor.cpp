@@ -1371,8 +1371,9 @@ void Monitor::runCycle() {
       const auto& f = frames[frame];
       if (f) {
         // Not to a body new since the last check: nothing of it before it came.
-        if (world_->pose(id)) {
-          for (const FramePose& b : frames_between[frame])
+        const auto between = frames_between.find(frame);
+        if (between != frames_between.end() && world_->pose(id)) {
+          for (const FramePose& b : between->second)
             world_->setPose(id, b.pose, b.stamp);
         }
         world_->setPose(id, f->pose, f->stamp, std::nullopt, f->arrived);

@@ -66,7 +66,7 @@ std::vector<ros::Time> TfReceiver::stampsBetween(const std::unique_lock<std::mut
   return spread({stamps_.upper_bound(after), stamps_.lower_bound(before)}, most);
 }
 
-std::vector<ros::Time> TfReceiver::spread(const std::vector<ros::Time>& stamps, std::size_t most) {
+std::vector<ros::Time> TfReceiver::spread(std::vector<ros::Time> stamps, std::size_t most) {
   const std::size_t n = stamps.size();
   if (n <= most) return stamps;
   std::vector<ros::Time> picked;

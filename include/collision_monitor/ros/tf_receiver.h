@@ -56,7 +56,7 @@ class TfReceiver {
                                        std::size_t most) const;
   /// At most `most` of the increasing `stamps`, evenly spread over them, the last always among
   /// them (it is the nearest to the time looked up next).
-  static std::vector<ros::Time> spread(const std::vector<ros::Time>& stamps, std::size_t most);
+  static std::vector<ros::Time> spread(std::vector<ros::Time> stamps, std::size_t most);
   /// Empties the buffer (static transforms stay, as tf2 keeps them) and forgets the stamps.
   void clear();
   static constexpr std::size_t kStampsKept = 4096;
