@@ -1,10 +1,11 @@
 #!/usr/bin/python3
 """Load for scripts/bench_tf_catchup.sh: with `joints`, publishes sensor_msgs/JointState for every
 movable joint of the URDF on /robot_description (sinusoids) at ~rate Hz; with `ball`, adds a
-sphere 'ball' on the monitor's ~bodies, poses it on ~body_poses at 10 Hz near the robot's base for
-`seconds` and prints, at each /diagnostics report of the monitor, its mean cycle time, check rate,
-pair checks caught up and pairs checked a check.
-Usage: bench_tf_catchup.py joints | bench_tf_catchup.py ball [seconds]"""
+sphere 'ball' on the monitor's ~bodies, poses it on ~body_poses at 10 Hz near the robot's base
+(`static`: once, stamped 0 in the fixed frame) for `seconds` and prints, at each /diagnostics
+report of the monitor, its mean cycle time, check rate, pair checks caught up and pairs checked a
+check.
+Usage: bench_tf_catchup.py joints | bench_tf_catchup.py ball [seconds [moving|static]]"""
 import math
 import sys
 import xml.etree.ElementTree as ET
@@ -36,7 +37,7 @@ def joints():
         rate.sleep()
 
 
-def ball(seconds):
+def ball(seconds, static):
     rospy.init_node('bench_tf_catchup_ball')
     ns = '/collision_monitor/'
     bodies = rospy.Publisher(ns + 'bodies', Body, queue_size=10, latch=True)
@@ -54,15 +55,25 @@ def ball(seconds):
     bodies.publish(Body(id='ball', operation=Body.ADD, parts=[sphere], pose_from_topic=True))
     end = rospy.Time.now() + rospy.Duration(seconds)
     rate = rospy.Rate(10.0)
+    posed = False
     while not rospy.is_shutdown() and rospy.Time.now() < end:
         msg = BodyPoses(ids=['ball'])
-        msg.header.stamp = rospy.Time.now()
-        msg.header.frame_id = 'base_link'
         p = Pose()
-        p.position.x, p.position.y, p.position.z = 0.6 + 0.1 * math.sin(rospy.get_time()), -0.2, 0.8
+        p.position.x, p.position.y, p.position.z = 0.6, -0.2, 0.8
         p.orientation.w = 1.0
+        if static:  # in the monitor's fixed frame, the URDF's root link
+            root = ET.fromstring(rospy.get_param('/robot_description'))
+            children = {j.find('child').get('link') for j in root.findall('joint')}
+            msg.header.frame_id = next(link.get('name') for link in root.findall('link')
+                                       if link.get('name') not in children)
+        else:
+            msg.header.stamp = rospy.Time.now()
+            msg.header.frame_id = 'base_link'
+            p.position.x += 0.1 * math.sin(rospy.get_time())
         msg.poses = [p]
-        poses.publish(msg)
+        if not (static and posed):
+            poses.publish(msg)
+            posed = True
         rate.sleep()
 
 
@@ -70,6 +81,6 @@ if __name__ == '__main__':
     if sys.argv[1:2] == ['joints']:
         joints()
     elif sys.argv[1:2] == ['ball']:
-        ball(float(sys.argv[2]) if len(sys.argv) > 2 else 25.0)
+        ball(float(sys.argv[2]) if len(sys.argv) > 2 else 25.0, sys.argv[3:4] == ['static'])
     else:
         sys.exit(__doc__)

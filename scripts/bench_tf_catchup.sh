@@ -1,10 +1,12 @@
 #!/usr/bin/env bash
 # The cost of catch-up at TF's rate (docs/reliability.md, "Catch-up at TF's rate"): the PR2 of
 # example-robot-data moving every joint on TF at 100 Hz (robot_state_publisher), a ball on
-# ~body_poses at 10 Hz (so that the world keeps poses), the monitor at rate 20 without markers;
-# prints the monitor's /diagnostics figures every 5 s. Uses the node of an existing build, on a
-# private ROS master.
-#   scripts/bench_tf_catchup.sh [check_on_tf] [seconds]   # default false 25. CM_BUILD: the build
+# ~body_poses at 10 Hz (stamps apart: the world keeps poses; `static`: posed once, stamped 0 in the
+# fixed frame, a world posed at one time), the monitor at rate 20 without markers; prints the
+# monitor's /diagnostics figures every 5 s. Uses the node of an existing build, on a private ROS
+# master.
+#   scripts/bench_tf_catchup.sh [check_on_tf] [seconds] [moving|static]
+#   (default false 25 moving). CM_BUILD: the build
 set -euo pipefail
 ROOT="$(cd "$(dirname "$0")/.." && pwd)"
 # shellcheck source=scripts/env.sh
@@ -28,4 +30,4 @@ pids+=($!)
   _check_on_tf:="${1:-false}" _diagnostic_period:=5 >"$LOG/node.log" 2>&1 &
 pids+=($!)
 sleep 3
-/usr/bin/python3 "$ROOT/scripts/bench_tf_catchup.py" ball "${2:-25}"
+/usr/bin/python3 "$ROOT/scripts/bench_tf_catchup.py" ball "${2:-25}" "${3:-moving}"

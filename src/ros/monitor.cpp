@@ -1263,16 +1263,17 @@ void Monitor::runCycle() {
   if (stamp_now.isZero() && !clock_started_) return;
   clock_started_ = true;
 
-  // TF lookups outside the world lock: one per distinct frame, and while the world keeps timed
-  // poses, one per TF stamp since the frame's last lookup (a check that TF outran).
+  // TF lookups outside the world lock: one per distinct frame, and with align_poses one per TF
+  // stamp since the frame's last lookup (a check that TF outran: the world keeps poses from the
+  // second such pose of a body on, WorldModel::keepsPoses()).
   std::vector<std::pair<std::string, std::string>> attached;  // id, frame
-  bool keeps_poses = false;
+  bool catch_up = false;
   {
     std::lock_guard<std::mutex> lock(world_mutex_);
     for (const auto& [id, t] : tracked_) {
       if (t.from_tf) attached.emplace_back(id, t.frame);
     }
-    keeps_poses = world_->keepsPoses();
+    catch_up = world_->settings().align_poses;
   }
   struct FramePose {
     Transform3 pose;
@@ -1320,9 +1321,9 @@ void Monitor::runCycle() {
       } else {
         frames[frame] =
             FramePose{toTransform3(tf.transform), toStamp(tf.header.stamp), arrivedAt(first.at)};
-        if (keeps_poses && before != tf_seen_.end()) {
+        if (catch_up && before != tf_seen_.end()) {
           // What the frame did since its last lookup, for catch-up: where TF moved it between
-          // two checks that it outran (WorldModel keeps these poses only while it catches up).
+          // two checks that it outran.
           for (const ros::Time& at : tf_receiver_->stampsBetween(tf_snapshot, before->second.stamp,
                                                                  stamp, between_most)) {
             try {

@@ -262,8 +262,9 @@ struct BodyState {
   /// moving() and `stamp` at the check() before the last one and at the last one that found it
   /// fresh ([0] is what Impl::lastPairStamp() reads during a check: the previous one's).
   bool checked_moving[2] = {false, false};
-  /// Timed poses of new stamps since the last check() (at most 255): sources of different rates
-  /// whose stamps meet at every check are told apart by it (Impl::mixed_stamps).
+  /// Timed poses of new stamps since the last check() (at most 255): a second one tells of a
+  /// source that outran the checks (Impl::outran), as sources of different rates whose stamps
+  /// meet at every check do.
   std::uint8_t new_stamps = 0;
   int group = 0;  ///< dense id of spec.group, 0 = none
   Stamp stamp;    ///< isStatic(): a static pose
@@ -549,11 +550,16 @@ struct WorldModel::Impl {
   std::uint64_t cycle = 0;
   std::optional<Stamp> last_check_now;  ///< the time the last check() was given
   bool sweep_all = false;  ///< the next check() takes every body as moved (new reach, backend)
-  /// A check() within pose_timeout found fresh timed poses of different stamps, or bodies posed
-  /// at different rates since the check before (BodyState::new_stamps): setPose() keeps poses
+  /// A check() within pose_timeout found fresh timed poses of different stamps, or a body posed
+  /// more than once since the check before (`outran`): setPose() keeps poses
   /// (BodyState::history) only then.
   bool mixed_stamps = false;
   std::optional<Stamp> mixed_seen;  ///< the last check() that found them
+  /// Since the last check(), a body took a second timed pose (BodyState::new_stamps): a source
+  /// outran the checks, and what it did between them is caught up. setPose() keeps poses from
+  /// then on (the two before are still held: the body's pose at the last check and the first
+  /// since), the next check() counts it as stamps apart.
+  bool outran = false;
   /// The last check()'s CycleResult::stamp: no pair was checked at an older stamp then. While
   /// catching up, the broad phase sweeps the bodies' boxes from it too, so that every pair's
   /// stretch since its last check is boxed.
@@ -589,17 +595,12 @@ struct WorldModel::Impl {
     std::optional<Stamp> oldest_moving;  ///< of those of a moving body (BodyState::moving())
     std::optional<Stamp> still[2];       ///< the two oldest of those of a still body
     bool fixed = false;                  ///< a static pose
-    /// The fewest and most BodyState::new_stamps of a body with a timed pose.
-    std::uint8_t fewest_new = 255;
-    std::uint8_t most_new = 0;
 
     void add(const BodyState& b) {
       if (b.stamp.isStatic()) {
         fixed = true;
         return;
       }
-      fewest_new = std::min(fewest_new, b.new_stamps);
-      most_new = std::max(most_new, b.new_stamps);
       oldest = oldest ? std::min(*oldest, b.stamp) : b.stamp;
       newest = newest ? std::max(*newest, b.stamp) : b.stamp;
       if (b.moving()) {
@@ -1498,6 +1499,7 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
   // and any timed pose may follow a static one.
   if (b.has_pose && !stamp.isStatic() && !b.stamp.isStatic() && stamp < b.stamp) return false;
   if (!stamp.isStatic() && stamp != b.stamp && b.new_stamps < 255) ++b.new_stamps;
+  if (b.new_stamps >= 2) m.outran = true;
   const bool moved = !b.has_pose || !(b.at.pose.R == pose.R) || !(b.at.pose.t == pose.t);
   // Where it was before is not known from here on: a static pose moved, one turned timed or
   // static (a first pose is a fresh one's).
@@ -1515,16 +1517,17 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
     ++b.version;
     b.at.place(b.spec, pose);  // the broad phase's box follows in check()
   }
-  // Poses are kept only while checks find fresh timed poses of different stamps: a world posed
-  // at one time (one robot_state_publisher, one BodyPoses stream) never takes a body back, and
-  // keeping them cost 21 ns a pose (a world of 1,000 bodies posed together: 332 to 404 us a
-  // cycle). Else the last two are, which tell whether the body moves.
+  // Poses are kept only while checks find fresh timed poses of different stamps, or a source
+  // that outruns them: a world posed at one time (one robot_state_publisher, one BodyPoses
+  // stream) and checked at each of its poses never takes a body back, and keeping them cost
+  // 21 ns a pose (a world of 1,000 bodies posed together: 332 to 404 us a cycle). Else the last
+  // two are, which tell whether the body moves.
   b.remember(moved, settings_.pose_timeout, keepsPoses() ? BodyState::kMaxHistory : 2);
   return true;
 }
 
 bool WorldModel::keepsPoses() const {
-  return impl_->mixed_stamps && settings_.align_poses;
+  return (impl_->mixed_stamps || impl_->outran) && settings_.align_poses;
 }
 
 void WorldModel::markUnresolved(const std::string& id) {
@@ -1552,6 +1555,7 @@ void WorldModel::clearPoses() {
   impl_->last_verdict = Stamp();
   impl_->mixed_seen.reset();
   impl_->mixed_stamps = false;
+  impl_->outran = false;
 }
 
 CycleResult WorldModel::check(Stamp now) {
@@ -1606,13 +1610,14 @@ CycleResult WorldModel::check(Stamp now) {
       b.swept_version = b.version;
     }
   }
-  // Stamps apart now, or since the last check one body posed more often than another (a 100 Hz
-  // and a 5 Hz source checked just after each 5 Hz pose: equal stamps at every check).
-  const bool rates_apart = stamps.most_new >= 2 && stamps.fewest_new < stamps.most_new;
-  if ((stamps.oldest && *stamps.oldest < *stamps.newest) || rates_apart ||
+  // Stamps apart now, or since the last check a body posed more than once: a 100 Hz and a 5 Hz
+  // source checked just after each 5 Hz pose (equal stamps at every check), or one source that
+  // outran the checks (a world posed at one time, checked slower than it is posed).
+  if ((stamps.oldest && *stamps.oldest < *stamps.newest) || m.outran ||
       (m.mixed_seen && now < *m.mixed_seen)) {
     m.mixed_seen = now;
   }
+  m.outran = false;
   // Sources whose stamps meet now and then (10 Hz and 100 Hz ones at every tenth) stay mixed.
   m.mixed_stamps = m.mixed_seen && now - *m.mixed_seen <= s.pose_timeout;
   res.stamp = stamps.verdict(s.align_poses, now);

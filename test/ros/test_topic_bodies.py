@@ -971,6 +971,70 @@ class TopicBodies(unittest.TestCase):
                 self.poses.paused -= paused
             client.update_configuration({'check_on_tf': True, 'rate': 2.0})
 
+    def test_23c_a_world_posed_at_one_time_is_caught_up_between_checks(self):
+        # A TF dart at 100 Hz (5 m/s) flies through a static target (a ~body_poses pose stamped
+        # 0), with no check in the pass: check_on_tf off, a heartbeat every 5 s and the pose
+        # stream of the other bodies paused. Every check sees one timed stamp, the dart's. From
+        # the dart's second TF stamp since a check, the monitor keeps its poses and checks the
+        # pair at them (node.md, Catch-up): COLLISION_BEGIN and COLLISION_END at the dart's
+        # stamps, with their distances. Before, a world posed at one time kept no pose between
+        # two checks: no event.
+        client = Client(NS.rstrip('/'), timeout=10.0)
+        client.update_configuration({'check_on_tf': False, 'rate': 0.2})
+        with self.poses.lock:
+            paused = set(self.poses.poses) - self.poses.paused
+            self.poses.paused |= paused
+        pair = frozenset(('dart2', 'target2'))
+        since = time.monotonic()
+        br = tf2_ros.TransformBroadcaster()
+        t0 = rospy.Time.now()
+
+        def dart_x(stamp):  # at 0 at t0 + 0.4 s
+            return -2.0 + 5.0 * (stamp - t0).to_sec()
+
+        def gap(stamp):  # the target 0.05 m off the dart's line
+            return math.hypot(dart_x(stamp), 0.05) - 0.2
+
+        def pose_target():
+            msg = BodyPoses()
+            msg.header.frame_id = 'world'  # stamp 0: static
+            msg.ids = ['target2']
+            msg.poses = [pose(0.0, -29.95, 0.0)]
+            self.m.poses_pub.publish(msg)
+        try:
+            br.sendTransform(tf_transform('dart2_frame', stamp=t0, xyz=(-2.0, -30.0, 0.0)))
+            self.m.add(sphere_body('dart2', 0.1, frame='dart2_frame', pose_from_topic=False))
+            self.m.add(sphere_body('target2', 0.1))
+            self.assertTrue(self.m.wait_listed('dart2') and self.m.wait_listed('target2'))
+            pose_target()  # a check, both bodies posed: the pair known CLEAR before the pass
+            self.assertTrue(self.wait_distance('dart2', 'target2', math.hypot(2.0, 0.05) - 0.2))
+            t0 = rospy.Time.now()
+            start = time.monotonic()
+            for k in range(80):  # 0.8 s
+                now = rospy.Time.now()
+                br.sendTransform(
+                    tf_transform('dart2_frame', stamp=now, xyz=(dart_x(now), -30.0, 0.0)))
+                time.sleep(max(0.0, start + (k + 1) * 0.01 - time.monotonic()))
+            end = rospy.Time.now()
+            pose_target()  # the same place again: a check (check_on_pose)
+            self.assertIsNotNone(
+                self.m.wait_event(E.COLLISION_END, 'dart2', 'target2', 3.0, since=since))
+        finally:
+            for i in pair:
+                self.m.add(Body(id=i, operation=Body.REMOVE))
+            with self.poses.lock:
+                self.poses.paused -= paused
+            client.update_configuration({'check_on_tf': True, 'rate': 2.0})
+        hits = [e for e in self.m.events_for({pair}, since)
+                if e.type in (E.COLLISION_BEGIN, E.COLLISION_END)]
+        self.assertEqual([e.type for e in hits], [E.COLLISION_BEGIN, E.COLLISION_END], hits)
+        for e in hits:
+            stamp = e.header.stamp
+            self.assertTrue(t0 < stamp < end, (t0, stamp, end))
+            self.assertAlmostEqual(e.pair.distance, gap(stamp), delta=1e-6)
+        self.assertLessEqual(hits[0].pair.distance, 0.0)
+        self.assertGreater(hits[1].pair.distance, 0.0)
+
     def _dart_through_target(self, lag=0.0):
         # lag: the target's poses are stamped this many seconds before the dart's TF of the time.
         pair = frozenset(('dart', 'target'))

@@ -2278,7 +2278,7 @@ TEST(WorldModel, SourcesOfDifferentRatesWhoseStampsMeetAtEveryCheckAreCaughtUp) 
     EXPECT_GT(sphereGap(dart(k), target(k)), 0.2) << "the checks alone see the pass at k " << k;
   }
   std::vector<std::pair<Stamp, double>> steps;
-  for (int k = 6; k <= 40; ++k)  // poses are kept from the check at k = 5 on
+  for (int k = 0; k <= 40; ++k)
     steps.emplace_back(step(k), sphereGap(dart(k), target(k)));
   const Timeline expected = expectedTimeline(S::Clear, steps, s);
   ASSERT_EQ(expected.size(), 2u);
@@ -2287,9 +2287,49 @@ TEST(WorldModel, SourcesOfDifferentRatesWhoseStampsMeetAtEveryCheckAreCaughtUp) 
   EXPECT_EQ(events, expected);
 }
 
-TEST(WorldModel, KeepsPosesOnlyWhileChecksFindStampsApart) {
-  // keepsPoses() tells a source that knows poses between two checks (TF) whether to give them:
-  // only with align_poses, and only while a check within pose_timeout found timed stamps apart.
+TEST(WorldModel, AWorldPosedAtOneTimeIsCaughtUpWhereItsSourceOutranTheChecks) {
+  // One source poses a dart every 10 ms (20 m/s) and the checks come every 50 ms: the dart passes
+  // a target between two checks, 0.3 m off at both. The target static (stamp 0), or posed in the
+  // same messages as the dart at the same place (one BodyPoses stream, one robot_state_publisher
+  // behind TF): every check sees one stamp. From the dart's second pose since a check, the world
+  // keeps poses and the pass is caught up at the dart's stamps. Before, a world posed at one time
+  // kept none and no event came (the thirty-seventh session's "left alone").
+  for (const bool target_static : {true, false}) {
+    SCOPED_TRACE(target_static ? "target static" : "target posed with the dart");
+    const Settings s = dyadic();
+    const auto w = twoSpheres(s, "dart", "target", 0.1);
+    const auto dart = [](int k) { return Vec3(-1.5 + 0.2 * k, 0.02, 0); };
+    if (target_static) {
+      ASSERT_TRUE(w->setPose("target", at(0), Stamp()));
+    }
+    Timeline events;
+    for (int k = 0; k <= 25; ++k) {
+      ASSERT_TRUE(w->setPose("dart", at(dart(k).x(), dart(k).y()), step(k)));
+      if (!target_static) {
+        ASSERT_TRUE(w->setPose("target", at(0), step(k)));
+      }
+      if (k % 5 != 0) continue;
+      const CycleResult r = w->check(step(k));
+      for (const Event& e : r.events)
+        events.emplace_back(e.type, e.stamp);
+      EXPECT_GT(sphereGap(dart(k), Vec3::Zero()), 0.2)
+          << "the checks alone see the pass at k " << k;
+    }
+    std::vector<std::pair<Stamp, double>> steps;
+    for (int k = 0; k <= 25; ++k)
+      steps.emplace_back(step(k), sphereGap(dart(k), Vec3::Zero()));
+    const Timeline expected = expectedTimeline(S::Clear, steps, s);
+    ASSERT_EQ(expected.size(), 2u);
+    EXPECT_EQ(expected[0], std::make_pair(E::CollisionBegin, step(7)));
+    EXPECT_EQ(expected[1], std::make_pair(E::CollisionEnd, step(9)));
+    EXPECT_EQ(events, expected);
+  }
+}
+
+TEST(WorldModel, KeepsPosesOnlyWhileChecksFindStampsApartOrOutrun) {
+  // keepsPoses() tells whether setPose() keeps every timed pose, for catch-up: only with
+  // align_poses, and only while a check within pose_timeout found timed stamps apart or a body
+  // posed twice since the check before, and from such a second pose on.
   for (const bool align : {true, false}) {
     SCOPED_TRACE(align ? "align_poses" : "align_poses false");
     Settings s = dyadic();
@@ -2314,6 +2354,20 @@ TEST(WorldModel, KeepsPosesOnlyWhileChecksFindStampsApart) {
     ASSERT_TRUE(w->setPose("b", at(1), 10.7));
     w->check(10.7);
     EXPECT_FALSE(w->keepsPoses()) << "0.6 s after";
+    ASSERT_TRUE(w->setPose("a", at(0), 10.8));
+    ASSERT_TRUE(w->setPose("b", at(1), 10.8));
+    EXPECT_FALSE(w->keepsPoses()) << "one pose each since the check";
+    ASSERT_TRUE(w->setPose("a", at(0), 10.8));
+    EXPECT_FALSE(w->keepsPoses()) << "the same stamp again";
+    ASSERT_TRUE(w->setPose("a", at(0), 10.81));
+    EXPECT_EQ(w->keepsPoses(), align) << "a's second pose since the check (outran)";
+    ASSERT_TRUE(w->setPose("b", at(1), 10.81));
+    w->check(10.81);
+    EXPECT_EQ(w->keepsPoses(), align) << "stamps together, 0 s after a source outran the checks";
+    ASSERT_TRUE(w->setPose("a", at(0), 11.4));
+    ASSERT_TRUE(w->setPose("b", at(1), 11.4));
+    w->check(11.4);
+    EXPECT_FALSE(w->keepsPoses()) << "0.59 s after";
   }
 }
 
@@ -3442,18 +3496,20 @@ TEST(WorldModel, APoseOlderThanPoseTimeoutIsKeptToPlaceABodyBackAtItsStart) {
 }
 
 TEST(WorldModel, ABodyHeldSinceItsOldestKeptPoseCountsAsStill) {
-  // a moved at step 1 and was posed there again at step 2; of the two poses kept, both are the
+  // a moved at step 1 and was posed there again at step 2, each pose checked (a world posed at
+  // one time that keeps up: no pose kept but the last two); of the two poses kept, both are the
   // held one: a is still as far as known, and the pair's verdict is b's newer stamp.
   WorldModel w(dyadic());
   addSpheres(w, {"a", "b"}, 0.5);
-  ASSERT_TRUE(w.setPose("a", at(0), step(0)));
-  ASSERT_TRUE(w.setPose("a", at(0.0001), step(1)));
-  ASSERT_TRUE(w.setPose("a", at(0.0001), step(2)));
+  for (int k = 0; k <= 2; ++k) {
+    ASSERT_TRUE(w.setPose("a", at(k == 0 ? 0.0 : 0.0001), step(k)));
+    w.check(step(k));  // the pair UNKNOWN (b has no pose yet)
+  }
   ASSERT_TRUE(w.setPose("b", at(1.03), step(5)));
   const CycleResult r = w.check(step(5));
   EXPECT_EQ(r.stamp, step(5));
-  ASSERT_EQ(events(r), (std::vector<Ev>{{E::WarningBegin, "a", "b"}}));
-  EXPECT_EQ(r.events[0].stamp, step(5));
+  ASSERT_EQ(events(r), (std::vector<Ev>{{E::UnknownEnd, "a", "b"}, {E::WarningBegin, "a", "b"}}));
+  EXPECT_EQ(r.events[1].stamp, step(5));
 }
 
 TEST(WorldModel, NearestBreaksATieByIdAmongTheBodiesItMeasures) {

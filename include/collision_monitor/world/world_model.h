@@ -236,8 +236,9 @@ class WorldModel {
                std::optional<Stamp> received = std::nullopt);
   /// Whether setPose() keeps every timed pose (for catch-up, Settings::align_poses) rather than
   /// the last two: while the last checks within pose_timeout found fresh timed poses of
-  /// different stamps, or bodies posed at different rates. A source that knows poses between
-  /// two checks (TF) gives them only then.
+  /// different stamps or a body posed more than once between two checks (a source that outran
+  /// them), and from such a body's second pose since the last check on. A source that knows
+  /// poses between two checks (TF) gives them with align_poses: its second turns keeping on.
   bool keepsPoses() const;
   /// Marks a body's pose as unresolvable now (e.g. TF lookup failed): its pairs turn UNKNOWN.
   void markUnresolved(const std::string& id);
