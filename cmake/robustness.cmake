@@ -50,6 +50,11 @@ if(NOT COLLISION_MONITOR_CORE_ONLY AND CATKIN_ENABLE_TESTING)
   if(TEST ${_cm_soak})
     set_tests_properties(${_cm_soak} PROPERTIES RUN_SERIAL TRUE)
   endif()
+  # roscore restarting under a running node (src/nodes/master_watch.h): not a rostest, the test
+  # starts and restarts masters itself on a free port.
+  catkin_run_tests_target(rosunit master_restart rosunit-master_restart.xml
+    COMMAND "/usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/test/robustness/test_master_restart.py $<TARGET_FILE:collision_monitor_node> --gtest_output=xml:${CATKIN_TEST_RESULTS_DIR}/${PROJECT_NAME}/rosunit-master_restart.xml"
+    DEPENDENCIES collision_monitor_node collision_monitor_ros collision_monitor_generate_messages_py)
   # The node under valgrind memcheck: ~20 s (node up in ~8 s, exit ~1 s after SIGINT). A node that
   # does not exit fails the test after 90 s (with thread states and stacks in the log); CTest's
   # limit is a backstop above rostest's time-limit (170 s). The Panda comes from CM_ROBOT_DATA, as

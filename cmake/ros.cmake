@@ -33,7 +33,7 @@ target_link_libraries(collision_monitor_ros PUBLIC
 target_compile_options(collision_monitor_ros PRIVATE ${CM_WARNING_FLAGS})
 add_dependencies(collision_monitor_ros ${${PROJECT_NAME}_EXPORTED_TARGETS} ${catkin_EXPORTED_TARGETS})
 
-add_executable(collision_monitor_node src/nodes/collision_monitor_node.cpp)
+add_executable(collision_monitor_node src/nodes/collision_monitor_node.cpp src/nodes/master_watch.cpp)
 target_include_directories(collision_monitor_node SYSTEM PRIVATE ${catkin_INCLUDE_DIRS})
 target_link_libraries(collision_monitor_node ${catkin_LIBRARIES})
 target_compile_options(collision_monitor_node PRIVATE ${CM_WARNING_FLAGS})

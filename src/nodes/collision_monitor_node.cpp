@@ -8,6 +8,8 @@
 #include <ros/callback_queue.h>
 #include <ros/ros.h>
 
+#include "master_watch.h"
+
 namespace {
 
 /// ros::spin() without its busy wait during shutdown. ros::shutdown() (run by roscpp's poll
@@ -50,6 +52,8 @@ int main(int argc, char** argv) {
     ROS_FATAL("collision_monitor_node: cannot load collision_monitor/CollisionMonitorNodelet");
     return 1;
   }
+  // After roscore restarts, the node registers its topics and services again (master_watch.h).
+  collision_monitor::ros_layer::MasterWatch watch(ros::WallDuration(1.0));
   spinUntilShutdown();
   return 0;
 }
