@@ -3,8 +3,10 @@
 #include "master_watch.h"
 
 #include <chrono>
+#include <cstdint>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include <ros/connection_manager.h>
 #include <ros/master.h>
@@ -27,14 +29,20 @@ bool isString(const XmlRpc::XmlRpcValue& v) {
   return v.getType() == XmlRpc::XmlRpcValue::TypeString;
 }
 
-/// A call of the master's API with the node's name first; the payload on success.
-bool callMaster(const std::string& method, std::vector<XmlRpc::XmlRpcValue> args,
-                XmlRpc::XmlRpcValue* payload, XmlRpc::XmlRpcValue* response = nullptr) {
-  XmlRpc::XmlRpcValue request, reply;
+/// An XML-RPC request of the ROS APIs: the node's name (the caller id), then `args`.
+XmlRpc::XmlRpcValue requestOf(std::vector<XmlRpc::XmlRpcValue> args) {
+  XmlRpc::XmlRpcValue request;
   request[0] = ros::this_node::getName();
   for (std::size_t i = 0; i < args.size(); ++i)
     request[static_cast<int>(i + 1)] = std::move(args[i]);
-  const bool ok = ros::master::execute(method, request, reply, *payload, false);
+  return request;
+}
+
+/// A call of the master's API; the payload on success.
+bool callMaster(const std::string& method, std::vector<XmlRpc::XmlRpcValue> args,
+                XmlRpc::XmlRpcValue* payload, XmlRpc::XmlRpcValue* response = nullptr) {
+  XmlRpc::XmlRpcValue reply;
+  const bool ok = ros::master::execute(method, requestOf(std::move(args)), reply, *payload, false);
   if (response) *response = reply;
   return ok;
 }
@@ -47,12 +55,9 @@ bool callSelf(const std::string& method, std::vector<XmlRpc::XmlRpcValue> args,
   std::uint32_t port = 0;
   const auto& xmlrpc = ros::XMLRPCManager::instance();
   if (!ros::network::splitURI(xmlrpc->getServerURI(), host, port)) return false;
-  XmlRpc::XmlRpcValue request, reply;
-  request[0] = ros::this_node::getName();
-  for (std::size_t i = 0; i < args.size(); ++i)
-    request[static_cast<int>(i + 1)] = std::move(args[i]);
+  XmlRpc::XmlRpcValue reply;
   XmlRpc::XmlRpcClient* client = xmlrpc->getXMLRPCClient(host, static_cast<int>(port), "/");
-  const bool ok = client->execute(method.c_str(), request, reply) &&
+  const bool ok = client->execute(method.c_str(), requestOf(std::move(args)), reply) &&
                   xmlrpc->validateXmlrpcResponse(method, reply, *payload);
   xmlrpc->releaseXMLRPCClient(client);
   return ok;
@@ -125,12 +130,17 @@ bool MasterWatch::checkOnce() {
     ros::requestShutdown();
     return false;
   }
-  // Not reachable, or reachable and the node unknown to it (code -1): only then register.
+  // Not reachable, or reachable and the node unknown to it (code -1): only then register, and
+  // not while roscpp unregisters the node (SIGINT, `rosnode kill`): that would leave it
+  // registered after it exits.
   if (!isArray(response) || response.size() != 3 ||
-      response[0].getType() != XmlRpc::XmlRpcValue::TypeInt || static_cast<int>(response[0]) != -1)
+      response[0].getType() != XmlRpc::XmlRpcValue::TypeInt ||
+      static_cast<int>(response[0]) != -1 || ros::isShuttingDown())
     return true;
   std::string why;
-  if (registerAgain(&why)) {
+  const bool registered = registerAgain(&why);
+  if (ros::isShuttingDown()) return false;
+  if (registered) {
     ROS_WARN_STREAM(name << ": the ROS master at " << ros::master::getURI()
                          << " did not know this node (roscore restarted?): registered its topics "
                             "and "
@@ -148,12 +158,14 @@ bool MasterWatch::registerAgain(std::string* why) {
   const std::string& api = ros::XMLRPCManager::instance()->getServerURI();
   XmlRpc::XmlRpcValue payload;
   for (const auto& [topic, type] : topicsOf("getPublications")) {
+    if (ros::isShuttingDown()) return false;
     if (!callMaster("registerPublisher", {topic, type, api}, &payload)) {
       *why = "registerPublisher " + topic;
       return false;
     }
   }
   for (const auto& [topic, type] : topicsOf("getSubscriptions")) {
+    if (ros::isShuttingDown()) return false;
     if (!callMaster("registerSubscriber", {topic, type, api}, &payload)) {
       *why = "registerSubscriber " + topic;
       return false;
@@ -169,6 +181,7 @@ bool MasterWatch::registerAgain(std::string* why) {
   const std::string service_api = "rosrpc://" + ros::network::getHost() + ":" +
                                   std::to_string(ros::ConnectionManager::instance()->getTCPPort());
   for (const std::string& service : services_) {
+    if (ros::isShuttingDown()) return false;
     if (!ros::ServiceManager::instance()->lookupServicePublication(service)) continue;  // gone
     if (!callMaster("registerService", {service, service_api, api}, &payload)) {
       *why = "registerService " + service;

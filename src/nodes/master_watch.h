@@ -38,7 +38,8 @@ class MasterWatch {
   void run();
   /// One check; false when the watch should stop (the name taken).
   bool checkOnce();
-  /// Registers every topic and `services_` with the master; false and `why` on a failed call.
+  /// Registers every topic and `services_` with the master; false and `why` on a failed call,
+  /// false when roscpp shuts down meanwhile.
   bool registerAgain(std::string* why);
 
   const ros::WallDuration period_;
