@@ -336,8 +336,9 @@ class Monitor {
   /// refused, and TF that far ahead leaves its frame unresolved.
   static constexpr double kTimeJumpTolerance = 1.0;
   /// runCycle(): TF lookups at the stamps between two checks of a frame (catch-up): at most
-  /// kMaxTfStampsBetween a frame, and kMaxTfLookupsBetween a cycle shared by the TF bodies when
-  /// there are more of them than kMaxTfStampsBetween, but at least one a frame.
+  /// kMaxTfStampsBetween a frame, and kMaxTfLookupsBetween a cycle shared by the frames looked up
+  /// (those of TF bodies but the fixed frame) when there are more of them than
+  /// kMaxTfStampsBetween, but at least one a frame.
   static constexpr std::size_t kMaxTfLookupsBetween = 1024;
   static constexpr std::size_t kMaxTfStampsBetween = 32;
   /// For this long (s, steady clock) after a backward jump, TF from the future (data from before
