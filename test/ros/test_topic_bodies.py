@@ -11,6 +11,7 @@ import sys
 import threading
 import time
 import unittest
+from contextlib import contextmanager
 from fractions import Fraction
 
 import rospy
@@ -959,13 +960,20 @@ class TopicBodies(unittest.TestCase):
         # the dart's frame up at the TF stamps between two checks (node.md, Catch-up): the same
         # two events, at the dart's stamps, with their distances. Before, a TF body kept only
         # the transforms its checks saw, all 0.7 m or more off the target: no event.
+        with self._no_check_but_at_poses():
+            self._dart_through_target(lag=0.005)
+
+    @contextmanager
+    def _no_check_but_at_poses(self):
+        """check_on_tf off, a heartbeat every 5 s and the pose stream of the other bodies paused:
+        the monitor checks only at the poses the test sends."""
         client = Client(NS.rstrip('/'), timeout=10.0)
         client.update_configuration({'check_on_tf': False, 'rate': 0.2})
         with self.poses.lock:
             paused = set(self.poses.poses) - self.poses.paused
             self.poses.paused |= paused
         try:
-            self._dart_through_target(lag=0.005)
+            yield
         finally:
             with self.poses.lock:
                 self.poses.paused -= paused
@@ -979,11 +987,6 @@ class TopicBodies(unittest.TestCase):
         # pair at them (node.md, Catch-up): COLLISION_BEGIN and COLLISION_END at the dart's
         # stamps, with their distances. Before, a world posed at one time kept no pose between
         # two checks: no event.
-        client = Client(NS.rstrip('/'), timeout=10.0)
-        client.update_configuration({'check_on_tf': False, 'rate': 0.2})
-        with self.poses.lock:
-            paused = set(self.poses.poses) - self.poses.paused
-            self.poses.paused |= paused
         pair = frozenset(('dart2', 'target2'))
         since = time.monotonic()
         br = tf2_ros.TransformBroadcaster()
@@ -1001,30 +1004,28 @@ class TopicBodies(unittest.TestCase):
             msg.ids = ['target2']
             msg.poses = [pose(0.0, -29.95, 0.0)]
             self.m.poses_pub.publish(msg)
-        try:
-            br.sendTransform(tf_transform('dart2_frame', stamp=t0, xyz=(-2.0, -30.0, 0.0)))
-            self.m.add(sphere_body('dart2', 0.1, frame='dart2_frame', pose_from_topic=False))
-            self.m.add(sphere_body('target2', 0.1))
-            self.assertTrue(self.m.wait_listed('dart2') and self.m.wait_listed('target2'))
-            pose_target()  # a check, both bodies posed: the pair known CLEAR before the pass
-            self.assertTrue(self.wait_distance('dart2', 'target2', math.hypot(2.0, 0.05) - 0.2))
-            t0 = rospy.Time.now()
-            start = time.monotonic()
-            for k in range(80):  # 0.8 s
-                now = rospy.Time.now()
-                br.sendTransform(
-                    tf_transform('dart2_frame', stamp=now, xyz=(dart_x(now), -30.0, 0.0)))
-                time.sleep(max(0.0, start + (k + 1) * 0.01 - time.monotonic()))
-            end = rospy.Time.now()
-            pose_target()  # the same place again: a check (check_on_pose)
-            self.assertIsNotNone(
-                self.m.wait_event(E.COLLISION_END, 'dart2', 'target2', 3.0, since=since))
-        finally:
-            for i in pair:
-                self.m.add(Body(id=i, operation=Body.REMOVE))
-            with self.poses.lock:
-                self.poses.paused -= paused
-            client.update_configuration({'check_on_tf': True, 'rate': 2.0})
+        with self._no_check_but_at_poses():
+            try:
+                br.sendTransform(tf_transform('dart2_frame', stamp=t0, xyz=(-2.0, -30.0, 0.0)))
+                self.m.add(sphere_body('dart2', 0.1, frame='dart2_frame', pose_from_topic=False))
+                self.m.add(sphere_body('target2', 0.1))
+                self.assertTrue(self.m.wait_listed('dart2') and self.m.wait_listed('target2'))
+                pose_target()  # a check, both bodies posed: the pair known CLEAR before the pass
+                self.assertTrue(self.wait_distance('dart2', 'target2', math.hypot(2.0, 0.05) - 0.2))
+                t0 = rospy.Time.now()
+                start = time.monotonic()
+                for k in range(80):  # 0.8 s
+                    now = rospy.Time.now()
+                    br.sendTransform(
+                        tf_transform('dart2_frame', stamp=now, xyz=(dart_x(now), -30.0, 0.0)))
+                    time.sleep(max(0.0, start + (k + 1) * 0.01 - time.monotonic()))
+                end = rospy.Time.now()
+                pose_target()  # the same place again: a check (check_on_pose)
+                self.assertIsNotNone(
+                    self.m.wait_event(E.COLLISION_END, 'dart2', 'target2', 3.0, since=since))
+            finally:
+                for i in pair:
+                    self.m.add(Body(id=i, operation=Body.REMOVE))
         hits = [e for e in self.m.events_for({pair}, since)
                 if e.type in (E.COLLISION_BEGIN, E.COLLISION_END)]
         self.assertEqual([e.type for e in hits], [E.COLLISION_BEGIN, E.COLLISION_END], hits)
