@@ -21,6 +21,13 @@ namespace ros_layer {
 
 namespace {
 
+/// How long one XML-RPC call of the watch may take (s). roscpp's own client waits for ever: a
+/// master host that accepts and never answers (a half-open connection to one that went away)
+/// held the watch for good, and the node's exit with it (the thirty-eighth session's audit).
+constexpr double kCallTimeout = 2.0;
+/// How often the node's services are read again from a master that knows the node (s).
+constexpr double kServicesRefresh = 10.0;
+
 bool isArray(const XmlRpc::XmlRpcValue& v) {
   return v.getType() == XmlRpc::XmlRpcValue::TypeArray;
 }
@@ -29,47 +36,72 @@ bool isString(const XmlRpc::XmlRpcValue& v) {
   return v.getType() == XmlRpc::XmlRpcValue::TypeString;
 }
 
-/// An XML-RPC request of the ROS APIs: the node's name (the caller id), then `args`.
-XmlRpc::XmlRpcValue requestOf(std::vector<XmlRpc::XmlRpcValue> args) {
-  XmlRpc::XmlRpcValue request;
+/// XmlRpcClient::execute() with a deadline, one call a connection.
+class TimedClient : public XmlRpc::XmlRpcClient {
+ public:
+  TimedClient(const std::string& host, int port) : XmlRpcClient(host.c_str(), port, "/") {}
+  ~TimedClient() override { close(); }
+  TimedClient(const TimedClient&) = delete;
+  TimedClient& operator=(const TimedClient&) = delete;
+
+  bool call(const std::string& method, const XmlRpc::XmlRpcValue& params,
+            XmlRpc::XmlRpcValue* result) {
+    _sendAttempts = 0;
+    _isFault = false;
+    result->clear();
+    if (!setupConnection() || !generateRequest(method.c_str(), params)) return false;
+    _disp.work(kCallTimeout);  // until the answer is read, the connection lost, or the deadline
+    return _connectionState == IDLE && parseResponse(*result);
+  }
+};
+
+/// An answer of a ROS API: [code, message, value].
+struct Reply {
+  bool answered = false;  ///< in time, and of that form
+  int code = 0;           ///< 1: success, -1: error (e.g. lookupNode's unknown node)
+  XmlRpc::XmlRpcValue value;
+};
+
+/// `method` of the ROS API at host:port, the node's name (the caller id) first, then `args`.
+Reply callApi(const std::string& host, int port, const std::string& method,
+              std::vector<XmlRpc::XmlRpcValue> args) {
+  XmlRpc::XmlRpcValue request, response;
   request[0] = ros::this_node::getName();
   for (std::size_t i = 0; i < args.size(); ++i)
     request[static_cast<int>(i + 1)] = std::move(args[i]);
-  return request;
+  Reply r;
+  TimedClient client(host, port);
+  if (!client.call(method, request, &response) || !isArray(response) || response.size() != 3 ||
+      response[0].getType() != XmlRpc::XmlRpcValue::TypeInt)
+    return r;
+  r.answered = true;
+  r.code = static_cast<int>(response[0]);
+  r.value = response[2];
+  return r;
 }
 
-/// A call of the master's API; the payload on success.
-bool callMaster(const std::string& method, std::vector<XmlRpc::XmlRpcValue> args,
-                XmlRpc::XmlRpcValue* payload, XmlRpc::XmlRpcValue* response = nullptr) {
-  XmlRpc::XmlRpcValue reply;
-  const bool ok = ros::master::execute(method, requestOf(std::move(args)), reply, *payload, false);
-  if (response) *response = reply;
-  return ok;
+Reply callMaster(const std::string& method, std::vector<XmlRpc::XmlRpcValue> args) {
+  return callApi(ros::master::getHost(), static_cast<int>(ros::master::getPort()), method,
+                 std::move(args));
 }
 
-/// A call of this node's own slave API (the topics roscpp holds: no public C++ call lists them
-/// with their types, nor hands a subscription its publishers).
-bool callSelf(const std::string& method, std::vector<XmlRpc::XmlRpcValue> args,
-              XmlRpc::XmlRpcValue* payload) {
+/// The node's own slave API (the topics roscpp holds: no public C++ call lists them with their
+/// types, nor hands a subscription its publishers).
+Reply callSelf(const std::string& method, std::vector<XmlRpc::XmlRpcValue> args) {
   std::string host;
   std::uint32_t port = 0;
-  const auto& xmlrpc = ros::XMLRPCManager::instance();
-  if (!ros::network::splitURI(xmlrpc->getServerURI(), host, port)) return false;
-  XmlRpc::XmlRpcValue reply;
-  XmlRpc::XmlRpcClient* client = xmlrpc->getXMLRPCClient(host, static_cast<int>(port), "/");
-  const bool ok = client->execute(method.c_str(), requestOf(std::move(args)), reply) &&
-                  xmlrpc->validateXmlrpcResponse(method, reply, *payload);
-  xmlrpc->releaseXMLRPCClient(client);
-  return ok;
+  if (!ros::network::splitURI(ros::XMLRPCManager::instance()->getServerURI(), host, port))
+    return Reply();
+  return callApi(host, static_cast<int>(port), method, std::move(args));
 }
 
 /// [[name, type], ...] of the node's own publications or subscriptions.
 std::vector<std::pair<std::string, std::string>> topicsOf(const std::string& method) {
   std::vector<std::pair<std::string, std::string>> out;
-  XmlRpc::XmlRpcValue list;
-  if (!callSelf(method, {}, &list) || !isArray(list)) return out;
-  for (int i = 0; i < list.size(); ++i) {
-    XmlRpc::XmlRpcValue& t = list[i];
+  Reply r = callSelf(method, {});
+  if (r.code != 1 || !isArray(r.value)) return out;
+  for (int i = 0; i < r.value.size(); ++i) {
+    XmlRpc::XmlRpcValue& t = r.value[i];
     if (isArray(t) && t.size() == 2 && isString(t[0]) && isString(t[1]))
       out.emplace_back(static_cast<std::string>(t[0]), static_cast<std::string>(t[1]));
   }
@@ -79,68 +111,88 @@ std::vector<std::pair<std::string, std::string>> topicsOf(const std::string& met
 }  // namespace
 
 MasterWatch::MasterWatch(ros::WallDuration period) : period_(period) {
-  // The services come from the master: roscpp's ServiceManager lists none, and this way the
-  // names are as remapped, those of roscpp and dynamic_reconfigure included.
-  XmlRpc::XmlRpcValue state;
-  if (callMaster("getSystemState", {}, &state) && isArray(state) && state.size() == 3 &&
-      isArray(state[2])) {
-    for (int i = 0; i < state[2].size(); ++i) {
-      XmlRpc::XmlRpcValue& s = state[2][i];
-      if (!isArray(s) || s.size() != 2 || !isString(s[0]) || !isArray(s[1])) continue;
-      for (int k = 0; k < s[1].size(); ++k) {
-        if (isString(s[1][k]) && static_cast<std::string>(s[1][k]) == ros::this_node::getName())
-          services_.push_back(static_cast<std::string>(s[0]));
-      }
-    }
-  }
+  readServices();
   thread_ = std::thread([this] { run(); });
 }
 
 MasterWatch::~MasterWatch() {
+  stop_ = true;
   {
-    std::lock_guard<std::mutex> lock(mutex_);
-    stop_ = true;
+    std::lock_guard<std::mutex> lock(mutex_);  // not between run()'s test and its wait
   }
   wake_.notify_all();
-  thread_.join();
+  thread_.join();  // at most one call's kCallTimeout
+}
+
+void MasterWatch::readServices() {
+  // From the master: roscpp's ServiceManager lists none, and this way the names are as
+  // remapped, those of roscpp and dynamic_reconfigure included.
+  Reply state = callMaster("getSystemState", {});
+  if (state.code != 1 || !isArray(state.value) || state.value.size() != 3 ||
+      !isArray(state.value[2]))
+    return;
+  std::vector<std::string> services;
+  for (int i = 0; i < state.value[2].size(); ++i) {
+    XmlRpc::XmlRpcValue& s = state.value[2][i];
+    if (!isArray(s) || s.size() != 2 || !isString(s[0]) || !isArray(s[1])) continue;
+    for (int k = 0; k < s[1].size(); ++k) {
+      if (isString(s[1][k]) && static_cast<std::string>(s[1][k]) == ros::this_node::getName())
+        services.push_back(static_cast<std::string>(s[0]));
+    }
+  }
+  services_.swap(services);
+  services_read_ = std::chrono::steady_clock::now();
+}
+
+bool MasterWatch::stopping() const {
+  return stop_ || ros::isShuttingDown() || !ros::ok();
 }
 
 void MasterWatch::run() {
-  std::unique_lock<std::mutex> lock(mutex_);
-  while (!stop_) {
-    wake_.wait_for(lock, std::chrono::duration<double>(period_.toSec()), [this] { return stop_; });
-    if (stop_ || !ros::ok()) return;
-    lock.unlock();
-    const bool go_on = checkOnce();
-    lock.lock();
-    if (!go_on) return;
+  while (!stopping()) {
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait_for(lock, std::chrono::duration<double>(period_.toSec()),
+                     [this] { return stop_.load(); });
+    }
+    if (stopping() || !checkOnce()) return;
   }
+}
+
+MasterWatch::Holder MasterWatch::holder() const {
+  const Reply r = callMaster("lookupNode", {ros::this_node::getName()});
+  if (!r.answered) return Holder::NoAnswer;
+  if (r.code != 1) return Holder::Nobody;
+  return isString(r.value) &&
+                 static_cast<std::string>(r.value) == ros::XMLRPCManager::instance()->getServerURI()
+             ? Holder::This
+             : Holder::Another;
 }
 
 bool MasterWatch::checkOnce() {
   const std::string& name = ros::this_node::getName();
-  const std::string& uri = ros::XMLRPCManager::instance()->getServerURI();
-  XmlRpc::XmlRpcValue payload, response;
-  if (callMaster("lookupNode", {name}, &payload, &response)) {
-    if (isString(payload) && static_cast<std::string>(payload) == uri) return true;  // known
-    ROS_ERROR_STREAM(name << ": the ROS master at " << ros::master::getURI()
-                          << " gives this node's name to another node ("
-                          << (isString(payload) ? static_cast<std::string>(payload) : "?")
-                          << "): shutting down, as a master asks a node whose name is taken");
-    ros::requestShutdown();
-    return false;
+  switch (holder()) {
+    case Holder::NoAnswer:
+      return true;  // the master down: again at the next period, without a word
+    case Holder::Another:
+      return nameTaken();
+    case Holder::This:
+      if (!incomplete_) {
+        if (std::chrono::steady_clock::now() - services_read_ >
+            std::chrono::duration<double>(kServicesRefresh))
+          readServices();
+        return true;
+      }
+      break;  // a registration left incomplete: again
+    case Holder::Nobody:
+      break;
   }
-  // Not reachable, or reachable and the node unknown to it (code -1): only then register, and
-  // not while roscpp unregisters the node (SIGINT, `rosnode kill`): that would leave it
-  // registered after it exits.
-  if (!isArray(response) || response.size() != 3 ||
-      response[0].getType() != XmlRpc::XmlRpcValue::TypeInt ||
-      static_cast<int>(response[0]) != -1 || ros::isShuttingDown())
-    return true;
   std::string why;
-  const bool registered = registerAgain(&why);
-  if (ros::isShuttingDown()) return false;
-  if (registered) {
+  const Outcome outcome = registerAgain(&why);
+  if (outcome == Outcome::Stopped) return false;
+  if (outcome == Outcome::Taken) return nameTaken();
+  incomplete_ = outcome != Outcome::Done;
+  if (!incomplete_) {
     ROS_WARN_STREAM(name << ": the ROS master at " << ros::master::getURI()
                          << " did not know this node (roscore restarted?): registered its topics "
                             "and "
@@ -154,41 +206,62 @@ bool MasterWatch::checkOnce() {
   return true;
 }
 
-bool MasterWatch::registerAgain(std::string* why) {
+bool MasterWatch::nameTaken() const {
+  ROS_ERROR_STREAM(ros::this_node::getName()
+                   << ": the ROS master at " << ros::master::getURI()
+                   << " gives this node's name to another node: shutting down, as a master asks "
+                      "a node whose name is taken");
+  ros::requestShutdown();
+  return false;
+}
+
+MasterWatch::Outcome MasterWatch::registerAgain(std::string* why) {
   const std::string& api = ros::XMLRPCManager::instance()->getServerURI();
-  XmlRpc::XmlRpcValue payload;
-  for (const auto& [topic, type] : topicsOf("getPublications")) {
-    if (ros::isShuttingDown()) return false;
-    if (!callMaster("registerPublisher", {topic, type, api}, &payload)) {
-      *why = "registerPublisher " + topic;
+  // Before each registration: the name still free or this node's. A node of the same name that
+  // registered meanwhile (a second instance started after the restart) would get it back from
+  // the master with the next registration of ours, and be shut down by it, after it had shut
+  // this one down: both gone (the audit, 1 in 20 starts timed onto the watch's).
+  Outcome stop = Outcome::Done;
+  const auto mayGoOn = [&](const std::string& call) {
+    if (stopping()) {
+      stop = Outcome::Stopped;
       return false;
     }
+    const Holder h = holder();
+    if (h == Holder::Another) stop = Outcome::Taken;
+    if (h == Holder::NoAnswer) {
+      stop = Outcome::Failed;
+      *why = "no answer before " + call;
+    }
+    return stop == Outcome::Done;
+  };
+  const auto failed = [&](const std::string& call) {
+    *why = call;
+    return Outcome::Failed;
+  };
+  for (const auto& [topic, type] : topicsOf("getPublications")) {
+    if (!mayGoOn("registerPublisher " + topic)) return stop;
+    if (callMaster("registerPublisher", {topic, type, api}).code != 1)
+      return failed("registerPublisher " + topic);
   }
   for (const auto& [topic, type] : topicsOf("getSubscriptions")) {
-    if (ros::isShuttingDown()) return false;
-    if (!callMaster("registerSubscriber", {topic, type, api}, &payload)) {
-      *why = "registerSubscriber " + topic;
-      return false;
-    }
+    if (!mayGoOn("registerSubscriber " + topic)) return stop;
+    const Reply r = callMaster("registerSubscriber", {topic, type, api});
+    if (r.code != 1) return failed("registerSubscriber " + topic);
     // The publishers the master knows: roscpp connects to them as when the master tells it of
-    // new ones (publisherUpdate, from the master's caller id).
-    XmlRpc::XmlRpcValue ignored;
-    if (isArray(payload) && !callSelf("publisherUpdate", {topic, payload}, &ignored)) {
-      *why = "publisherUpdate " + topic;
-      return false;
-    }
+    // new ones (publisherUpdate).
+    if (isArray(r.value) && callSelf("publisherUpdate", {topic, r.value}).code != 1)
+      return failed("publisherUpdate " + topic);
   }
   const std::string service_api = "rosrpc://" + ros::network::getHost() + ":" +
                                   std::to_string(ros::ConnectionManager::instance()->getTCPPort());
   for (const std::string& service : services_) {
-    if (ros::isShuttingDown()) return false;
     if (!ros::ServiceManager::instance()->lookupServicePublication(service)) continue;  // gone
-    if (!callMaster("registerService", {service, service_api, api}, &payload)) {
-      *why = "registerService " + service;
-      return false;
-    }
+    if (!mayGoOn("registerService " + service)) return stop;
+    if (callMaster("registerService", {service, service_api, api}).code != 1)
+      return failed("registerService " + service);
   }
-  return true;
+  return Outcome::Done;
 }
 
 }  // namespace ros_layer

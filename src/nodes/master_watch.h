@@ -6,6 +6,8 @@
 /// restart*).
 #pragma once
 
+#include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <mutex>
 #include <string>
@@ -20,33 +22,47 @@ namespace ros_layer {
 /// Asks the master every `period` whether it knows this node (lookupNode). When a master that
 /// answers does not, registers again, through the master's and the node's own XML-RPC APIs,
 /// every topic the process publishes and subscribes to (with the publishers the master names,
-/// so that subscriptions connect) and the services the first master listed for the node when
-/// the watch started. When another node holds the name (a second instance started meanwhile),
-/// shuts this one down, as a master does when a node's name is taken. Only for a process that
-/// is one node (collision_monitor_node): in a nodelet manager the process's topics and services
-/// are the manager's.
+/// so that subscriptions connect) and the node's services, as the master listed them (read at
+/// start and every 10 s while a master knows the node). A registration left incomplete (a call
+/// refused or unanswered) is made again at the next period. When another node holds the name
+/// (a second instance started meanwhile), shuts this one down, as a master does when a node's
+/// name is taken; the name is checked before each registration, so that this node never takes
+/// it back. Each call has a deadline of 2 s. Only for a process that is one node
+/// (collision_monitor_node): in a nodelet manager the process's topics and services are the
+/// manager's.
 class MasterWatch {
  public:
   /// Starts the watch thread; the node's services are read from the master now.
   explicit MasterWatch(ros::WallDuration period);
-  /// Stops and joins the thread.
+  /// Stops and joins the thread (at most one call's deadline).
   ~MasterWatch();
   MasterWatch(const MasterWatch&) = delete;
   MasterWatch& operator=(const MasterWatch&) = delete;
 
  private:
+  /// Who the master gives the node's name to.
+  enum class Holder { NoAnswer, Nobody, This, Another };
+  enum class Outcome { Done, Failed, Taken, Stopped };
+
   void run();
-  /// One check; false when the watch should stop (the name taken).
+  /// One check; false when the watch should stop (the name taken, roscpp shutting down).
   bool checkOnce();
-  /// Registers every topic and `services_` with the master; false and `why` on a failed call,
-  /// false when roscpp shuts down meanwhile.
-  bool registerAgain(std::string* why);
+  Holder holder() const;
+  /// Logs and asks roscpp to shut down; false.
+  bool nameTaken() const;
+  /// Registers every topic and `services_` with the master; `why` when Failed.
+  Outcome registerAgain(std::string* why);
+  /// `services_` from the master's getSystemState (unchanged when it does not answer).
+  void readServices();
+  bool stopping() const;
 
   const ros::WallDuration period_;
-  std::vector<std::string> services_;  ///< the node's, as the master listed them at start
-  std::mutex mutex_;
+  std::vector<std::string> services_;  ///< the node's, as the master lists them
+  std::chrono::steady_clock::time_point services_read_;
+  bool incomplete_ = false;  ///< the last registration failed part way: again
+  std::atomic<bool> stop_{false};
+  std::mutex mutex_;  ///< for wake_
   std::condition_variable wake_;
-  bool stop_ = false;
   std::thread thread_;
 };
 

@@ -4,13 +4,16 @@ master_watch.h). Not a rostest: the test starts, stops and restarts masters itse
 client step is a process of its own (rospy does not register again with a new master either).
   1. Before: a client adds a ball (posed on ~body_poses, static) and a post (static TF), and reads
      their distance, 0.8 m.
-  2. roscore stops and a new one starts on the same port. A new client finds the node known to the
-     new master within 5 s, its world kept (both bodies, 0.8 m), its ~state heard and its
+  2. roscore stops; for 3 s the port takes connections and never answers (a master host gone
+     without a reset: the watch's call hangs, 2 s at most), then a new roscore starts on it. A new
+     client finds the node known to the new master, its world kept (both bodies, 0.8 m), its ~state heard and its
      ~bodies, ~body_poses and /tf subscriptions connected to publishers that started since: a dart
      added and posed by TF, the ball moved; distances exact.
   3. A second node of the same name starts: the first one exits (the name is the new one's), the
      second one answers with its own, empty world.
 Without the watch, step 2 found no node: the new master knew none of its topics or services.
+Without a deadline on the watch's calls, the hung call held the watch for good: no node in step 2
+either, and the first node never exited in step 3.
 Usage: test_master_restart.py NODE_EXECUTABLE [--gtest_output=xml:FILE]"""
 import os
 import shutil
@@ -96,6 +99,7 @@ class MasterRestart(unittest.TestCase):
                         ROS_HOSTNAME='127.0.0.1', ROS_HOME=self.home)
         self.env.pop('ROS_IP', None)
         self.procs = []
+        self.held = []  # connections taken by hold_port(), never answered
 
     def tearDown(self):
         for p in reversed(self.procs):
@@ -106,6 +110,8 @@ class MasterRestart(unittest.TestCase):
                 except subprocess.TimeoutExpired:
                     p.kill()
                     p.wait()
+        for c in self.held:
+            c.close()
         shutil.rmtree(self.home, ignore_errors=True)
 
     def start(self, args, log):
@@ -123,6 +129,21 @@ class MasterRestart(unittest.TestCase):
                 return master
             time.sleep(0.2)
         self.fail('roscore did not start')
+
+    def hold_port(self, seconds):
+        """Takes connections on the port for `seconds` and answers none; they stay open."""
+        listener = socket.socket()
+        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        listener.bind(('127.0.0.1', self.port))
+        listener.listen(16)
+        listener.settimeout(0.1)
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            try:
+                self.held.append(listener.accept()[0])
+            except socket.timeout:
+                pass
+        listener.close()
 
     def stop(self, p):
         p.send_signal(2)
@@ -143,6 +164,8 @@ class MasterRestart(unittest.TestCase):
         node = self.start([NODE, '_fixed_frame:=world'], 'node.log')
         self.run_client('before')
         self.stop(master)
+        self.hold_port(3.0)
+        self.assertGreater(len(self.held), 0, 'the watch did not call while the port was held')
         self.start_master('roscore2.log')
         self.run_client('after')
         self.assertIsNone(node.poll(), self.log('node.log'))
