@@ -1026,12 +1026,17 @@ class TopicBodies(unittest.TestCase):
             finally:
                 for i in pair:
                     self.m.add(Body(id=i, operation=Body.REMOVE))
+        self._assert_one_pass(pair, since, t0, end, gap)
+
+    def _assert_one_pass(self, pair, since, lo, hi, gap):
+        """The pair's events since `since`: COLLISION_BEGIN and COLLISION_END stamped between `lo`
+        and `hi`, each with the distance gap(stamp) there."""
         hits = [e for e in self.m.events_for({pair}, since)
                 if e.type in (E.COLLISION_BEGIN, E.COLLISION_END)]
         self.assertEqual([e.type for e in hits], [E.COLLISION_BEGIN, E.COLLISION_END], hits)
         for e in hits:
             stamp = e.header.stamp
-            self.assertTrue(t0 < stamp < end, (t0, stamp, end))
+            self.assertTrue(lo < stamp < hi, (lo, stamp, hi))
             self.assertAlmostEqual(e.pair.distance, gap(stamp), delta=1e-6)
         self.assertLessEqual(hits[0].pair.distance, 0.0)
         self.assertGreater(hits[1].pair.distance, 0.0)
@@ -1083,15 +1088,7 @@ class TopicBodies(unittest.TestCase):
         self.assertGreater(gap(before), 0.2)
         self.assertGreater(gap(after), 0.2)
         self.assertGreaterEqual(len(posed), 6)  # the target moving before the pass
-        hits = [e for e in self.m.events_for({pair}, since)
-                if e.type in (E.COLLISION_BEGIN, E.COLLISION_END)]
-        self.assertEqual([e.type for e in hits], [E.COLLISION_BEGIN, E.COLLISION_END], hits)
-        for e in hits:
-            stamp = e.header.stamp
-            self.assertTrue(before < stamp < after, (before, stamp, after))
-            self.assertAlmostEqual(e.pair.distance, gap(stamp), delta=1e-6)
-        self.assertLessEqual(hits[0].pair.distance, 0.0)
-        self.assertGreater(hits[1].pair.distance, 0.0)
+        self._assert_one_pass(pair, since, before, after, gap)
 
     def test_24_same_group_is_never_checked_by_get_distance(self):
         # Bodies sharing a non-empty group are never checked against each other (INTERFACE.md,
