@@ -235,31 +235,40 @@ MasterWatch::Outcome MasterWatch::registerAgain(std::string* why) {
     }
     return stop == Outcome::Done;
   };
-  const auto failed = [&](const std::string& call) {
-    *why = call;
-    return Outcome::Failed;
+  // One registration, `what` naming it; its reply in `reply` when given.
+  const auto registered = [&](const char* method, std::vector<XmlRpc::XmlRpcValue> args,
+                              const std::string& what, Reply* reply = nullptr) {
+    if (!mayGoOn(what)) return false;
+    Reply r = callMaster(method, std::move(args));
+    if (r.code != 1) {
+      stop = Outcome::Failed;
+      *why = what;
+      return false;
+    }
+    if (reply) *reply = std::move(r);
+    return true;
   };
   for (const auto& [topic, type] : topicsOf("getPublications")) {
-    if (!mayGoOn("registerPublisher " + topic)) return stop;
-    if (callMaster("registerPublisher", {topic, type, api}).code != 1)
-      return failed("registerPublisher " + topic);
+    if (!registered("registerPublisher", {topic, type, api}, "registerPublisher " + topic))
+      return stop;
   }
   for (const auto& [topic, type] : topicsOf("getSubscriptions")) {
-    if (!mayGoOn("registerSubscriber " + topic)) return stop;
-    const Reply r = callMaster("registerSubscriber", {topic, type, api});
-    if (r.code != 1) return failed("registerSubscriber " + topic);
+    Reply r;
+    if (!registered("registerSubscriber", {topic, type, api}, "registerSubscriber " + topic, &r))
+      return stop;
     // The publishers the master knows: roscpp connects to them as when the master tells it of
     // new ones (publisherUpdate).
-    if (isArray(r.value) && callSelf("publisherUpdate", {topic, r.value}).code != 1)
-      return failed("publisherUpdate " + topic);
+    if (isArray(r.value) && callSelf("publisherUpdate", {topic, r.value}).code != 1) {
+      *why = "publisherUpdate " + topic;
+      return Outcome::Failed;
+    }
   }
   const std::string service_api = "rosrpc://" + ros::network::getHost() + ":" +
                                   std::to_string(ros::ConnectionManager::instance()->getTCPPort());
   for (const std::string& service : services_) {
     if (!ros::ServiceManager::instance()->lookupServicePublication(service)) continue;  // gone
-    if (!mayGoOn("registerService " + service)) return stop;
-    if (callMaster("registerService", {service, service_api, api}).code != 1)
-      return failed("registerService " + service);
+    if (!registered("registerService", {service, service_api, api}, "registerService " + service))
+      return stop;
   }
   return Outcome::Done;
 }

@@ -88,13 +88,16 @@ class CatchUp(unittest.TestCase):
         lo, hi = stamps[0][0] + rospy.Duration(0.3), stamps[-1][0]
         with m.lock:
             events = [e for _, e in m.events]
+        x_at = dict((s.to_nsec(), x) for s, x in stamps)
         total = 0
         for i, (tx, ty) in enumerate(TARGETS):
             tid = 't%d' % i
+
+            def gap(x):
+                return math.hypot(x - tx, ty) - 0.2
             status, expected = 'N', []
             for stamp, x in stamps:
-                d = math.hypot(x - tx, ty) - 0.2
-                nxt = next_status(status, d)
+                nxt = next_status(status, gap(x))
                 expected += [(t, stamp) for t in TRANSITIONS.get((status, nxt), [])]
                 status = nxt
             expected = [(t, s.to_nsec()) for t, s in expected if lo <= s < hi]
@@ -102,10 +105,9 @@ class CatchUp(unittest.TestCase):
                    and e.type not in (E.UNKNOWN_BEGIN, E.UNKNOWN_END)
                    and lo <= e.header.stamp < hi]
             self.assertEqual([(e.type, e.header.stamp.to_nsec()) for e in got], expected, tid)
-            x_at = dict((s.to_nsec(), x) for s, x in stamps)
             for e in got:
-                x = x_at[e.header.stamp.to_nsec()]
-                self.assertAlmostEqual(e.pair.distance, math.hypot(x - tx, ty) - 0.2, delta=1e-6)
+                self.assertAlmostEqual(e.pair.distance, gap(x_at[e.header.stamp.to_nsec()]),
+                                       delta=1e-6)
             total += len(got)
         self.assertGreaterEqual(total, 20)  # each target passed about four times, two events a pass
 
