@@ -117,10 +117,11 @@ std::optional<world::Stamp> arrivedAt(const ros::Time& t) {
 }  // namespace
 
 Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const std::string& name)
-    : nh_(nh), pnh_(pnh), srv_pnh_(pnh), name_(name) {
+    : nh_(nh), pnh_(pnh), srv_pnh_(pnh), what_if_pnh_(pnh), name_(name) {
   nh_.setCallbackQueue(&callback_queue_);
   pnh_.setCallbackQueue(&callback_queue_);
   srv_pnh_.setCallbackQueue(&services_queue_);
+  what_if_pnh_.setCallbackQueue(&what_if_queue_);
   readParameters();
   world_ = std::make_unique<world::WorldModel>(settings_);
   applyTunables(tunables_);
@@ -206,7 +207,7 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   });
   // Last: a client that waits for a service finds the checked values on the parameter server.
   distance_srv_ = srv_pnh_.advertiseService("get_distance", &Monitor::getDistance, this);
-  check_srv_ = srv_pnh_.advertiseService("check_collision", &Monitor::checkCollision, this);
+  check_srv_ = what_if_pnh_.advertiseService("check_collision", &Monitor::checkCollision, this);
   list_srv_ = srv_pnh_.advertiseService("list_bodies", &Monitor::listBodies, this);
 
   {
@@ -230,6 +231,8 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   bodies_spinner_->start();
   services_spinner_ = std::make_unique<ros::AsyncSpinner>(threads, &services_queue_);
   services_spinner_->start();
+  what_if_spinner_ = std::make_unique<ros::AsyncSpinner>(threads, &what_if_queue_);
+  what_if_spinner_->start();
 }
 
 Monitor::~Monitor() {
@@ -249,9 +252,11 @@ Monitor::~Monitor() {
   callback_queue_.disable();
   bodies_queue_.disable();
   services_queue_.disable();
+  what_if_queue_.disable();
   if (spinner_) spinner_->stop();
   if (bodies_spinner_) bodies_spinner_->stop();
   if (services_spinner_) services_spinner_->stop();
+  if (what_if_spinner_) what_if_spinner_->stop();
   tf_receiver_.reset();  // after the loop, which reads through it; its trigger()s are harmless
   bodies_sub_.shutdown();
   poses_sub_.shutdown();

@@ -10,6 +10,8 @@
      between consecutive ~state messages during the burst is measured. roscpp 1.15 itself drops
      a fresh connection now and then under such churn (ROSCPP_DROP below): such a call is
      counted, retried once, and must be rare.
+  2b. ~check_collision calls that wait for TF (12 clients) leave ~get_distance and ~list_bodies
+     answering without waiting behind them.
   6. Node restart (SIGKILL, respawned by roslaunch) while publishers keep running: the latched
      ~bodies and the TF stream bring the world back (same ids, same distance).
 Figures go to stdout and to $CM_ARTIFACTS/faults.txt when set."""
@@ -26,7 +28,7 @@ import rosservice
 import rostest
 import tf2_ros
 from collision_monitor.msg import Body, CollisionEvent, CollisionState, PairState, Shape
-from collision_monitor.srv import GetDistance
+from collision_monitor.srv import CheckCollision, GetDistance
 from geometry_msgs.msg import PoseStamped
 
 from robust_util import alive, node_pid, save_figures
@@ -214,6 +216,68 @@ class Faults(unittest.TestCase):
         self.assertGreater(len(times), 2)
         self.assertLessEqual(max_gap, 2.0 / self.rate + 0.02,
                              'the periodic check stalled beyond one cycle during the burst')
+
+    def test_2b_what_if_calls_waiting_for_tf_leave_the_other_services_answering(self):
+        # ~check_collision bodies stamped ahead of TF in a moving frame: each call waits the
+        # node's 50 ms for TF to catch up (and is refused: TF never gets 1 s ahead), from more
+        # clients than the node has threads for them (at most 8). Meanwhile ~list_bodies and
+        # ~get_distance are called one at a time: they must not queue behind the waits (on the
+        # same threads, before the thirty-ninth session: 307 ms a call, as long as the what-ifs).
+        stop = threading.Event()
+        waits, errors = [], []
+
+        def what_if():
+            proxy = rospy.ServiceProxy('/collision_monitor/check_collision', CheckCollision,
+                                       persistent=True)
+            body = Body(id='probe', operation=Body.ADD, parts=[shape(Shape.SPHERE, [0.05])])
+            body.header.frame_id = 'moving_frame'
+            while not stop.is_set():
+                body.header.stamp = rospy.Time.now() + rospy.Duration(1.0)
+                t = time.monotonic()
+                try:
+                    r = proxy(body=body, pose=pose(), margin=0.0)
+                except (rospy.ServiceException, OSError) as e:
+                    errors.append(str(e))
+                    break
+                waits.append(time.monotonic() - t)
+                if r.success or 'cannot resolve frame' not in r.message:
+                    errors.append('what-if answer: %s %r' % (r.success, r.message))
+            proxy.close()
+
+        waits_before = int(self.m.diag_value('waits for TF (total)') or 0)
+        clients = [threading.Thread(target=what_if) for _ in range(12)]
+        for c in clients:
+            c.start()
+        others = []
+        try:
+            self.assertTrue(wait_for(lambda: len(waits) >= 24, 10.0), 'the what-if calls stalled')
+            for k in range(30):
+                t = time.monotonic()
+                if k % 2:
+                    self.assertIn('fixed', self.m.list_bodies().ids)
+                else:
+                    r = self.m.get_distance('fixed', 'mover', '')
+                    self.assertTrue(r.success, r.message)
+                    self.assertAlmostEqual(r.result.distance, 0.5, delta=1e-9)
+                others.append(time.monotonic() - t)
+        finally:
+            stop.set()
+            for c in clients:
+                c.join()
+        self.assertEqual(errors, [])
+        waits.sort()
+        others.sort()
+        wait_median, other_median = waits[len(waits) // 2], others[len(others) // 2]
+        figure('%d what-if calls stamped ahead of TF from 12 clients: median %.1f ms; '
+               '~list_bodies and ~get_distance meanwhile: median %.1f ms, max %.1f ms'
+               % (len(waits), 1e3 * wait_median, 1e3 * other_median, 1e3 * others[-1]))
+        # The what-ifs did wait for TF (50 ms each), and they were counted.
+        self.assertGreaterEqual(wait_median, 0.045)
+        self.assertTrue(wait_for(lambda: int(self.m.diag_value('waits for TF (total)') or 0) >=
+                                 waits_before + len(waits) // 2, 5.0))
+        # The other services did not wait behind them (on shared threads: at least one whole
+        # wait each, as every thread was taken).
+        self.assertLess(other_median, 0.4 * wait_median)
 
     def publisher_stops_and_resumes(self, what, pause, resume, body_ids, stamps):
         """Stops a pose publisher: every pair of `fixed` with `body_ids` must turn UNKNOWN within

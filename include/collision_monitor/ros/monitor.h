@@ -90,6 +90,12 @@ class Monitor {
   /// run: 105 of 12,492 pose-topic messages taken in over 65 s of such calls).
   ros::CallbackQueue services_queue_;
   std::unique_ptr<ros::AsyncSpinner> services_spinner_;
+  /// ~check_collision on threads of its own: a call whose body is stamped ahead of TF waits up
+  /// to 50 ms for it (toFixed()), and on services_queue_ as many such calls as threads held
+  /// ~get_distance and ~list_bodies back (12 clients stamping "now + 1 s": 307 ms a call of
+  /// theirs; faults.test test_2b).
+  ros::CallbackQueue what_if_queue_;
+  std::unique_ptr<ros::AsyncSpinner> what_if_spinner_;
 
   struct Tracked {
     std::string frame;  ///< TF frame (PoseSource::Tf) or empty
@@ -236,9 +242,10 @@ class Monitor {
   /// for as long as the node runs, so /diagnostics says so in every report (ERROR).
   std::vector<std::string> robot_errors_;
 
-  ros::NodeHandle nh_;       ///< on callback_queue_
-  ros::NodeHandle pnh_;      ///< on callback_queue_
-  ros::NodeHandle srv_pnh_;  ///< pnh_ on services_queue_
+  ros::NodeHandle nh_;           ///< on callback_queue_
+  ros::NodeHandle pnh_;          ///< on callback_queue_
+  ros::NodeHandle srv_pnh_;      ///< pnh_ on services_queue_
+  ros::NodeHandle what_if_pnh_;  ///< pnh_ on what_if_queue_
   std::string name_;
 
   std::shared_ptr<tf2_ros::Buffer> tf_buffer_;
