@@ -517,27 +517,33 @@ void Monitor::loadParameterBodies() {
   params[0] = ros::this_node::getName();
   params[1] = pnh_.resolveName("bodies", false);
   if (!ros::master::execute("getParam", params, result, list, false)) return;
+  // Refused bodies are configured obstacles not watched: an ERROR in every report, as robot
+  // geometry left out (one report's WARN, then "ok", the thirty-ninth session's audit).
+  const auto leftOut = [this](const std::string& what) {
+    body_errors_.push_back(what);
+    rejectAtStartup(what);
+  };
   if (list.getType() != XmlRpc::XmlRpcValue::TypeArray) {
-    rejectAtStartup("parameter ~bodies: expected a list of bodies");
+    leftOut("parameter ~bodies: expected a list of bodies");
     return;
   }
   for (int i = 0; i < list.size(); ++i) {
     const std::string where = "parameter ~bodies[" + std::to_string(i) + "]";
     auto msg = bodyFromXmlRpc(list[i]);
     if (!msg) {
-      rejectAtStartup(where + ": " + msg.error());
+      leftOut(where + ": " + msg.error());
       continue;
     }
     try {
       auto spec = bodyFromMsg(*msg, world::BodyOrigin::Parameter, limits_, mesh_loader_);
       if (!spec) {
-        rejectAtStartup(where + " body " + quoteInput(msg->id) + " refused: " + spec.error());
+        leftOut(where + " body " + quoteInput(msg->id) + " refused: " + spec.error());
         continue;
       }
       const std::string err = addBody(std::move(spec).value());
-      if (!err.empty()) rejectAtStartup(where + ": " + err);
+      if (!err.empty()) leftOut(where + ": " + err);
     } catch (const std::exception& e) {  // as onBody(): one body, not the node
-      rejectAtStartup(where + " body " + quoteInput(msg->id) + ": internal error: " + e.what());
+      leftOut(where + " body " + quoteInput(msg->id) + ": internal error: " + e.what());
     }
   }
 }
@@ -1532,14 +1538,15 @@ void Monitor::setupDiagnostics() {
       stats_.cycle_time_max = 0.0;  // max over the report window
     }
     const std::size_t rejected = now.rejected - before.rejected;
-    if (!param_errors_.empty() || !robot_errors_.empty()) {
-      // Both, when both: one hid the other.
+    if (!param_errors_.empty() || !robot_errors_.empty() || !body_errors_.empty()) {
+      // Each, when several: one hid the other.
       std::string what;
-      if (!param_errors_.empty()) what = "invalid parameters: " + joined(param_errors_);
-      if (!robot_errors_.empty()) {
-        what += (what.empty() ? "" : "; ") + std::string("robot geometry not monitored: ") +
-                joined(robot_errors_);
-      }
+      const auto add = [&what](const char* heading, const std::vector<std::string>& errors) {
+        if (!errors.empty()) what += (what.empty() ? "" : "; ") + (heading + joined(errors));
+      };
+      add("invalid parameters: ", param_errors_);
+      add("robot geometry not monitored: ", robot_errors_);
+      add("bodies of ~bodies not monitored: ", body_errors_);
       s.summary(diagnostic_msgs::DiagnosticStatus::ERROR, what);
     } else if (rejected > 0) {
       s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu inputs rejected: %s", rejected,
@@ -1641,6 +1648,8 @@ void Monitor::setupDiagnostics() {
     // The first 10 (a hostile URDF refuses thousands of links); the summary counts them all.
     for (std::size_t i = 0; i < robot_errors_.size() && i < 10; ++i)
       s.add("robot geometry left out", robot_errors_[i]);
+    for (std::size_t i = 0; i < body_errors_.size() && i < 10; ++i)
+      s.add("parameter body left out", body_errors_[i]);
   });
 }
 

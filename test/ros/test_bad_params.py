@@ -180,10 +180,14 @@ class BadParams(unittest.TestCase):
                          STARTED + 15.0 - time.monotonic()),
                 'no check by /slow_checks %.1f s after start-up: %s' % (
                     time.monotonic() - STARTED, slow.diag_value('checks (total)')))
+            # Its robot: link l keeps its box; the mesh left out is an ERROR in every report, as
+            # are its diagnostic_period "abc" (reset to 1 on the parameter server) and the body
+            # of its ~bodies parameter refused for a typo (one report's WARN, then "ok", before
+            # the thirty-ninth session): the report after the first one.
+            first = slow.diagnostics
+            self.assertTrue(wait_for(lambda: slow.diagnostics is not first, 5.0))
         finally:
             sub.unregister()
-        # Its robot: link l keeps its box; the mesh left out is an ERROR in every report, as is
-        # its diagnostic_period "abc" (reset to 1 on the parameter server).
         st = slow.diagnostics
         self.assertEqual(st.level, DiagnosticStatus.ERROR, st.message)
         # Both in the message (then "; no check for ... s": its min_check_interval is 20 s).
@@ -191,14 +195,19 @@ class BadParams(unittest.TestCase):
             "invalid parameters: diagnostic_period: not a number; using 1; robot geometry not "
             "monitored: URDF link l: collision 1 (mesh): mesh 'file:///nowhere/m.stl': cannot "
             "resolve '/nowhere/m.stl'"), st.message)
+        self.assertIn("; bodies of ~bodies not monitored: parameter ~bodies[1]: parts[0]: "
+                      "unknown field 'dimension'", st.message)
         self.assertEqual(rospy.get_param('/slow_checks/diagnostic_period'), 1.0)
         left_out = [kv.value for kv in st.values if kv.key == 'robot geometry left out']
         self.assertEqual(len(left_out), 1, left_out)
         self.assertTrue(left_out[0].startswith(
             "URDF link l: collision 1 (mesh): mesh 'file:///nowhere/m.stl': cannot resolve "
             "'/nowhere/m.stl'"), left_out[0])
+        left_out = [kv.value for kv in st.values if kv.key == 'parameter body left out']
+        self.assertEqual(len(left_out), 1, left_out)
+        self.assertEqual(left_out[0], "parameter ~bodies[1]: parts[0]: unknown field 'dimension'")
         listed = rospy.ServiceProxy('/slow_checks/list_bodies', ListBodies)()
-        self.assertEqual(list(listed.ids), ['l'])
+        self.assertEqual(list(listed.ids), ['l', 'post'])
 
 
 if __name__ == '__main__':

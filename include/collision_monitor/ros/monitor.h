@@ -241,6 +241,8 @@ class Monitor {
   /// Robot geometry left out at start-up (the URDF, a link, a <collision> element): not watched
   /// for as long as the node runs, so /diagnostics says so in every report (ERROR).
   std::vector<std::string> robot_errors_;
+  /// Bodies of the ~bodies parameter refused at start-up: as robot_errors_.
+  std::vector<std::string> body_errors_;
 
   ros::NodeHandle nh_;           ///< on callback_queue_
   ros::NodeHandle pnh_;          ///< on callback_queue_
