@@ -1310,6 +1310,9 @@ void Monitor::runCycle() {
   const std::size_t between_most = std::clamp<std::size_t>(
       kMaxTfLookupsBetween / std::max<std::size_t>(1, tf_frames.size()), 1, kMaxTfStampsBetween);
   std::vector<std::string> future_frames;
+  // Why a frame's lookup failed, for the queries' messages ("has no pose yet" said nothing of the
+  // frame: a typo in a frame name, a fixed frame missing from TF).
+  std::map<std::string, std::string> unresolved_why;
   std::map<std::string, TfSeen> seen;  // tf_seen_ for this cycle's frames
   // Every frame from the same TF messages: none goes in while these lookups run (TfReceiver).
   auto tf_snapshot = tf_receiver_->snapshot();
@@ -1337,6 +1340,9 @@ void Monitor::runCycle() {
         // its cache behind the latest): clear again.
         frames[frame] = std::nullopt;
         future_frames.push_back(frame + " (" + std::to_string(stamp.toSec() - now) + " s ahead)");
+        unresolved_why[frame] = "its frame " + quoteInput(frame) + " is stamped " +
+                                std::to_string(stamp.toSec() - now) +
+                                " s after the current ROS time";
       } else {
         frames[frame] =
             FramePose{toTransform3(tf.transform), toStamp(tf.header.stamp), arrivedAt(first.at)};
@@ -1355,8 +1361,10 @@ void Monitor::runCycle() {
           }
         }
       }
-    } catch (const tf2::TransformException&) {
+    } catch (const tf2::TransformException& e) {
       frames[frame] = std::nullopt;
+      unresolved_why[frame] = "its frame " + quoteInput(frame) + " cannot be looked up in " +
+                              quoteInput(fixed_frame_) + ": " + capped(e.what(), 512);
     }
   }
   tf_snapshot.unlock();
@@ -1398,7 +1406,7 @@ void Monitor::runCycle() {
         }
         world_->setPose(id, f->pose, f->stamp, std::nullopt, f->arrived);
       } else {
-        world_->markUnresolved(id);
+        world_->markUnresolved(id, unresolved_why[frame]);
       }
     }
     cycle = world_->check(toStamp(stamp_now));

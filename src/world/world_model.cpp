@@ -288,6 +288,7 @@ struct BodyState {
   Placement at;  ///< at the held (latest) pose
   Twist twist;
   BodySpec spec;
+  std::string unresolved_why;  ///< markUnresolved()'s reason while `unresolved`
   /// The timed poses of the last pose_timeout, oldest first, the held one last (and one older
   /// than pose_timeout so that its start is covered; at most kMaxHistory): where the body was at
   /// an older stamp (poseAt()). A pair's older stamp is fresh, so within pose_timeout of now.
@@ -1242,8 +1243,10 @@ struct WorldModel::Impl {
 
   std::string whyStale(int slot, Stamp now) const {
     const BodyState& b = bodies[slot];
-    if (!b.has_pose) return "body '" + b.spec.id + "' has no pose yet";
-    if (b.unresolved) return "body '" + b.spec.id + "' has an unresolved pose";
+    const std::string why =
+        b.unresolved && !b.unresolved_why.empty() ? ": " + b.unresolved_why : "";
+    if (!b.has_pose) return "body '" + b.spec.id + "' has no pose yet" + why;
+    if (b.unresolved) return "body '" + b.spec.id + "' has an unresolved pose" + why;
     std::ostringstream os;
     os << "body '" << b.spec.id << "' has a stale pose (" << (now - b.fresh_from)
        << " s old, pose_timeout " << settings.pose_timeout << " s)";
@@ -1530,9 +1533,12 @@ bool WorldModel::keepsPoses() const {
   return (impl_->mixed_stamps || impl_->outran) && settings_.align_poses;
 }
 
-void WorldModel::markUnresolved(const std::string& id) {
+void WorldModel::markUnresolved(const std::string& id, std::string why) {
   auto it = impl_->slot_of.find(id);
-  if (it != impl_->slot_of.end()) impl_->bodies[it->second].unresolved = true;
+  if (it == impl_->slot_of.end()) return;
+  BodyState& b = impl_->bodies[it->second];
+  b.unresolved = true;
+  b.unresolved_why = std::move(why);
 }
 
 void WorldModel::clearPoses() {

@@ -1317,11 +1317,33 @@ class TopicBodies(unittest.TestCase):
                 self.distance('s1', 'on_static')), 3.0)
             self.assertIsNotNone(r, 'still posed after its frame lost its path to world')
             self.assertEqual(r.result.status, PairState.UNKNOWN)
-            self.assertIn("'on_static'", r.message)
+            # With TF's reason (it said "has an unresolved pose", nothing of the frame).
+            self.assertTrue(r.message.startswith(
+                "body 'on_static' has an unresolved pose: its frame 'static_frame' cannot be "
+                "looked up in 'world': "), r.message)
+            self.assertIn('not part of the same tree', r.message)  # tf2's own words
         finally:
             self.static_tf.sendTransform(self.statics)
             self.m.add(Body(id='on_static', operation=Body.REMOVE))
         self.assertTrue(self.m.wait_listed('on_static', present=False))
+
+    def test_34b_a_frame_never_in_tf_is_named_with_tf_reason(self):
+        # A typo in a frame name: the body never has a pose, and the queries say why (they said
+        # "has no pose yet", nothing of the frame).
+        self.m.add(sphere_body('on_typo', 0.5, frame='shelf_farme', pose_from_topic=False))
+        self.assertTrue(self.m.wait_listed('on_typo'))
+        try:
+            expected = ("body 'on_typo' has no pose yet: its frame 'shelf_farme' cannot be "
+                        "looked up in 'world': ")
+            r = wait_for(lambda: (lambda x: x if expected in x.message else None)(
+                self.distance('s1', 'on_typo')), 3.0)
+            self.assertIsNotNone(r, self.distance('s1', 'on_typo').message)
+            self.assertFalse(r.success)
+            self.assertTrue(r.message.startswith(expected), r.message)
+            self.assertIn('shelf_farme', r.message[len(expected):])  # tf2's own words
+        finally:
+            self.m.add(Body(id='on_typo', operation=Body.REMOVE))
+        self.assertTrue(self.m.wait_listed('on_typo', present=False))
 
     def test_35_pose_topic_in_a_turned_frame(self):
         # turned_frame is world turned +90 degrees about x (its y is world z): a PoseStamped at

@@ -3947,6 +3947,30 @@ TEST(WorldModel, AnUnresolvedStaticPoseIsForgottenByClearPoses) {
   EXPECT_EQ(why, "body 'b' has no pose yet");
 }
 
+TEST(WorldModel, AnUnresolvedBodySaysWhyUntilItsNextPose) {
+  WorldModel w(dyadic());
+  addSpheres(w, {"a", "b", "c"}, 0.5);
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  ASSERT_TRUE(w.setPose("b", at(3), 1.0));
+  std::string why;
+  // Never posed: the reason follows "no pose yet"; posed: "unresolved pose".
+  w.markUnresolved("c", "its frame 'f' not found");
+  EXPECT_FALSE(w.distance("a", "c", 1.0, &why));
+  EXPECT_EQ(why, "body 'c' has no pose yet: its frame 'f' not found");
+  w.markUnresolved("b", "its frame 'g' not found");
+  EXPECT_FALSE(w.distance("a", "b", 1.0, &why));
+  EXPECT_EQ(why, "body 'b' has an unresolved pose: its frame 'g' not found");
+  // Without a reason, as before; and gone with the next pose.
+  w.markUnresolved("b");
+  EXPECT_FALSE(w.distance("a", "b", 1.0, &why));
+  EXPECT_EQ(why, "body 'b' has an unresolved pose");
+  w.markUnresolved("b", "its frame 'g' not found");
+  ASSERT_TRUE(w.setPose("b", at(3), 1.5));
+  EXPECT_TRUE(w.distance("a", "b", 1.5, &why));
+  EXPECT_FALSE(w.distance("a", "b", 1e6, &why));
+  EXPECT_EQ(why.rfind("body 'b' has a stale pose (", 0), 0u) << why;
+}
+
 TEST(WorldModel, StaleBodiesAreListedInIdOrder) {
   // Added (slots) in another order than their ids; c has a pose.
   WorldModel w(dyadic());

@@ -241,7 +241,9 @@ class WorldModel {
   /// poses between two checks (TF) gives them with align_poses: its second turns keeping on.
   bool keepsPoses() const;
   /// Marks a body's pose as unresolvable now (e.g. TF lookup failed): its pairs turn UNKNOWN.
-  void markUnresolved(const std::string& id);
+  /// `why`, if given, ends the queries' "no pose yet" or "unresolved pose" message until the
+  /// body's next pose.
+  void markUnresolved(const std::string& id, std::string why = {});
   /// Forgets every held pose (e.g. time jumped backwards) except static ones (stamp 0, which
   /// hold at any time and are not sent again): their pairs UNKNOWN until new poses.
   void clearPoses();
