@@ -1918,7 +1918,13 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
     }
     const auto [pa, po] = m.placedPair(sa, o, m.pairTime(sa, o));  // as the pair is checked
     const double gap = pa.at.box.distance(po.at.box);
-    order.emplace_back(gap > 0.0 ? gap : -kInf, o);
+    // Less its rounding: boxes 9.6 and 9.9 m out have a gap of 0.30000000000000071, above the
+    // 0.3 of bodies in them, and a tie there went to whichever was measured first.
+    const double coordinates =
+        std::max({pa.at.box.min.cwiseAbs().maxCoeff(), pa.at.box.max.cwiseAbs().maxCoeff(),
+                  po.at.box.min.cwiseAbs().maxCoeff(), po.at.box.max.cwiseAbs().maxCoeff()});
+    const double rounding = 8.0 * std::numeric_limits<double>::epsilon() * coordinates;
+    order.emplace_back(gap > rounding ? gap - rounding : -kInf, o);
   }
   if (!stale.empty()) {
     std::sort(stale.begin(), stale.end(),

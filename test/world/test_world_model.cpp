@@ -192,6 +192,34 @@ TEST(WorldModel, PairFilterGroupsDisabledPairsAndSelf) {
   EXPECT_NEAR(n->distance, -0.98, 1e-12);
 }
 
+// nearest(): of bodies exactly as near, the smallest id, though their boxes' gaps round above
+// the distance (9.9 - 9.6 = 0.30000000000000071 > 0.3: "zz" and "mm" were never measured, the
+// thirty-ninth session's audit).
+TEST(WorldModel, NearestTieGoesToTheSmallestIdThoughTheBoxGapRoundsUp) {
+  WorldModel w(dyadic());
+  addSpheres(w, {"ctr", "zz", "mm", "aa"}, 0.1);
+  ASSERT_TRUE(w.setPose("ctr", at(10.0), 0.0));
+  ASSERT_TRUE(w.setPose("zz", at(10.5), 0.0));
+  ASSERT_TRUE(w.setPose("mm", at(10.0, 0.5), 0.0));
+  ASSERT_TRUE(w.setPose("aa", at(9.5), 0.0));
+  std::string why;
+  double d = 0.0;
+  for (const char* o : {"zz", "mm", "aa"}) {
+    const auto r = w.distance("ctr", o, 1.0, &why);
+    ASSERT_TRUE(r) << why;
+    if (d == 0.0) d = r->distance;
+    EXPECT_EQ(r->distance, d) << o;  // a tie to the last bit
+  }
+  const auto n = w.nearest("ctr", 1.0, &why);
+  ASSERT_TRUE(n) << why;
+  EXPECT_EQ(n->body_b, "aa");
+  EXPECT_EQ(n->distance, d);
+  ASSERT_TRUE(w.removeBody("aa"));
+  const auto n2 = w.nearest("ctr", 1.0, &why);
+  ASSERT_TRUE(n2) << why;
+  EXPECT_EQ(n2->body_b, "mm");
+}
+
 // A pose stamped ahead of the clock (its publisher's clock runs ahead) ages from when it came,
 // not from its stamp; the stamp still orders poses and dates the verdict.
 TEST(WorldModel, PosesStampedAheadAgeFromTheirArrival) {
