@@ -193,10 +193,16 @@ TEST(Urdf, RefusedElementsAreLeftOutOfTheirLinkAlone) {
       <collision><origin xyz="1 0 0"/></collision>
     </link>
     <link name="ghost"><collision><geometry/></collision></link>
+    <link name="early">
+      <collision><origin xyz="1 0 0"/></collision>
+      <collision><geometry><box size="1 2 3"/></geometry></collision>
+      <collision><geometry><sphere radius="0.5"/></geometry></collision>
+    </link>
     <link name="c"><collision><geometry><sphere radius="0.5"/></geometry></collision></link>
     <joint name="j1" type="fixed"><parent link="a"/><child link="mixed"/></joint>
     <joint name="j2" type="fixed"><parent link="mixed"/><child link="ghost"/></joint>
     <joint name="j3" type="fixed"><parent link="ghost"/><child link="c"/></joint>
+    <joint name="j4" type="fixed"><parent link="c"/><child link="early"/></joint>
   </robot>)";
   MeshCache cache({}, 1000, resolver());
   auto robot = bodiesFromUrdf(xml, 0.0, Limits(), loaderOf(cache));
@@ -213,15 +219,16 @@ TEST(Urdf, RefusedElementsAreLeftOutOfTheirLinkAlone) {
   EXPECT_EQ(ids, (std::vector<std::string>{"a", "c", "mixed"}));
   std::vector<std::string> errors = robot->errors;
   std::sort(errors.begin(), errors.end());
-  ASSERT_EQ(errors.size(), 3u);
+  // urdfdom stops at the first element it cannot parse: early's valid box and sphere after it
+  // are gone too (it said "1 of 3 ... elements without usable <geometry>").
+  ASSERT_EQ(errors.size(), 4u);
   EXPECT_EQ(errors[0],
-            "ghost: 1 of 1 <collision> elements without usable <geometry> (urdfdom "
-            "dropped it)");
-  EXPECT_EQ(errors[1],
-            "mixed: 1 of 3 <collision> elements without usable <geometry> (urdfdom "
-            "dropped it)");
-  EXPECT_EQ(errors[2].rfind("mixed: collision 1 (mesh): ", 0), 0u) << errors[2];
-  EXPECT_NE(errors[2].find("cannot resolve '/nowhere/x.stl'"), std::string::npos) << errors[2];
+            "early: <collision> 1 of 3 has no usable <geometry> (urdfdom dropped it and the 2 "
+            "after it)");
+  EXPECT_EQ(errors[1], "ghost: <collision> 1 of 1 has no usable <geometry> (urdfdom dropped it)");
+  EXPECT_EQ(errors[2], "mixed: <collision> 3 of 3 has no usable <geometry> (urdfdom dropped it)");
+  EXPECT_EQ(errors[3].rfind("mixed: collision 1 (mesh): ", 0), 0u) << errors[3];
+  EXPECT_NE(errors[3].find("cannot resolve '/nowhere/x.stl'"), std::string::npos) << errors[3];
   EXPECT_TRUE(hasPair(robot->adjacent, "a", "mixed"));
   EXPECT_FALSE(hasPair(robot->adjacent, "mixed", "c"));  // ghost is between them
 }
