@@ -290,6 +290,14 @@ void Monitor::readParameters() {
 #define CM_READ(field) t.field = typedParam(#field, d.field, typeName(d.field));
   CM_TUNABLES(CM_READ)
 #undef CM_READ
+  // contact_distance alone above the default warning distance: the warning distance follows it,
+  // as ~set_parameters has it (an ERROR for the whole run about a parameter nobody set).
+  if (!pnh_.hasParam("warning_distance") && std::isfinite(t.contact_distance) &&
+      t.contact_distance > t.warning_distance) {
+    ROS_INFO_STREAM(name_ << ": warning_distance not set: " << t.contact_distance
+                          << " m, the contact_distance given");
+    t.warning_distance = t.contact_distance;
+  }
   validate(&t, d, &param_errors_);
 
   robot_padding_ = typedParam("robot_padding", 0.0, "a number");

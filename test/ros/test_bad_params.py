@@ -93,6 +93,31 @@ class BadParams(unittest.TestCase):
                 proc.wait(timeout=30.0)
         self.assertEqual(seen, [(50.0, 0.05)] * 3)
 
+    def test_01c_contact_distance_alone_raises_the_default_warning_distance(self):
+        # Only contact_distance given, above the default warning_distance (0.05): the warning
+        # distance becomes the contact distance, as ~set_parameters does, without an error (it
+        # was an ERROR for as long as the node ran, about a parameter nobody set).
+        exe = roslib.packages.find_node('collision_monitor', 'collision_monitor_node')[0]
+        ns = '/contact_only'
+        proc = subprocess.Popen([exe, '__ns:=' + ns, '__name:=cm', '_contact_distance:=0.1',
+                                 '_publish_markers:=false'],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        mon = Monitor.__new__(Monitor)  # only its diagnostics
+        mon.node, mon.diagnostics = ns + '/cm', None
+        sub = rospy.Subscriber('/diagnostics', DiagnosticArray, mon._on_diag)
+        try:
+            rospy.wait_for_service(ns + '/cm/get_distance', timeout=30.0)
+            self.assertEqual(rospy.get_param(ns + '/cm/warning_distance'), 0.1)
+            self.assertEqual(rospy.get_param(ns + '/cm/contact_distance'), 0.1)
+            self.assertTrue(wait_for(lambda: mon.diagnostics is not None, 10.0))
+            st = mon.diagnostics
+            self.assertEqual(st.level, DiagnosticStatus.OK, st.message)
+            self.assertEqual([kv.value for kv in st.values if kv.key == 'invalid parameter'], [])
+        finally:
+            sub.unregister()
+            proc.send_signal(signal.SIGINT)
+            proc.wait(timeout=30.0)
+
     def test_02_defaults_in_effect(self):
         r = wait_for(lambda: (lambda r: r if r.success else None)(
             self.m.get_distance('a', 'b', '')), 5.0)
