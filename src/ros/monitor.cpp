@@ -276,7 +276,9 @@ T Monitor::typedParam(const std::string& key, T fallback, const char* type) {
   T v = fallback;
   if (pnh_.getParam(key, v)) return v;
   XmlRpc::XmlRpcValue raw;
-  if (pnh_.getParam(key, raw)) param_errors_.push_back(key + ": not " + type + "; default used");
+  if (pnh_.getParam(key, raw)) {
+    param_errors_.push_back(key + ": not " + type + numberWrittenAsText(raw) + "; default used");
+  }
   return fallback;
 }
 
@@ -1517,7 +1519,7 @@ std::string Monitor::checkDiagnosticPeriod() {
     // diagnostic_updater ignored it and kept its period (a launch argument "inf" or "abc" comes
     // as a string): silent before.
     pnh_.setParam("diagnostic_period", 1.0);
-    return "diagnostic_period: not a number; using 1";
+    return "diagnostic_period: not a number" + numberWrittenAsText(v) + "; using 1";
   }
   if (std::isfinite(period) && std::abs(period) <= kMaxDiagnosticPeriod) return "";
   pnh_.setParam("diagnostic_period", 1.0);

@@ -1,5 +1,7 @@
 #include "collision_monitor/ros/params.h"
 
+#include <cmath>
+#include <cstdlib>
 #include <set>
 #include <utility>
 
@@ -26,7 +28,7 @@ struct FieldError {
 double number(const XmlRpcValue& v, const std::string& field) {
   if (v.getType() == XmlRpcValue::TypeDouble) return static_cast<const double&>(v);
   if (v.getType() == XmlRpcValue::TypeInt) return static_cast<const int&>(v);
-  fail(field, "expected a number");
+  fail(field, "expected a number" + numberWrittenAsText(v));
 }
 
 std::string string(const XmlRpcValue& v, const std::string& field) {
@@ -131,6 +133,21 @@ collision_monitor::Shape shape(const XmlRpcValue& v, const std::string& field) {
 }
 
 }  // namespace
+
+std::string numberWrittenAsText(const XmlRpcValue& value) {
+  if (value.getType() != XmlRpcValue::TypeString) return {};
+  const std::string& text = static_cast<const std::string&>(value);
+  const std::size_t e = text.find_first_of("eE");
+  if (text.empty() || text.size() > 32 || e == std::string::npos ||
+      text.find_first_not_of("0123456789+-eE") != std::string::npos)
+    return {};
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (end != text.c_str() + text.size() || !std::isfinite(v)) return {};
+  return " (the text '" + text +
+         "': roslaunch and YAML read a number with an exponent and no '.' as text; write " +
+         text.substr(0, e) + ".0" + text.substr(e) + ")";
+}
 
 Expected<collision_monitor::Body> bodyFromXmlRpc(const XmlRpcValue& v) {
   try {

@@ -45,9 +45,13 @@ class BadParams(unittest.TestCase):
                     'ttc_horizon', 'marker_rate', 'publish_markers', 'marker_frame_locked',
                     'check_on_pose', 'exact_min_distance', 'align_poses', 'backend',
                     'max_bodies', 'max_vertices_per_part', 'max_parts_per_body',
-                    'robot_description_param', 'mesh_decomposition', 'diagnostic_period'):
+                    'robot_description_param', 'mesh_decomposition', 'diagnostic_period',
+                    'min_check_interval'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
-        self.assertEqual(len(errors), 19, errors)  # max_unknown_pairs = 1.0 is valid
+        self.assertEqual(len(errors), 20, errors)  # max_unknown_pairs = 1.0 is valid
+        self.assertIn("min_check_interval: not a number (the text '2e-3': roslaunch and YAML read "
+                      "a number with an exponent and no '.' as text; write 2.0e-3); default used",
+                      errors)
         self.assertIn('diagnostic_period = 1e+300 (must be finite and within +-1e+06 s); using 1',
                       errors)
         self.assertEqual(rospy.get_param(NS + 'diagnostic_period'), 1.0)

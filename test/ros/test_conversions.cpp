@@ -541,6 +541,18 @@ TEST(Params, BodyFromYaml) {
   XmlRpc::XmlRpcValue no_id = b;
   no_id["id"] = 3;
   EXPECT_TRUE(contains(bodyFromXmlRpc(no_id).error(), "id"));
+  // 5e-2 is text to PyYAML (and to roslaunch): the error says how to write it.
+  XmlRpc::XmlRpcValue as_text = b;
+  as_text["padding"] = "5e-2";
+  EXPECT_EQ(bodyFromXmlRpc(as_text).error(),
+            "padding: expected a number (the text '5e-2': roslaunch and YAML read a number with "
+            "an exponent and no '.' as text; write 5.0e-2)");
+  as_text["padding"] = "-1E3";
+  EXPECT_TRUE(contains(bodyFromXmlRpc(as_text).error(), "write -1.0E3)"));
+  for (const char* other : {"five", "5e", "0x1e5", "1e999", "5.0e-2x", "inf"}) {
+    as_text["padding"] = other;
+    EXPECT_EQ(bodyFromXmlRpc(as_text).error(), "padding: expected a number") << other;
+  }
 
   // Body's own fields (INTERFACE.md: "same fields as Body"): header.frame_id and operation ADD.
   // They were refused ("unknown field 'header'"), and the body was not loaded.

@@ -33,6 +33,11 @@
 namespace collision_monitor {
 namespace ros_layer {
 
+/// For a value that should have been a number: when it is text that reads as a number with an
+/// exponent and no '.' ("5e-2", as roslaunch and PyYAML keep it), " (the text '5e-2': ...; write
+/// 5.0e-2)" to end the error with; else empty.
+std::string numberWrittenAsText(const XmlRpc::XmlRpcValue& value);
+
 /// One entry of `~bodies` -> a Body message with operation ADD (not yet validated beyond its
 /// structure: bodyFromMsg() does that). Errors name the field ("parts[1].dimensions[0]: ...").
 Expected<collision_monitor::Body> bodyFromXmlRpc(const XmlRpc::XmlRpcValue& value);
