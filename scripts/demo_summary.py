@@ -122,6 +122,13 @@ class Summary(object):
                 out.append("(no pair came within the warning distance)")
             out.append("events: " + ", ".join(
                 "%s %d" % (EVENT_NAMES[t], self.counts[t]) for t in order))
+            ended = [EVENT_NAMES[end] for begin, end in zip(order[0::2], order[1::2])
+                     if self.counts[end] > self.counts[begin]]
+            if ended:
+                # ~events is not latched: the robot's pairs are UNKNOWN until its TF comes,
+                # usually before this summary has connected.
+                out.append("(%s without their BEGINs: those came before this summary connected)"
+                           % ", ".join(ended))
             n = len(self.compute_times)
             if n:
                 ct = sorted(self.compute_times)
