@@ -11,6 +11,7 @@
 #include <limits>
 #include <set>
 #include <sstream>
+#include <type_traits>
 
 #include <collision_monitor/CollisionEvent.h>
 #include <collision_monitor/CollisionState.h>
@@ -277,7 +278,8 @@ T Monitor::typedParam(const std::string& key, T fallback, const char* type) {
   if (pnh_.getParam(key, v)) return v;
   XmlRpc::XmlRpcValue raw;
   if (pnh_.getParam(key, raw)) {
-    param_errors_.push_back(key + ": not " + type + numberWrittenAsText(raw) + "; default used");
+    const std::string hint = std::is_same_v<T, double> ? numberWrittenAsText(raw) : "";
+    param_errors_.push_back(key + ": not " + type + hint + "; default used");
   }
   return fallback;
 }
@@ -293,7 +295,8 @@ void Monitor::readParameters() {
   CM_TUNABLES(CM_READ)
 #undef CM_READ
   // contact_distance alone above the default warning distance: the warning distance follows it,
-  // as ~set_parameters has it (an ERROR for the whole run about a parameter nobody set).
+  // to the value ~set_parameters would use (it was an ERROR for the whole run about a parameter
+  // nobody set).
   if (!pnh_.hasParam("warning_distance") && std::isfinite(t.contact_distance) &&
       t.contact_distance > t.warning_distance) {
     ROS_INFO_STREAM(name_ << ": warning_distance not set: " << t.contact_distance
@@ -1349,9 +1352,9 @@ void Monitor::runCycle() {
         // after the buffer was cleared, and it blocks the new data (tf2 refuses data older than
         // its cache behind the latest): clear again.
         frames[frame] = std::nullopt;
-        future_frames.push_back(frame + " (" + std::to_string(stamp.toSec() - now) + " s ahead)");
-        unresolved_why[frame] = "its frame " + quoteInput(frame) + " is stamped " +
-                                std::to_string(stamp.toSec() - now) +
+        const std::string ahead = std::to_string(stamp.toSec() - now);
+        future_frames.push_back(frame + " (" + ahead + " s ahead)");
+        unresolved_why[frame] = "its frame " + quoteInput(frame) + " is stamped " + ahead +
                                 " s after the current ROS time";
       } else {
         frames[frame] =

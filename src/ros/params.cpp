@@ -139,14 +139,19 @@ std::string numberWrittenAsText(const XmlRpcValue& value) {
   const std::string& text = static_cast<const std::string&>(value);
   const std::size_t e = text.find_first_of("eE");
   if (text.empty() || text.size() > 32 || e == std::string::npos ||
-      text.find_first_not_of("0123456789+-eE") != std::string::npos)
+      text.find_first_not_of("0123456789+-.eE") != std::string::npos)
     return {};
   char* end = nullptr;
   const double v = std::strtod(text.c_str(), &end);
   if (end != text.c_str() + text.size() || !std::isfinite(v)) return {};
+  // PyYAML's float: a '.' in the mantissa and a sign after the 'e' (1.0e2 is text to it too).
+  std::string mantissa = text.substr(0, e + 1), exponent = text.substr(e + 1);
+  if (mantissa.find('.') == std::string::npos) mantissa.insert(e, ".0");
+  if (exponent[0] != '+' && exponent[0] != '-') exponent.insert(0, "+");
   return " (the text '" + text +
-         "': roslaunch and YAML read a number with an exponent and no '.' as text; write " +
-         text.substr(0, e) + ".0" + text.substr(e) + ")";
+         "': YAML reads a number with an exponent as text unless it has a '.' and a signed "
+         "exponent, roslaunch unless it has a '.'; write " +
+         mantissa + exponent + ")";
 }
 
 Expected<collision_monitor::Body> bodyFromXmlRpc(const XmlRpcValue& v) {

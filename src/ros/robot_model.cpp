@@ -201,14 +201,15 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
     if (!link) continue;
     std::vector<urdf::CollisionSharedPtr> elements = link->collision_array;
     if (elements.empty() && link->collision) elements.push_back(link->collision);
-    // urdfdom stops at the first <collision> it cannot parse (no usable <geometry>), dropping it
-    // and every later one of the link, and says so on stderr only.
+    // urdfdom stops at the first <collision> it cannot parse (no usable <geometry>, a malformed
+    // <origin>), dropping it and every later one of the link, and says so on stderr only.
     const auto in_xml = xml_collisions.find(name);
     if (in_xml != xml_collisions.end() && in_xml->second > elements.size()) {
       const std::size_t after = in_xml->second - elements.size() - 1;
       out.errors.push_back(
           name + ": <collision> " + std::to_string(elements.size() + 1) + " of " +
-          std::to_string(in_xml->second) + " has no usable <geometry> (urdfdom dropped it" +
+          std::to_string(in_xml->second) +
+          " could not be parsed, e.g. no usable <geometry> (urdfdom dropped it" +
           (after == 0 ? std::string() : " and the " + std::to_string(after) + " after it") + ")");
     }
     if (elements.empty()) continue;

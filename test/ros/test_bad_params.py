@@ -49,9 +49,9 @@ class BadParams(unittest.TestCase):
                     'min_check_interval'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
         self.assertEqual(len(errors), 20, errors)  # max_unknown_pairs = 1.0 is valid
-        self.assertIn("min_check_interval: not a number (the text '2e-3': roslaunch and YAML read "
-                      "a number with an exponent and no '.' as text; write 2.0e-3); default used",
-                      errors)
+        self.assertIn("min_check_interval: not a number (the text '2e-3': YAML reads a number with "
+                      "an exponent as text unless it has a '.' and a signed exponent, roslaunch "
+                      "unless it has a '.'; write 2.0e-3); default used", errors)
         self.assertIn('diagnostic_period = 1e+300 (must be finite and within +-1e+06 s); using 1',
                       errors)
         self.assertEqual(rospy.get_param(NS + 'diagnostic_period'), 1.0)
@@ -99,8 +99,8 @@ class BadParams(unittest.TestCase):
 
     def test_01c_contact_distance_alone_raises_the_default_warning_distance(self):
         # Only contact_distance given, above the default warning_distance (0.05): the warning
-        # distance becomes the contact distance, as ~set_parameters does, without an error (it
-        # was an ERROR for as long as the node ran, about a parameter nobody set).
+        # distance becomes the contact distance, the value ~set_parameters would use, without an
+        # error (it was an ERROR for as long as the node ran, about a parameter nobody set).
         exe = roslib.packages.find_node('collision_monitor', 'collision_monitor_node')[0]
         ns = '/contact_only'
         proc = subprocess.Popen([exe, '__ns:=' + ns, '__name:=cm', '_contact_distance:=0.1',

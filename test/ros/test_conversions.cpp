@@ -541,15 +541,21 @@ TEST(Params, BodyFromYaml) {
   XmlRpc::XmlRpcValue no_id = b;
   no_id["id"] = 3;
   EXPECT_TRUE(contains(bodyFromXmlRpc(no_id).error(), "id"));
-  // 5e-2 is text to PyYAML (and to roslaunch): the error says how to write it.
+  // 5e-2 is text to PyYAML (and to roslaunch): the error says how to write it, as PyYAML reads
+  // a float (a '.' and a signed exponent: 1.0e2 is text to it too).
   XmlRpc::XmlRpcValue as_text = b;
   as_text["padding"] = "5e-2";
   EXPECT_EQ(bodyFromXmlRpc(as_text).error(),
-            "padding: expected a number (the text '5e-2': roslaunch and YAML read a number with "
-            "an exponent and no '.' as text; write 5.0e-2)");
-  as_text["padding"] = "-1E3";
-  EXPECT_TRUE(contains(bodyFromXmlRpc(as_text).error(), "write -1.0E3)"));
-  for (const char* other : {"five", "5e", "0x1e5", "1e999", "5.0e-2x", "inf"}) {
+            "padding: expected a number (the text '5e-2': YAML reads a number with an exponent "
+            "as text unless it has a '.' and a signed exponent, roslaunch unless it has a '.'; "
+            "write 5.0e-2)");
+  for (const auto& [text, written] : std::vector<std::pair<const char*, const char*>>{
+           {"-1E3", "-1.0E+3"}, {"1.5e3", "1.5e+3"}, {"1e2", "1.0e+2"}, {"+7e+0", "+7.0e+0"}}) {
+    as_text["padding"] = text;
+    EXPECT_TRUE(contains(bodyFromXmlRpc(as_text).error(), std::string("write ") + written + ")"))
+        << bodyFromXmlRpc(as_text).error();
+  }
+  for (const char* other : {"five", "5e", "0x1e5", "1e999", "5.0e-2x", "inf", "1.2.3e4"}) {
     as_text["padding"] = other;
     EXPECT_EQ(bodyFromXmlRpc(as_text).error(), "padding: expected a number") << other;
   }

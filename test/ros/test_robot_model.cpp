@@ -223,10 +223,14 @@ TEST(Urdf, RefusedElementsAreLeftOutOfTheirLinkAlone) {
   // are gone too (it said "1 of 3 ... elements without usable <geometry>").
   ASSERT_EQ(errors.size(), 4u);
   EXPECT_EQ(errors[0],
-            "early: <collision> 1 of 3 has no usable <geometry> (urdfdom dropped it and the 2 "
-            "after it)");
-  EXPECT_EQ(errors[1], "ghost: <collision> 1 of 1 has no usable <geometry> (urdfdom dropped it)");
-  EXPECT_EQ(errors[2], "mixed: <collision> 3 of 3 has no usable <geometry> (urdfdom dropped it)");
+            "early: <collision> 1 of 3 could not be parsed, e.g. no usable <geometry> (urdfdom "
+            "dropped it and the 2 after it)");
+  EXPECT_EQ(errors[1],
+            "ghost: <collision> 1 of 1 could not be parsed, e.g. no usable <geometry> (urdfdom "
+            "dropped it)");
+  EXPECT_EQ(errors[2],
+            "mixed: <collision> 3 of 3 could not be parsed, e.g. no usable <geometry> (urdfdom "
+            "dropped it)");
   EXPECT_EQ(errors[3].rfind("mixed: collision 1 (mesh): ", 0), 0u) << errors[3];
   EXPECT_NE(errors[3].find("cannot resolve '/nowhere/x.stl'"), std::string::npos) << errors[3];
   EXPECT_TRUE(hasPair(robot->adjacent, "a", "mixed"));

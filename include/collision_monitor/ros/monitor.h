@@ -6,8 +6,9 @@
 /// Threads: callbacks (subscriptions, services, dynamic_reconfigure) run on callback queues and
 /// threads of the monitor's own, not the caller's (a nodelet manager's workers: a callback that
 /// waits for a check of seconds held one, and with a few such every other nodelet in the manager
-/// stopped): pose input on one queue, `~bodies` on a second, services and ~set_parameters (which
-/// wait for a check in progress) on a third; the check loop runs on its own thread, woken at
+/// stopped): pose input on one queue, `~bodies` on a second, `~get_distance`, `~list_bodies` and
+/// ~set_parameters (which wait for a check in progress) on a third, `~check_collision` (which
+/// may also wait for TF) on a fourth; the check loop runs on its own thread, woken at
 /// `rate` Hz and promptly after pose input and new TF data (coalescing bursts, at most one check
 /// per `min_check_interval`). One mutex guards the world model; TF lookups, mesh loading and
 /// publishing happen outside it. TF comes in on TfReceiver's own thread, a message at a time;
