@@ -1323,8 +1323,8 @@ void Monitor::runCycle() {
   const std::size_t between_most = std::clamp<std::size_t>(
       kMaxTfLookupsBetween / std::max<std::size_t>(1, tf_frames.size()), 1, kMaxTfStampsBetween);
   std::vector<std::string> future_frames;
-  // Why a frame's lookup failed, for the queries' messages ("has no pose yet" said nothing of the
-  // frame: a typo in a frame name, a fixed frame missing from TF).
+  // Why a frame's lookup failed, for the queries' messages and /diagnostics ("has no pose yet"
+  // said nothing of the frame: a typo in a frame name, a fixed frame missing from TF).
   std::map<std::string, std::string> unresolved_why;
   std::map<std::string, TfSeen> seen;  // tf_seen_ for this cycle's frames
   // Every frame from the same TF messages: none goes in while these lookups run (TfReceiver).
@@ -1354,8 +1354,7 @@ void Monitor::runCycle() {
         frames[frame] = std::nullopt;
         const std::string ahead = std::to_string(stamp.toSec() - now);
         future_frames.push_back(frame + " (" + ahead + " s ahead)");
-        unresolved_why[frame] = "its frame " + quoteInput(frame) + " is stamped " + ahead +
-                                " s after the current ROS time";
+        unresolved_why[frame] = "stamped " + ahead + " s after the current ROS time";
       } else {
         frames[frame] =
             FramePose{toTransform3(tf.transform), toStamp(tf.header.stamp), arrivedAt(first.at)};
@@ -1376,8 +1375,7 @@ void Monitor::runCycle() {
       }
     } catch (const tf2::TransformException& e) {
       frames[frame] = std::nullopt;
-      unresolved_why[frame] = "its frame " + quoteInput(frame) + " cannot be looked up in " +
-                              quoteInput(fixed_frame_) + ": " + capped(e.what(), 512);
+      unresolved_why[frame] = capped(e.what(), 512);
     }
   }
   tf_snapshot.unlock();
@@ -1419,7 +1417,8 @@ void Monitor::runCycle() {
         }
         world_->setPose(id, f->pose, f->stamp, std::nullopt, f->arrived);
       } else {
-        world_->markUnresolved(id, unresolved_why[frame]);
+        world_->markUnresolved(id, "its frame " + quoteInput(frame) + " cannot be looked up in " +
+                                       quoteInput(fixed_frame_) + ": " + unresolved_why[frame]);
       }
     }
     cycle = world_->check(toStamp(stamp_now));
@@ -1457,6 +1456,9 @@ void Monitor::runCycle() {
     stats_.cycle_time_max = std::max(stats_.cycle_time_max, cycle.compute_time);
     stats_.stale = cycle.stale_bodies.size();
     stats_.stale_ids = cycle.stale_bodies;
+    stats_.unresolved_frames.clear();
+    for (const auto& [frame, why] : unresolved_why)
+      stats_.unresolved_frames.push_back(quoteInput(frame) + ": " + why);
     stats_.bodies = cycle.num_bodies;
     stats_.pairs_checked = cycle.num_pairs_checked;
     stats_.pairs_checked_sum += cycle.num_pairs_checked;
@@ -1573,8 +1575,14 @@ void Monitor::setupDiagnostics() {
       s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu inputs rejected: %s", rejected,
                  now.last_rejection.c_str());
     } else if (now.stale > 0) {
-      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu stale bodies: %s", now.stale,
-                 joined(now.stale_ids).c_str());
+      std::string frames;  // the likely reason: a frame name that TF does not know
+      if (!now.unresolved_frames.empty()) {
+        frames = "; " + std::to_string(now.unresolved_frames.size()) +
+                 " TF frames cannot be looked up in " + quoteInput(fixed_frame_) +
+                 " (see unresolved TF frames)";
+      }
+      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu stale bodies: %s%s", now.stale,
+                 joined(now.stale_ids).c_str(), frames.c_str());
     } else {
       s.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
     }
@@ -1626,6 +1634,7 @@ void Monitor::setupDiagnostics() {
     s.add("bodies", now.bodies);
     s.add("stale bodies", now.stale);
     s.add("stale body ids", joined(now.stale_ids));
+    s.add("unresolved TF frames", joined(now.unresolved_frames));
     s.addf("~bodies rate (Hz)", "%.1f", (now.bodies_msgs - before.bodies_msgs) / dt);
     s.addf("~body_poses rate (Hz)", "%.1f", (now.poses_msgs - before.poses_msgs) / dt);
     s.addf("pose_topic rate (Hz)", "%.1f", (now.pose_topic_msgs - before.pose_topic_msgs) / dt);

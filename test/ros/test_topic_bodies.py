@@ -1341,6 +1341,10 @@ class TopicBodies(unittest.TestCase):
             self.assertFalse(r.success)
             self.assertTrue(r.message.startswith(expected), r.message)
             self.assertIn('shelf_farme', r.message[len(expected):])  # tf2's own words
+            # /diagnostics names the frame too (a stale body's frame said nothing there).
+            self.assertTrue(wait_for(lambda: "'shelf_farme': " in (
+                self.m.diag_value('unresolved TF frames') or ''), 5.0),
+                self.m.diag_value('unresolved TF frames'))
         finally:
             self.m.add(Body(id='on_typo', operation=Body.REMOVE))
         self.assertTrue(self.m.wait_listed('on_typo', present=False))

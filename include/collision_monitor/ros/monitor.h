@@ -309,6 +309,8 @@ class Monitor {
     std::size_t stale = 0, bodies = 0, pairs_checked = 0, pairs_checked_sum = 0;
     std::size_t pairs_caught_up_sum = 0;  ///< of pairs_checked_sum: catch-up checks
     std::vector<std::string> stale_ids;
+    /// TF frames of bodies whose lookup failed in the last check: "'frame': why".
+    std::vector<std::string> unresolved_frames;
   } stats_, stats_window_start_;
   /// Wall times of the last kJumpsWarn jumps back of ROS time (stats_mutex_): that many within
   /// kJumpsWindow s is a warning on /diagnostics (for kJumpsWindow s after the last).
