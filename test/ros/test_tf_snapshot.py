@@ -189,8 +189,10 @@ class TfSnapshot(unittest.TestCase):
         answers = []
         start = time.monotonic()
         while time.monotonic() - start < 1.0:
-            send()
+            # Before the send: the node may take the message in before this thread runs on (CI
+            # once saw it stale 0.42 s after a time taken after the send).
             stopped = time.monotonic()
+            send()
             answers.append(self.monitor.get_distance('z_child', 'z_ref', ''))
             time.sleep(0.02)
         good = [r for r in answers if r.success]
