@@ -73,23 +73,15 @@ void toCcd(const Vec3& p, ccd_vec3_t* v) {
 }
 
 /// A point inside the core, about the core's origin (ConvexShape::offset()); MPR needs an interior
-/// point as its portal origin.
+/// point as its portal origin. Every core keeps one (a polytope its vertices' mean).
 Vec3 coreInteriorPoint(const ConvexShape& s) {
   return std::visit(
       [](const auto& c) -> Vec3 {
         using T = std::decay_t<decltype(c)>;
-        if constexpr (std::is_same_v<T, PointShape<3>>) {
-          return c.p;
-        } else if constexpr (std::is_same_v<T, SegmentShape<3>>) {
-          return 0.5 * (c.a + c.b);
-        } else if constexpr (std::is_same_v<T, std::shared_ptr<const Polytope<3>>>) {
-          Vec3 sum = Vec3::Zero();
-          if (!c || c->size() == 0) return sum;
-          for (const Vec3& v : c->vertices())
-            sum += v;
-          return sum / c->size();
+        if constexpr (std::is_same_v<T, std::shared_ptr<const Polytope<3>>>) {
+          return c ? c->interiorPoint() : Vec3::Zero();
         } else {
-          return Vec3::Zero();  // boxes, cylinders, cones, ellipsoids are centred
+          return c.interiorPoint();
         }
       },
       s.core());

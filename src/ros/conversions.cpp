@@ -113,6 +113,13 @@ bool finite(const geometry_msgs::Vector3& v) {
   return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
 }
 
+bool allCoincide(const std::vector<Vec3>& points) {
+  double spread = 0.0;
+  for (const Vec3& p : points)
+    spread = std::max(spread, (p - points.front()).norm());
+  return !(spread > 0.0);
+}
+
 std::string escapeInput(const std::string& s, std::size_t max_bytes) {
   const std::size_t n = std::min(s.size(), max_bytes);
   std::string out;
@@ -271,10 +278,7 @@ Expected<std::vector<ConvexShape>> shapesFromMsg(const collision_monitor::Shape&
         }
         points.push_back(toVec3(msg.vertices[i]).cwiseProduct(*scale));
       }
-      double spread = 0.0;
-      for (const Vec3& p : points)
-        spread = std::max(spread, (p - points.front()).norm());
-      if (!(spread > 0.0)) return Error{"degenerate convex part: every vertex coincides"};
+      if (allCoincide(points)) return Error{"degenerate convex part: every vertex coincides"};
       return Shapes{ConvexShape::convexHull(points)};
     }
 

@@ -365,10 +365,7 @@ Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& sca
         if (keep_triangles) triangles[t][k] = index[v];
       }
     }
-    double spread = 0.0;  // as for CONVEX parts: a point is no mesh
-    for (const core::Vec3& p : points)
-      spread = std::max(spread, (p - points.front()).norm());
-    if (!(spread > 0.0)) return Error{"degenerate mesh " + path + ": every vertex coincides"};
+    if (allCoincide(points)) return Error{"degenerate mesh " + path + ": every vertex coincides"};
 
     MeshParts out;
     std::vector<std::vector<core::Vec3>> pieces;

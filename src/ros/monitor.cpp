@@ -7,7 +7,6 @@
 #include <climits>
 #include <cmath>
 #include <exception>
-#include <functional>
 #include <limits>
 #include <set>
 #include <sstream>
@@ -1047,9 +1046,8 @@ bool Monitor::getDistance(collision_monitor::GetDistance::Request& req,
     }
     Transform3 to_frame = Transform3::Identity();
     std::string note;
-    if (!req.frame_id.empty() && req.frame_id != fixed_frame_ &&
-        req.frame_id != "/" + fixed_frame_) {
-      const std::string frame = tfFrameName(req.frame_id);
+    const std::string frame = tfFrameName(req.frame_id);
+    if (!req.frame_id.empty() && frame != fixed_frame_) {
       // The frame where it was when the poses were taken: a frame moving at 1 m/s puts the latest
       // TF 0.1 m from the points of poses 0.1 s old. The latest TF when the frame has none for
       // that time (its publisher lags the bodies' poses), said in the message.
@@ -1116,26 +1114,23 @@ bool Monitor::checkCollision(Checked<collision_monitor::CheckCollision::Request>
       return true;
     }
     std::optional<std::vector<world::PairResult>> pairs;
-    double contact_distance = 0.0;
     std::size_t unknown = 0;  // listed or not (max_unknown_pairs)
     std::string refused;  // the world's own rules: an id of white space only, the limits in force
     {
       const auto lock = lockWorld();
       pairs = world_->checkHypothetical(*spec, *to_fixed * *pose, req.margin, now, anonymous,
                                         &unknown, &refused);
-      contact_distance = settings_.contact_distance;
     }
     if (!pairs) {
       res.message = escapeInput(refused);
       return true;
     }
-    // Sorted by distance (then body), UNKNOWN last, by checkHypothetical.
+    // Sorted by distance (then body), UNKNOWN last, by checkHypothetical; a pair's status is the
+    // one a first check would give (COLLISION at or below contact_distance).
     res.in_collision = false;
     std::size_t listed = 0;
     for (const auto& p : *pairs) {
-      if (p.status == world::PairStatus::Collision || p.distance <= contact_distance) {
-        res.in_collision = true;
-      }
+      if (p.status == world::PairStatus::Collision) res.in_collision = true;
       if (p.status == world::PairStatus::Unknown) ++listed;
       res.pairs.push_back(toMsg(p));
     }

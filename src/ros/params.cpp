@@ -237,13 +237,5 @@ Expected<std::vector<std::string>> stringsFromXmlRpc(const XmlRpcValue& v) {
   }
 }
 
-Expected<double> numberFromXmlRpc(const XmlRpcValue& v) {
-  try {
-    return number(v, "value");
-  } catch (const FieldError& e) {
-    return Error{e.what};
-  }
-}
-
 }  // namespace ros_layer
 }  // namespace collision_monitor

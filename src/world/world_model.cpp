@@ -9,7 +9,9 @@
 ///     queried in the grid (boxes are in the fixed frame, exact, updated when a pose or the
 ///     geometry changes), refined by the exact box distance;
 ///  3. narrow phase for each surviving pair, unless neither body moved since the pair's last
-///     result (then that result is reused); per part pair a cheap lower bound first;
+///     result (then that result is reused); per part pair a cheap lower bound first; before it,
+///     catch-up at the pair's stamps since its last check (Impl::catchUp(), align_poses);
+///     3b. min_distance beyond the broad phase's reach (exact_min_distance);
 ///  4. every pair with a stale body is UNKNOWN;
 ///  5. tracked pairs the broad phase no longer reports are CLEAR.
 #include "collision_monitor/world/world_model.h"
@@ -472,7 +474,7 @@ class SlotIndex {
   std::size_t tombs_ = 0;
 };
 
-/// A pair's warm-start caches (208 bytes each), at most kMaxCaches: one per part pair (index
+/// A pair's warm-start caches (224 bytes each), at most kMaxCaches: one per part pair (index
 /// i * parts_b + j) for a pair of up to kMaxCaches part pairs, else one per part pair queried,
 /// all dropped when kMaxCaches are held (the part pairs queried since keep theirs). A cache for
 /// every part pair, made before the first query, took 208 MB for two bodies of 1,000 parts
@@ -1254,13 +1256,16 @@ struct WorldModel::Impl {
   }
 };
 
-WorldModel::WorldModel(const Settings& settings)
-    : settings_(settings), impl_(std::make_unique<Impl>()) {
+WorldModel::WorldModel(const Settings& settings) : impl_(std::make_unique<Impl>()) {
   impl_->settings = settings;
   impl_->narrow = core::makeNarrowPhase(settings.backend);
 }
 
 WorldModel::~WorldModel() = default;
+
+const Settings& WorldModel::settings() const {
+  return impl_->settings;
+}
 
 void WorldModel::abandonChecks() {
   impl_->abandoned.store(true, std::memory_order_relaxed);
@@ -1269,13 +1274,12 @@ void WorldModel::abandonChecks() {
 void WorldModel::setSettings(const Settings& settings) {
   Impl& m = *impl_;
   Settings next = settings;
-  next.max_bodies = settings_.max_bodies;
-  next.max_vertices_per_part = settings_.max_vertices_per_part;
-  next.max_parts_per_body = settings_.max_parts_per_body;
-  next.max_unknown_pairs = settings_.max_unknown_pairs;
-  const bool new_reach = clearCutoffAny(next) != clearCutoffAny(settings_);
-  const bool new_backend = next.backend != settings_.backend;
-  settings_ = next;
+  next.max_bodies = m.settings.max_bodies;
+  next.max_vertices_per_part = m.settings.max_vertices_per_part;
+  next.max_parts_per_body = m.settings.max_parts_per_body;
+  next.max_unknown_pairs = m.settings.max_unknown_pairs;
+  const bool new_reach = clearCutoffAny(next) != clearCutoffAny(m.settings);
+  const bool new_backend = next.backend != m.settings.backend;
   m.settings = next;
   if (new_backend) {
     m.narrow = core::makeNarrowPhase(next.backend);
@@ -1303,9 +1307,10 @@ std::string WorldModel::checkSpec(const BodySpec& spec) const {
     return name + " refused: the id is only white space";
   }
   if (spec.parts.empty()) return name + " refused: it has no parts";
-  if (spec.parts.size() > settings_.max_parts_per_body) {
+  if (spec.parts.size() > impl_->settings.max_parts_per_body) {
     return name + " refused: " + std::to_string(spec.parts.size()) +
-           " parts exceed max_parts_per_body = " + std::to_string(settings_.max_parts_per_body);
+           " parts exceed max_parts_per_body = " +
+           std::to_string(impl_->settings.max_parts_per_body);
   }
   if (!std::isfinite(spec.padding) || spec.padding < 0.0) {
     std::ostringstream os;
@@ -1322,10 +1327,10 @@ std::string WorldModel::checkSpec(const BodySpec& spec) const {
     if (const PolyPtr* poly = std::get_if<PolyPtr>(&p.shape.core())) {
       const std::size_t nv = *poly ? static_cast<std::size_t>((*poly)->size()) : 0;
       if (nv == 0) return name + " refused: part " + std::to_string(i) + " is an empty polytope";
-      if (nv > settings_.max_vertices_per_part) {
+      if (nv > impl_->settings.max_vertices_per_part) {
         return name + " refused: part " + std::to_string(i) + " has " + std::to_string(nv) +
                " vertices, more than max_vertices_per_part = " +
-               std::to_string(settings_.max_vertices_per_part);
+               std::to_string(impl_->settings.max_vertices_per_part);
       }
     }
   }
@@ -1374,9 +1379,9 @@ std::string WorldModel::addBody(BodySpec spec) {
     }
     return {};
   }
-  if (m.count >= settings_.max_bodies) {
+  if (m.count >= impl_->settings.max_bodies) {
     return "body '" + spec.id + "' refused: the world already holds max_bodies = " +
-           std::to_string(settings_.max_bodies) + " bodies";
+           std::to_string(impl_->settings.max_bodies) + " bodies";
   }
   int slot;
   if (!m.free_slots.empty()) {
@@ -1452,8 +1457,8 @@ std::vector<BodyInfo> WorldModel::listBodies(Stamp now) const {
   out.reserve(impl_->count);
   for (const BodyState& b : impl_->bodies) {
     if (!b.used) continue;
-    out.push_back(
-        BodyInfo{b.spec.id, b.spec.frame, b.spec.group, !b.isFresh(now, settings_.pose_timeout)});
+    out.push_back(BodyInfo{b.spec.id, b.spec.frame, b.spec.group,
+                           !b.isFresh(now, impl_->settings.pose_timeout)});
   }
   std::sort(out.begin(), out.end(),
             [](const BodyInfo& x, const BodyInfo& y) { return x.id < y.id; });
@@ -1525,12 +1530,12 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
   // stream) and checked at each of its poses never takes a body back, and keeping them cost
   // 21 ns a pose (a world of 1,000 bodies posed together: 332 to 404 us a cycle). Else the last
   // two are, which tell whether the body moves.
-  b.remember(moved, settings_.pose_timeout, keepsPoses() ? BodyState::kMaxHistory : 2);
+  b.remember(moved, impl_->settings.pose_timeout, keepsPoses() ? BodyState::kMaxHistory : 2);
   return true;
 }
 
 bool WorldModel::keepsPoses() const {
-  return (impl_->mixed_stamps || impl_->outran) && settings_.align_poses;
+  return (impl_->mixed_stamps || impl_->outran) && impl_->settings.align_poses;
 }
 
 void WorldModel::markUnresolved(const std::string& id, std::string why) {
@@ -1567,7 +1572,7 @@ void WorldModel::clearPoses() {
 CycleResult WorldModel::check(Stamp now) {
   const auto t0 = std::chrono::steady_clock::now();
   Impl& m = *impl_;
-  const Settings& s = settings_;
+  const Settings& s = impl_->settings;
   CycleResult res;
   const std::uint64_t cycle = ++m.cycle;
   res.num_bodies = m.count;
@@ -1874,8 +1879,8 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
   if (ia->second == ib->second) return fail("body '" + a + "' has no distance to itself");
   const BodyState& A = m.bodies[ia->second];
   const BodyState& B = m.bodies[ib->second];
-  if (!A.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ia->second, now));
-  if (!B.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(ib->second, now));
+  if (!A.isFresh(now, impl_->settings.pose_timeout)) return fail(m.whyStale(ia->second, now));
+  if (!B.isFresh(now, impl_->settings.pose_timeout)) return fail(m.whyStale(ib->second, now));
   const Stamp at = m.pairTime(ia->second, ib->second);
   const Narrow n = m.narrowPhase(ia->second, ib->second, at, kInf, nullptr);
   if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
@@ -1885,7 +1890,7 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
   auto it = m.pairs.find(orderedKey(ia->second, ib->second));
   if (it != m.pairs.end()) tracked = it->second.status;
   PairResult r =
-      m.makeResult(ia->second, ib->second, nextStatus(tracked, n.distance, settings_), n, at);
+      m.makeResult(ia->second, ib->second, nextStatus(tracked, n.distance, impl_->settings), n, at);
   // Keep the caller's order.
   if (r.body_a != a) flipPair(&r);
   if (stamp) *stamp = m.pairStamp(ia->second, ib->second, Stamp());
@@ -1903,7 +1908,7 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   if (ia == m.slot_of.end()) return fail("unknown body '" + a + "'");
   const int sa = ia->second;
   const BodyState& A = m.bodies[sa];
-  if (!A.isFresh(now, settings_.pose_timeout)) return fail(m.whyStale(sa, now));
+  if (!A.isFresh(now, impl_->settings.pose_timeout)) return fail(m.whyStale(sa, now));
   // Candidates by a lower bound on the signed distance (box gap, or -inf when boxes overlap).
   // A body without a fresh pose may be the nearest: then the nearest is unknown (its pairs are
   // UNKNOWN, never CLEAR), not the nearest of the others.
@@ -1912,7 +1917,7 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   for (int o = 0; o < static_cast<int>(m.bodies.size()); ++o) {
     const BodyState& O = m.bodies[o];
     if (!O.used || !m.allowed(sa, o)) continue;
-    if (!O.isFresh(now, settings_.pose_timeout)) {
+    if (!O.isFresh(now, impl_->settings.pose_timeout)) {
       stale.push_back(o);
       continue;
     }
@@ -1957,8 +1962,8 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   PairStatus tracked = PairStatus::Clear;
   auto it = m.pairs.find(orderedKey(sa, best_slot));
   if (it != m.pairs.end()) tracked = it->second.status;
-  PairResult r = m.makeResult(sa, best_slot, nextStatus(tracked, best.distance, settings_), best,
-                              m.pairTime(sa, best_slot));
+  PairResult r = m.makeResult(sa, best_slot, nextStatus(tracked, best.distance, impl_->settings),
+                              best, m.pairTime(sa, best_slot));
   if (r.body_a != a) flipPair(&r);
   if (stamp) *stamp = m.pairStamp(sa, best_slot, Stamp());
   return r;
@@ -1996,9 +2001,9 @@ std::optional<std::vector<PairResult>> WorldModel::checkHypothetical(
   // Report every body closer than `margin`, and every one in COLLISION whatever the margin; a body
   // without a fresh pose (or whose query failed) as UNKNOWN, as in ~state: never left out as if
   // clear. UNKNOWN pairs sort last (distance +inf).
-  const double reach = std::max(margin, settings_.contact_distance);
+  const double reach = std::max(margin, impl_->settings.contact_distance);
   const auto addUnknown = [&](const BodyState& O) {
-    if (unknown++ >= settings_.max_unknown_pairs) return;
+    if (unknown++ >= impl_->settings.max_unknown_pairs) return;
     PairResult r;
     r.body_a = body.id;
     r.body_b = O.spec.id;
@@ -2010,7 +2015,7 @@ std::optional<std::vector<PairResult>> WorldModel::checkHypothetical(
     if (sameGroup(O.spec.group)) continue;
     // A nameless body is in no pair rule, but the links off by default are off for it too.
     if (m.isDisabled(anonymous ? std::string() : body.id, O.spec.id)) continue;
-    if (!O.isFresh(now, settings_.pose_timeout)) {
+    if (!O.isFresh(now, impl_->settings.pose_timeout)) {
       addUnknown(O);
       continue;
     }
@@ -2025,7 +2030,7 @@ std::optional<std::vector<PairResult>> WorldModel::checkHypothetical(
     PairResult r;
     r.body_a = body.id;
     r.body_b = O.spec.id;
-    r.status = nextStatus(PairStatus::Clear, n.distance, settings_);
+    r.status = nextStatus(PairStatus::Clear, n.distance, impl_->settings);
     r.distance = n.distance;
     r.point_a = n.point_a;
     r.point_b = n.point_b;

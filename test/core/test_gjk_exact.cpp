@@ -178,6 +178,21 @@ TEST(ExactBox, PenetrationDepthAndNormal) {
   EXPECT_TRUE(cm::intersect(kUnitCube, at(0, 0, 0), kUnitCube, at(0.8, 0.1, 0.05)));
 }
 
+TEST(ExactBox, PenetrationQueryGivesTheDepthAndTheSeparation) {
+  // penetration() (the name for the EPA query): the same cubes as above, depth 0.2 along
+  // +x; moved to x = 1.3 they are apart by 1.3 - 1 = 0.3 (status Separated, as signedDistance()).
+  const ContactResult r = cm::penetration(kUnitCube, at(0, 0, 0), kUnitCube, at(0.8, 0.1, 0.05));
+  EXPECT_EQ(r.status, Status::Penetrating);
+  EXPECT_NEAR(r.depth(), 0.2, kTol);
+  expectVecNear(r.normal, Vec3::UnitX(), kTol);
+  EXPECT_GT(r.epa_iterations, 0);
+  const ContactResult apart =
+      cm::penetration(kUnitCube, at(0, 0, 0), kUnitCube, at(1.3, 0.1, 0.05));
+  EXPECT_EQ(apart.status, Status::Separated);
+  EXPECT_NEAR(apart.distance, 0.3, kTol);
+  EXPECT_EQ(apart.depth(), 0.0);
+}
+
 TEST(ExactBox, IdenticalCubesHaveDepthOne) {
   // Two unit cubes at the same pose: any face direction separates them after a move of 1.
   const Transform3 p = rotAt(0.3, Vec3(1, 2, 3), Vec3(4, 5, 6));

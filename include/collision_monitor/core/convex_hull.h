@@ -24,8 +24,8 @@ std::shared_ptr<const Polytope<3>> buildConvexHull(const std::vector<Vec3>& poin
 std::vector<std::array<int, 3>> hullTriangles(const Polytope<3>& poly);
 
 /// Facets of the convex hull of `points` as planes n.x <= offset with unit outward n (qhull).
-/// Used by the exact oracle in tests: the signed distance of the origin to a full-dimensional
-/// hull is max over facets of (-offset) when inside (negative) and needs a projection otherwise.
+/// The signed distance of a point inside a full-dimensional hull is max over facets of
+/// (n.x - offset) (negative); outside it needs a projection onto the facets.
 struct HullPlane {
   Vec3 normal;
   double offset;

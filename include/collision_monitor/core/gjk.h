@@ -107,8 +107,9 @@ struct MinkowskiSum {
   Vec<D> support(const Vec<D>& d) const { return s1->support(d) + s2->support(d); }
 };
 
-/// Shape `S` inflated by `radius` (>= 0): S + ball(radius); support adds radius d / |d|. Used for
-/// AABBs, the libccd backend and fallbacks; the GJK loop itself keeps radii out (see query.h).
+/// Shape `S` inflated by `radius` (>= 0): S + ball(radius); support adds radius d / |d|. For
+/// composing shapes by hand (the tests do); the queries keep radii out of the GJK loop and add
+/// them after convergence (see query.h).
 template <int D, class S>
 struct Padded {
   static constexpr int kDim = D;

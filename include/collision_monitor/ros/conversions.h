@@ -75,6 +75,10 @@ std::string checkLength(const std::string& s, std::size_t max_bytes, const std::
 bool finite(const geometry_msgs::Point& p);
 bool finite(const geometry_msgs::Vector3& v);
 
+/// True when no point is apart from the first (a CONVEX part or a mesh refused as a point; the
+/// core would take it).
+bool allCoincide(const std::vector<core::Vec3>& points);
+
 /// What a zero quaternion means where a pose enters.
 enum class ZeroQuaternion {
   Identity,  ///< Shape.pose: "zero quaternion means identity"

@@ -99,7 +99,6 @@ class MeshCache {
             MeshDecomposition mode = MeshDecomposition::Hull, std::size_t max_parts = SIZE_MAX,
             std::string log_name = "");
   Expected<std::vector<core::ConvexShape>> load(const std::string& uri, const core::Vec3& scale);
-  const std::vector<std::string>& meshRoots() const { return mesh_roots_; }
   /// Meshes kept (path, scale). Past kMaxEntries the cache starts again empty: a stream of bodies
   /// with ever new scales cannot grow it without bound (bodies keep their own hulls).
   std::size_t size() const;

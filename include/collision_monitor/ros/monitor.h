@@ -73,8 +73,6 @@ class Monitor {
   Monitor(const Monitor&) = delete;
   Monitor& operator=(const Monitor&) = delete;
 
-  const std::string& fixedFrame() const { return fixed_frame_; }
-
  private:
   /// The callbacks' queue and threads (see the file comment). First of the members: destroyed
   /// after everything that subscribes or advertises on it (the dynamic_reconfigure server too).

@@ -49,8 +49,5 @@ Expected<std::vector<std::pair<std::string, std::string>>> pairsFromXmlRpc(
 /// A list of strings (`~mesh_roots`); a single string is a one-element list.
 Expected<std::vector<std::string>> stringsFromXmlRpc(const XmlRpc::XmlRpcValue& value);
 
-/// A number (int or double) as double.
-Expected<double> numberFromXmlRpc(const XmlRpc::XmlRpcValue& value);
-
 }  // namespace ros_layer
 }  // namespace collision_monitor

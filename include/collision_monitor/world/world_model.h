@@ -12,10 +12,8 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
-#include <map>
 #include <memory>
 #include <optional>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -158,9 +156,9 @@ struct CycleResult {
   /// Pairs with a stale body, listed or not (pairs whose query failed are not counted).
   std::size_t num_unknown_pairs = 0;
   std::size_t num_part_checks = 0;  ///< convex part-pair GJK runs (<= parts_a * parts_b per pair)
-  /// Warm-start caches (208 bytes each) held over every tracked pair after this check: one per
-  /// part pair, at most 4,096 a pair; for a pair of more part pairs, one per part pair queried
-  /// since its caches were last dropped (when 4,096 are held).
+  /// Warm-start caches (sizeof(core::PairCache), 224 bytes, each) held over every tracked pair
+  /// after this check: one per part pair, at most 4,096 a pair; for a pair of more part pairs, one
+  /// per part pair queried since its caches were last dropped (when 4,096 are held).
   std::size_t num_part_caches = 0;
   /// WorldModel::abandonChecks() cut this check short: nothing in it is a verdict.
   bool abandoned = false;
@@ -186,7 +184,7 @@ class WorldModel {
   WorldModel(const WorldModel&) = delete;
   WorldModel& operator=(const WorldModel&) = delete;
 
-  const Settings& settings() const { return settings_; }
+  const Settings& settings() const;
   /// Changes the settings of a running model (the node's dynamic_reconfigure). The limits
   /// (max_bodies, max_vertices_per_part, max_parts_per_body, max_unknown_pairs) stay as
   /// constructed: they bound what is already admitted. Statuses move to the new thresholds at
@@ -260,8 +258,9 @@ class WorldModel {
   /// body_b), with body_a < body_b; a pair's END comes before its BEGIN. Event stamps: the older
   /// timed pose stamp of the pair (the newer when the older body is still, align_poses), or a
   /// stamp between the pair's last check and this one (catch-up, Settings::align_poses: such
-  /// events come first, in stamp order, and may be older than CycleResult::stamp), never before
-  /// the pair's last such event's; `now` when both are static, and for UNKNOWN and removal.
+  /// events come first among the pair's, in stamp order, and may be older than
+  /// CycleResult::stamp), never before the pair's last such event's; `now` when both are static,
+  /// and for UNKNOWN and removal.
   CycleResult check(Stamp now);
 
   /// For shutdown: the check running in another thread, and every later one, stops within one
@@ -312,7 +311,6 @@ class WorldModel {
 
  private:
   struct Impl;
-  Settings settings_;
   std::unique_ptr<Impl> impl_;
 };
 
