@@ -24,39 +24,39 @@ std::string num(double v) {
   return os.str();
 }
 
-/// Expected dimension count per Shape type (index = type); -1 for types without dimensions.
-int dimensionCount(std::uint8_t type) {
-  switch (type) {
-    case collision_monitor::Shape::SPHERE:
-      return 1;
-    case collision_monitor::Shape::BOX:
-    case collision_monitor::Shape::ELLIPSOID:
-      return 3;
-    case collision_monitor::Shape::CYLINDER:
-    case collision_monitor::Shape::CONE:
-    case collision_monitor::Shape::CAPSULE:
-      return 2;
-    default:
-      return 0;
+/// What a Shape type is called (in messages and the `~bodies` parameter) and its dimensions.
+struct ShapeTypeInfo {
+  std::uint8_t type;
+  const char* name;
+  int dimensions;         ///< expected count (0: none, CONVEX and MESH)
+  const char* dim_names;  ///< for messages
+};
+constexpr ShapeTypeInfo kShapeTypes[] = {
+    {collision_monitor::Shape::SPHERE, "sphere", 1, "[radius]"},
+    {collision_monitor::Shape::BOX, "box", 3, "[x, y, z]"},
+    {collision_monitor::Shape::CYLINDER, "cylinder", 2, "[height, radius]"},
+    {collision_monitor::Shape::CONE, "cone", 2, "[height, radius]"},
+    {collision_monitor::Shape::CAPSULE, "capsule", 2, "[length, radius]"},
+    {collision_monitor::Shape::ELLIPSOID, "ellipsoid", 3, "[a, b, c]"},
+    {collision_monitor::Shape::CONVEX, "convex", 0, "[]"},
+    {collision_monitor::Shape::MESH, "mesh", 0, "[]"},
+};
+
+const ShapeTypeInfo* shapeTypeInfo(std::uint8_t type) {
+  for (const ShapeTypeInfo& t : kShapeTypes) {
+    if (t.type == type) return &t;
   }
+  return nullptr;
+}
+
+int dimensionCount(std::uint8_t type) {
+  const ShapeTypeInfo* t = shapeTypeInfo(type);
+  return t ? t->dimensions : 0;
 }
 
 const char* dimensionNames(std::uint8_t type) {
-  switch (type) {
-    case collision_monitor::Shape::SPHERE:
-      return "[radius]";
-    case collision_monitor::Shape::BOX:
-      return "[x, y, z]";
-    case collision_monitor::Shape::ELLIPSOID:
-      return "[a, b, c]";
-    case collision_monitor::Shape::CYLINDER:
-    case collision_monitor::Shape::CONE:
-      return "[height, radius]";
-    case collision_monitor::Shape::CAPSULE:
-      return "[length, radius]";
-    default:
-      return "[]";
-  }
+  const ShapeTypeInfo* t = shapeTypeInfo(type);
+  return t ? t->dim_names : "[]";
 }
 
 /// Scale of a part: 0,0,0 -> 1,1,1; else every component finite and > 0.
@@ -186,18 +186,8 @@ std::optional<std::uint8_t> shapeTypeFromString(const std::string& name) {
       s.push_back(static_cast<char>(std::tolower(static_cast<unsigned char>(c))));
     }
   }
-  static const std::pair<const char*, std::uint8_t> kNames[] = {
-      {"sphere", collision_monitor::Shape::SPHERE},
-      {"box", collision_monitor::Shape::BOX},
-      {"cylinder", collision_monitor::Shape::CYLINDER},
-      {"cone", collision_monitor::Shape::CONE},
-      {"capsule", collision_monitor::Shape::CAPSULE},
-      {"ellipsoid", collision_monitor::Shape::ELLIPSOID},
-      {"convex", collision_monitor::Shape::CONVEX},
-      {"mesh", collision_monitor::Shape::MESH},
-  };
-  for (const auto& [n, t] : kNames) {
-    if (s == n) return t;
+  for (const ShapeTypeInfo& t : kShapeTypes) {
+    if (s == t.name) return t.type;
   }
   if (!s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
       s.size() <= 3) {
@@ -210,26 +200,8 @@ std::optional<std::uint8_t> shapeTypeFromString(const std::string& name) {
 }
 
 std::string shapeTypeName(std::uint8_t type) {
-  switch (type) {
-    case collision_monitor::Shape::SPHERE:
-      return "sphere";
-    case collision_monitor::Shape::BOX:
-      return "box";
-    case collision_monitor::Shape::CYLINDER:
-      return "cylinder";
-    case collision_monitor::Shape::CONE:
-      return "cone";
-    case collision_monitor::Shape::CAPSULE:
-      return "capsule";
-    case collision_monitor::Shape::ELLIPSOID:
-      return "ellipsoid";
-    case collision_monitor::Shape::CONVEX:
-      return "convex";
-    case collision_monitor::Shape::MESH:
-      return "mesh";
-    default:
-      return "type " + std::to_string(type);
-  }
+  const ShapeTypeInfo* t = shapeTypeInfo(type);
+  return t ? std::string(t->name) : "type " + std::to_string(type);
 }
 
 Expected<std::vector<ConvexShape>> shapesFromMsg(const collision_monitor::Shape& msg,

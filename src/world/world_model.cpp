@@ -1379,9 +1379,9 @@ std::string WorldModel::addBody(BodySpec spec) {
     }
     return {};
   }
-  if (m.count >= impl_->settings.max_bodies) {
+  if (m.count >= m.settings.max_bodies) {
     return "body '" + spec.id + "' refused: the world already holds max_bodies = " +
-           std::to_string(impl_->settings.max_bodies) + " bodies";
+           std::to_string(m.settings.max_bodies) + " bodies";
   }
   int slot;
   if (!m.free_slots.empty()) {
@@ -1530,7 +1530,7 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
   // stream) and checked at each of its poses never takes a body back, and keeping them cost
   // 21 ns a pose (a world of 1,000 bodies posed together: 332 to 404 us a cycle). Else the last
   // two are, which tell whether the body moves.
-  b.remember(moved, impl_->settings.pose_timeout, keepsPoses() ? BodyState::kMaxHistory : 2);
+  b.remember(moved, m.settings.pose_timeout, keepsPoses() ? BodyState::kMaxHistory : 2);
   return true;
 }
 
@@ -1572,7 +1572,7 @@ void WorldModel::clearPoses() {
 CycleResult WorldModel::check(Stamp now) {
   const auto t0 = std::chrono::steady_clock::now();
   Impl& m = *impl_;
-  const Settings& s = impl_->settings;
+  const Settings& s = m.settings;
   CycleResult res;
   const std::uint64_t cycle = ++m.cycle;
   res.num_bodies = m.count;
@@ -1879,8 +1879,8 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
   if (ia->second == ib->second) return fail("body '" + a + "' has no distance to itself");
   const BodyState& A = m.bodies[ia->second];
   const BodyState& B = m.bodies[ib->second];
-  if (!A.isFresh(now, impl_->settings.pose_timeout)) return fail(m.whyStale(ia->second, now));
-  if (!B.isFresh(now, impl_->settings.pose_timeout)) return fail(m.whyStale(ib->second, now));
+  if (!A.isFresh(now, m.settings.pose_timeout)) return fail(m.whyStale(ia->second, now));
+  if (!B.isFresh(now, m.settings.pose_timeout)) return fail(m.whyStale(ib->second, now));
   const Stamp at = m.pairTime(ia->second, ib->second);
   const Narrow n = m.narrowPhase(ia->second, ib->second, at, kInf, nullptr);
   if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
@@ -1890,7 +1890,7 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
   auto it = m.pairs.find(orderedKey(ia->second, ib->second));
   if (it != m.pairs.end()) tracked = it->second.status;
   PairResult r =
-      m.makeResult(ia->second, ib->second, nextStatus(tracked, n.distance, impl_->settings), n, at);
+      m.makeResult(ia->second, ib->second, nextStatus(tracked, n.distance, m.settings), n, at);
   // Keep the caller's order.
   if (r.body_a != a) flipPair(&r);
   if (stamp) *stamp = m.pairStamp(ia->second, ib->second, Stamp());
@@ -1908,7 +1908,7 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   if (ia == m.slot_of.end()) return fail("unknown body '" + a + "'");
   const int sa = ia->second;
   const BodyState& A = m.bodies[sa];
-  if (!A.isFresh(now, impl_->settings.pose_timeout)) return fail(m.whyStale(sa, now));
+  if (!A.isFresh(now, m.settings.pose_timeout)) return fail(m.whyStale(sa, now));
   // Candidates by a lower bound on the signed distance (box gap, or -inf when boxes overlap).
   // A body without a fresh pose may be the nearest: then the nearest is unknown (its pairs are
   // UNKNOWN, never CLEAR), not the nearest of the others.
@@ -1917,7 +1917,7 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   for (int o = 0; o < static_cast<int>(m.bodies.size()); ++o) {
     const BodyState& O = m.bodies[o];
     if (!O.used || !m.allowed(sa, o)) continue;
-    if (!O.isFresh(now, impl_->settings.pose_timeout)) {
+    if (!O.isFresh(now, m.settings.pose_timeout)) {
       stale.push_back(o);
       continue;
     }
@@ -1962,8 +1962,8 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   PairStatus tracked = PairStatus::Clear;
   auto it = m.pairs.find(orderedKey(sa, best_slot));
   if (it != m.pairs.end()) tracked = it->second.status;
-  PairResult r = m.makeResult(sa, best_slot, nextStatus(tracked, best.distance, impl_->settings),
-                              best, m.pairTime(sa, best_slot));
+  PairResult r = m.makeResult(sa, best_slot, nextStatus(tracked, best.distance, m.settings), best,
+                              m.pairTime(sa, best_slot));
   if (r.body_a != a) flipPair(&r);
   if (stamp) *stamp = m.pairStamp(sa, best_slot, Stamp());
   return r;
@@ -2001,9 +2001,9 @@ std::optional<std::vector<PairResult>> WorldModel::checkHypothetical(
   // Report every body closer than `margin`, and every one in COLLISION whatever the margin; a body
   // without a fresh pose (or whose query failed) as UNKNOWN, as in ~state: never left out as if
   // clear. UNKNOWN pairs sort last (distance +inf).
-  const double reach = std::max(margin, impl_->settings.contact_distance);
+  const double reach = std::max(margin, m.settings.contact_distance);
   const auto addUnknown = [&](const BodyState& O) {
-    if (unknown++ >= impl_->settings.max_unknown_pairs) return;
+    if (unknown++ >= m.settings.max_unknown_pairs) return;
     PairResult r;
     r.body_a = body.id;
     r.body_b = O.spec.id;
@@ -2015,7 +2015,7 @@ std::optional<std::vector<PairResult>> WorldModel::checkHypothetical(
     if (sameGroup(O.spec.group)) continue;
     // A nameless body is in no pair rule, but the links off by default are off for it too.
     if (m.isDisabled(anonymous ? std::string() : body.id, O.spec.id)) continue;
-    if (!O.isFresh(now, impl_->settings.pose_timeout)) {
+    if (!O.isFresh(now, m.settings.pose_timeout)) {
       addUnknown(O);
       continue;
     }
@@ -2030,7 +2030,7 @@ std::optional<std::vector<PairResult>> WorldModel::checkHypothetical(
     PairResult r;
     r.body_a = body.id;
     r.body_b = O.spec.id;
-    r.status = nextStatus(PairStatus::Clear, n.distance, impl_->settings);
+    r.status = nextStatus(PairStatus::Clear, n.distance, m.settings);
     r.distance = n.distance;
     r.point_a = n.point_a;
     r.point_b = n.point_b;
