@@ -20,6 +20,8 @@ PACKAGES=(
   libgeometric-shapes-dev libresource-retriever-dev libassimp-dev
   # tests, benchmarks (FCL and Bullet are compared against), visual checks
   libgtest-dev googletest libbenchmark-dev libfcl-dev libbullet-dev
+  # the contract sweep's independent oracle (qhull through scipy)
+  python3-numpy python3-scipy
   rviz xvfb imagemagick clang-format
   # fuzzing (scripts/fuzz.sh): clang with libFuzzer and the sanitizer runtimes; valgrind (node leak check)
   clang libclang-rt-14-dev valgrind
