@@ -1,8 +1,8 @@
 /// \file
 /// Narrow-phase backends behind one interface, selectable at run time: our GJK/EPA ("gjk") and
 /// libccd ("libccd": ccdGJKIntersect and ccdGJKPenetration, MPR selectable in CcdOptions). libccd
-/// 2.1 has no distance query, so
-/// the libccd backend answers separation distances with our GJK distance and says so in name().
+/// 2.1 has no distance query, so the libccd backend answers separation distances with our GJK
+/// distance and says so in name().
 #pragma once
 
 #include <memory>

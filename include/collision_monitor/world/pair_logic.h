@@ -1,8 +1,8 @@
 /// \file
 /// Pure per-pair logic of the world model, free of geometry and of any state: the status
 /// machine with hysteresis, the events of a transition and the distance beyond which a pair is
-/// certainly CLEAR. Header-only so that it is unit-tested
-/// on its own (test/world/test_pair_logic.cpp).
+/// certainly CLEAR. Header-only so that it is unit-tested on its own
+/// (test/world/test_pair_logic.cpp).
 ///
 /// Status machine (d = signed distance in metres, w = warning_distance, c = contact_distance,
 /// h = hysteresis):
