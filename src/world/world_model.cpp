@@ -294,6 +294,7 @@ struct BodyState {
   /// The timed poses of the last pose_timeout, oldest first, the held one last (and one older
   /// than pose_timeout so that its start is covered; at most kMaxHistory): where the body was at
   /// an older stamp (poseAt()). A pair's older stamp is fresh, so within pose_timeout of now.
+  /// Cleared while the body is stale (check()): after a spell without a pose it starts again.
   PoseHistory history;
 
   /// Places the body at its held pose, and its kept poses' boxes, for a new `spec`.
@@ -1154,7 +1155,8 @@ struct WorldModel::Impl {
   /// The stamp of an event of the pair of `e` whose poses are of `stamp`: never before the last
   /// such event's, so that a pair's verdicts stay in stamp order. A body taken as still
   /// (pairStamp(), the newer stamp) that turns out to have moved puts the pair back to its own
-  /// older stamp. (UNKNOWN and removal events carry the check's time and are not compared.)
+  /// older stamp. (UNKNOWN_BEGIN and removal events carry the check's time and are not compared;
+  /// an UNKNOWN_END comes with a verdict and carries its stamp.)
   static Stamp eventStamp(PairEntry* e, Stamp stamp) {
     e->last_event = std::max(e->last_event, stamp);
     return e->last_event;
@@ -1612,6 +1614,10 @@ CycleResult WorldModel::check(Stamp now) {
       b.checked_moving[1] = b.moving();
     } else {
       b.new_stamps = 0;
+      // Its next pose starts its history again, as a first one: it was not on the line between
+      // its poses before and after the spell (interpolated there, a body 10 m away that came back
+      // 0.35 m from another "collided" with it at the other's older stamp).
+      b.forget();
       m.stale.push_back(slot);
       if (b.was_active) m.grid.remove(slot);
       if (m.far_active) m.far_grid.remove(slot);

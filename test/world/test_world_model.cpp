@@ -1593,6 +1593,38 @@ TEST(WorldModel, AnEventAfterAnUnknownSpellCarriesItsPosesStamp) {
   }
 }
 
+TEST(WorldModel, ABodyBackFromASpellWithoutPosesIsNotInterpolatedAcrossIt) {
+  // b (r 0.125) at x = 10 at 1.0, then no pose until 2.5, at x = -0.375: 0.375 from a (r 0.125,
+  // moving 7.8 mm a pose), which is 0.125 apart. The pair's time is a's older stamp, 2.4375: b
+  // was placed on the line between its two poses, x = 10 - 10.375 * 1.4375 / 1.5 = 0.057, and
+  // the pair "collided" there (the moving-scene audit of the fortieth session: a COLLISION_BEGIN
+  // at -0.17 m between bodies never nearer than 0.15 m). Before its first pose after the spell b
+  // is at that pose, as before any first pose.
+  for (const bool align : {true, false}) {
+    SCOPED_TRACE(align ? "aligned" : "each at its latest pose");
+    Settings s = dyadic();
+    s.align_poses = align;
+    const auto w = twoSpheres(s, "a", "b", 0.125);
+    ASSERT_TRUE(w->setPose("a", at(0.0078125), 1.0));
+    ASSERT_TRUE(w->setPose("b", at(10), 1.0));
+    EXPECT_TRUE(w->check(1.0).events.empty());
+    ASSERT_TRUE(w->setPose("a", at(0), 1.5));
+    CycleResult r = w->check(1.75);
+    ASSERT_EQ(r.events.size(), 1u);
+    EXPECT_EQ(r.events[0].type, E::UnknownBegin);
+    ASSERT_TRUE(w->setPose("a", at(0.0078125), 2.375));
+    ASSERT_TRUE(w->setPose("a", at(0), 2.4375));
+    ASSERT_TRUE(w->setPose("b", at(-0.375), 2.5));
+    r = w->check(2.5);
+    ASSERT_EQ(r.events.size(), 1u) << "a second event: " << static_cast<int>(r.events.back().type)
+                                   << " at distance " << r.events.back().pair.distance;
+    EXPECT_EQ(r.events[0].type, E::UnknownEnd);
+    EXPECT_NEAR(r.events[0].pair.distance, 0.125, 1e-12);  // 0.375 - 2 * 0.125
+    EXPECT_TRUE(r.pairs.empty());
+    EXPECT_FALSE(r.in_collision);
+  }
+}
+
 TEST(WorldModel, ForgottenPosesTakeTheirEventStampsAlong) {
   // Time jumps back (the node forgets the poses): the next verdicts carry the new poses' stamps.
   // They carried the last event's stamp from before the jump, 100 s, until the clock passed it

@@ -260,7 +260,8 @@ class WorldModel {
   /// stamp between the pair's last check and this one (catch-up, Settings::align_poses: such
   /// events come first among the pair's, in stamp order, and may be older than
   /// CycleResult::stamp), never before the pair's last such event's; `now` when both are static,
-  /// and for UNKNOWN and removal.
+  /// and for UNKNOWN_BEGIN and removal (an UNKNOWN_END carries the stamp of the verdict it comes
+  /// with).
   CycleResult check(Stamp now);
 
   /// For shutdown: the check running in another thread, and every later one, stops within one
