@@ -22,8 +22,10 @@ first part's position of each round's first body; the sweep must then fail), ~ke
 Needs sweep_oracle.py next to this file (numpy, scipy).
 """
 import faulthandler
+import io
 import json
 import math
+import pickle
 import signal
 import os
 import random
@@ -578,9 +580,6 @@ class ContractSweep(unittest.TestCase):
                 for p in self.pose_msgs:
                     f.write(msg_repr(p) + '\n')
                 f.write('# pose_topic\n' + msg_repr(self.topic_pose) + '\n')
-            import io
-            import pickle
-
             def ser(msg):
                 b = io.BytesIO()
                 msg.serialize(b)
@@ -593,16 +592,6 @@ class ContractSweep(unittest.TestCase):
                              'T': {k: (v.R, v.t) for k, v in self.scene.T.items()},
                              'ob': {k: (v.parts, getattr(v, 'outer', None), v.group)
                                     for k, v in self.ob.items()}}, f)
-        if rospy.get_param('~keep_last', False) and r == self.rounds - 1:
-            return
-        # remove the round's bodies
-        for m in self.mon.values():
-            for b in self.round_bodies:
-                m['bodies'].publish(Body(id=b.id, operation=Body.REMOVE))
-        deadline = time.monotonic() + 10.0
-        for m in self.mon.values():
-            while time.monotonic() < deadline and set(m['lb']().ids) & set(ids):
-                time.sleep(0.05)
 
     # ------------------------------------------------------------ the queries
     def query_monitor(self, m, t_ready):
@@ -828,11 +817,16 @@ class ContractSweep(unittest.TestCase):
         t0 = time.monotonic()
         try:
             self.run_round(r)
-        finally:
+        finally:  # the round's bodies go, also after a failure (the next round's oracle lacks them)
             if not (rospy.get_param('~keep_last', False) and r == self.rounds - 1):
+                ids = {b.id for b in getattr(self, 'round_bodies', [])}
                 for m in self.mon.values():
-                    for b in getattr(self, 'round_bodies', []):
-                        m['bodies'].publish(Body(id=b.id, operation=Body.REMOVE))
+                    for i in ids:
+                        m['bodies'].publish(Body(id=i, operation=Body.REMOVE))
+                deadline = time.monotonic() + 10.0
+                for m in self.mon.values():
+                    while time.monotonic() < deadline and set(m['lb']().ids) & ids:
+                        time.sleep(0.05)
         self.count('round seconds', time.monotonic() - t0)
         self.all_problems.extend(self.problems)
         if self.report_path:
