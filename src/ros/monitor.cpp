@@ -1374,6 +1374,12 @@ void Monitor::runCycle() {
     }
   }
   tf_snapshot.unlock();
+  // What each body on such a frame says, made once a frame (not once a body, every check).
+  std::map<std::string, std::string> body_why;
+  for (const auto& [frame, why] : unresolved_why) {
+    body_why.emplace(frame, "its frame " + quoteInput(frame) + " cannot be looked up in " +
+                                quoteInput(fixed_frame_) + ": " + why);
+  }
   // Frames not looked up this cycle (no body on them, a failed lookup) keep the time they were
   // first seen while their stamp is still ahead: seen again later, they are not new data.
   for (auto& [frame, first] : tf_seen_) {
@@ -1412,8 +1418,7 @@ void Monitor::runCycle() {
         }
         world_->setPose(id, f->pose, f->stamp, std::nullopt, f->arrived);
       } else {
-        world_->markUnresolved(id, "its frame " + quoteInput(frame) + " cannot be looked up in " +
-                                       quoteInput(fixed_frame_) + ": " + unresolved_why[frame]);
+        world_->markUnresolved(id, body_why[frame]);
       }
     }
     cycle = world_->check(toStamp(stamp_now));

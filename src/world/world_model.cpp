@@ -1540,12 +1540,12 @@ bool WorldModel::keepsPoses() const {
   return (impl_->mixed_stamps || impl_->outran) && impl_->settings.align_poses;
 }
 
-void WorldModel::markUnresolved(const std::string& id, std::string why) {
+void WorldModel::markUnresolved(const std::string& id, const std::string& why) {
   auto it = impl_->slot_of.find(id);
   if (it == impl_->slot_of.end()) return;
   BodyState& b = impl_->bodies[it->second];
   b.unresolved = true;
-  b.unresolved_why = std::move(why);
+  b.unresolved_why = why;  // the same text again each check: no allocation
 }
 
 void WorldModel::clearPoses() {

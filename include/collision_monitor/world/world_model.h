@@ -241,7 +241,7 @@ class WorldModel {
   /// Marks a body's pose as unresolvable now (e.g. TF lookup failed): its pairs turn UNKNOWN.
   /// `why`, if given, ends the queries' "no pose yet" or "unresolved pose" message until the
   /// body's next pose.
-  void markUnresolved(const std::string& id, std::string why = {});
+  void markUnresolved(const std::string& id, const std::string& why = {});
   /// Forgets every held pose (e.g. time jumped backwards) except static ones (stamp 0, which
   /// hold at any time and are not sent again): their pairs UNKNOWN until new poses.
   void clearPoses();
