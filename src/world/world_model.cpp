@@ -282,10 +282,10 @@ struct BodyState {
   Stamp held_since;
   Stamp swept_from;        ///< while `swept`: the stamp of the first pose it spans
   Stamp checked_stamp[2];  ///< see checked_moving
-  /// Catch-up (WorldModel::Impl::catchUp()) never goes back before this: the stamp of its pose at
-  /// the first check that found it fresh after a spell without a fresh pose, or `renewed`; `now`
-  /// then for a static pose. Where it was before is not known: its history's first pose stands
-  /// in for it there (poseAt()).
+  /// Catch-up (WorldModel::Impl::catchUp()) never goes back before this: set by the first check
+  /// that finds it fresh after a spell without a fresh pose, or `renewed`, to the stamp of its
+  /// first fresh pose since (firstFreshPose()); `now` for a static pose. Where it was before is
+  /// not known: its history's first pose stands in for it there (poseAt()).
   Stamp known_from;
   Placement at;  ///< at the held (latest) pose
   Twist twist;
@@ -348,6 +348,14 @@ struct BodyState {
   void forget() {
     history.clear();
     held_since = Stamp();
+  }
+  /// The stamp of its first kept pose not older than `timeout` at `now` (the held one's if none
+  /// is): what the body did since a check that found it stale (which forgot its poses), or since
+  /// its first pose.
+  Stamp firstFreshPose(Stamp now, double timeout) const {
+    for (const StampedPose& p : history)
+      if (now - p.stamp <= timeout) return p.stamp;
+    return stamp;
   }
   /// The farthest a point of the body is from its origin, m.
   double reachFromOrigin() const {
@@ -1167,12 +1175,15 @@ struct WorldModel::Impl {
   /// between of the kept poses of a body of it that moved after `from`, both bodies placed there
   /// (poseAt(): the other one interpolated, or held). A pass between two poses of the slower
   /// body, which neither of its stamps sees, turns into its events, stamped when it happened.
-  /// The statuses step with hysteresis as at the live checks; an END to CLEAR says where the
+  /// `from_too`: at `from` as well, which no check of the pair saw (a body's first known pose:
+  /// the pair UNKNOWN, or new, before it). The statuses step with hysteresis as at the live
+  /// checks (from UNKNOWN as at a live check too); an END to CLEAR says where the
   /// pair is then, however far. Stops at a failed query (the stretch after it is not gone over;
   /// the live check that follows reports the pair UNKNOWN if its query fails too) and when checks
   /// are abandoned.
-  void catchUp(int a, int b, PairEntry* e, Stamp from, Stamp to, CycleResult* res) {
+  void catchUp(int a, int b, PairEntry* e, Stamp from, bool from_too, Stamp to, CycleResult* res) {
     catch_stamps.clear();
+    if (from_too) catch_stamps.push_back(from);
     for (const int slot : {a, b}) {
       const BodyState& X = bodies[slot];
       if (!X.elsewhereAt(from)) continue;  // held since before `from`: at the live check's pose
@@ -1589,7 +1600,8 @@ CycleResult WorldModel::check(Stamp now) {
   // below 0) would drop every pair, the overlapping ones too (COLLISION_END while nothing moved).
   const double reach = std::max(0.0, clearCutoffAny(s));
   m.grid.setMargin(reach);
-  Impl::Stamps stamps;  // of the fresh bodies
+  Impl::Stamps stamps;                 // of the fresh bodies
+  std::optional<Stamp> returned_from;  // the earliest known_from set anew: catch-up starts there
   // The clock went back (a little: further, the node forgets every pose): a pose that arrived
   // after `now` ages from now. From its arrival it stayed fresh for as long again as the jump.
   const bool clock_back = m.last_check_now && now < *m.last_check_now;
@@ -1605,8 +1617,11 @@ CycleResult WorldModel::check(Stamp now) {
       stamps.add(b);
       b.new_stamps = 0;
       if (!b.fresh_prev || b.renewed) {
-        b.known_from = b.stamp.isStatic() ? now : b.stamp;
+        b.known_from = b.stamp.isStatic() ? now : b.firstFreshPose(now, s.pose_timeout);
         b.renewed = false;
+        if (!b.stamp.isStatic() && (!returned_from || b.known_from < *returned_from)) {
+          returned_from = b.known_from;
+        }
       }
       b.checked_stamp[0] = b.checked_stamp[1];  // lastPairStamp()'s, when fresh_prev
       b.checked_moving[0] = b.checked_moving[1];
@@ -1647,6 +1662,9 @@ CycleResult WorldModel::check(Stamp now) {
   if (catch_up && !m.last_verdict.isStatic() &&
       (caught_from.isStatic() || m.last_verdict < caught_from)) {
     caught_from = m.last_verdict;
+  }
+  if (catch_up && returned_from && (caught_from.isStatic() || *returned_from < caught_from)) {
+    caught_from = *returned_from;
   }
   m.last_verdict = res.stamp;
   for (int slot : m.active) {
@@ -1704,13 +1722,15 @@ CycleResult WorldModel::check(Stamp now) {
     PairEntry& e = m.pairs[key];
     e.last_seen = cycle;
     const Stamp to = m.pairStamp(a, b, now);
-    if (catch_up && e.status != PairStatus::Unknown) {
+    if (catch_up) {
       // Not before a time already checked (at the last check, by the broad phase alone too; the
-      // pair's stamp may go back when a body taken as still turns out to have moved), an event
-      // of the pair, or a body's first known pose: those verdicts stand as reported.
-      const Stamp from =
-          std::max({e.checked_to, e.last_event, m.lastPairStamp(a, b), A.known_from, B.known_from});
-      if (from < to) m.catchUp(a, b, &e, from, to, &res);
+      // pair's stamp may go back when a body taken as still turns out to have moved) or an event
+      // of the pair: those verdicts stand as reported. Nor before a body's first known pose;
+      // when that is later (the pair UNKNOWN or new since), the pair is checked there too.
+      const Stamp checked = std::max({e.checked_to, e.last_event, m.lastPairStamp(a, b)});
+      const Stamp known = std::max(A.known_from, B.known_from);
+      const Stamp from = std::max(checked, known);
+      if (from < to) m.catchUp(a, b, &e, from, checked < known, to, &res);
     }
     e.checked_to = std::max(e.checked_to, to);
     const double cutoff = clearCutoff(e.status, s);

@@ -20,7 +20,7 @@ import unittest
 import rospy
 import rostest
 import tf2_ros
-from collision_monitor.msg import CollisionEvent
+from collision_monitor.msg import BodyPoses, CollisionEvent
 
 from cm_test_util import Monitor, pose, sphere_body, tf_transform, wait_for
 
@@ -110,6 +110,67 @@ class CatchUp(unittest.TestCase):
                                        delta=1e-6)
             total += len(got)
         self.assertGreaterEqual(total, 20)  # each target passed about four times, two events a pass
+
+    def test_b_a_dart_back_from_a_spell_is_caught_up_from_its_first_pose(self):
+        """A ~body_poses dart (a sphere of 0.1 m) comes back from a spell without a pose inside
+        a target of 0.1 m on the fixed frame and leaves it at 10 m/s, posed at 100 Hz; no check
+        follows a pose (check_on_pose false, checks at 5 Hz). The pair is known from the dart's
+        first pose back: UNKNOWN_END and COLLISION_BEGIN at its stamp (-0.2 m), COLLISION_END at
+        the stamp 0.1 m out. Before the forty-first session the pair started again at the first
+        check: UNKNOWN_END at the dart's pose then, the collision lost (unless that check fell
+        within the 10 ms before the second pose)."""
+        m = Monitor()
+        m.add(fixed_body('u', 0.1, 0.0, 20.0))
+        m.add(sphere_body('v', 0.1, frame='world'))
+        self.assertTrue(wait_for(lambda: {'u', 'v'} <= set(m.list_bodies().ids), 10.0))
+        stream = BodyPosesAt(m.poses_pub)
+        for _ in range(10):  # fresh at a few checks, 3 m off
+            stream.send('v', -3.0, 20.0)
+            time.sleep(0.05)
+        spell = m.wait_event(E.UNKNOWN_BEGIN, 'u', 'v', timeout=5.0, since=time.monotonic())
+        self.assertIsNotNone(spell)
+        since = spell[0]
+        sent = []  # (stamp, x)
+        for k in range(61):  # out to 1 m, then held there
+            x = 0.1 * min(k, 10)
+            sent.append((stream.send('v', x, 20.0), x))
+            time.sleep(0.01)
+        pair = {frozenset(('u', 'v'))}
+        self.assertTrue(wait_for(lambda: len(m.events_for(pair, since)) >= 4, 5.0),
+                        m.events_for(pair, since))
+        time.sleep(0.5)  # any event more
+        status, expected = 'N', [(E.UNKNOWN_END, sent[0][0])]
+        for stamp, x in sent:
+            nxt = next_status(status, abs(x) - 0.2)
+            expected += [(t, stamp) for t in TRANSITIONS.get((status, nxt), [])]
+            status = nxt
+        got = m.events_for(pair, since)
+        self.assertEqual(got[0].type, E.UNKNOWN_BEGIN)
+        got = got[1:]
+        self.assertEqual([(e.type, e.header.stamp.to_nsec()) for e in got],
+                         [(t, s.to_nsec()) for t, s in expected])
+        self.assertEqual([e.type for e in got],
+                         [E.UNKNOWN_END, E.COLLISION_BEGIN, E.COLLISION_END])
+        x_at = dict((s.to_nsec(), x) for s, x in sent)
+        for e in got:
+            self.assertAlmostEqual(e.pair.distance, abs(x_at[e.header.stamp.to_nsec()]) - 0.2,
+                                   delta=1e-6)
+
+
+class BodyPosesAt:
+    """~body_poses of one body at a time, in the fixed frame, stamped now."""
+
+    def __init__(self, pub):
+        self.pub = pub
+
+    def send(self, body_id, x, y):
+        msg = BodyPoses()
+        msg.header.frame_id = 'world'
+        msg.header.stamp = rospy.Time.now()
+        msg.ids.append(body_id)
+        msg.poses.append(pose(x, y, 0.0))
+        self.pub.publish(msg)
+        return msg.header.stamp
 
 
 if __name__ == '__main__':
