@@ -1245,6 +1245,32 @@ struct WorldModel::Impl {
     }
   }
 
+  /// The latest first known pose (BodyState::known_from) of the timed bodies of pair (a, b): a
+  /// verdict at a time before it would place that body where it is not known to have been (at its
+  /// first pose; poseAt()). A static pose holds at any time.
+  Stamp knownFrom(int a, int b) const {
+    const auto timed = [](const BodyState& x) {
+      return x.stamp.isStatic() ? Stamp() : x.known_from;
+    };
+    return std::max(timed(bodies[a]), timed(bodies[b]));
+  }
+  /// Pair (a, b), both fresh, whose time is before knownFrom(): no verdict yet. It is UNKNOWN
+  /// (UNKNOWN_BEGIN at the check's time, after the END of a status it had) and listed so, until
+  /// a check finds its time at or after that pose; then it is checked there (catch-up) and from
+  /// there on. A body back from a spell, or new, beside an older moving one stays UNKNOWN for as
+  /// long as the other's stamp lags its first pose.
+  void holdUnknown(int a, int b, PairEntry* e, Stamp now, CycleResult* res) {
+    e->last_seen = cycle;
+    PairResult r = unknownResult(a, b);
+    const std::uint64_t rk = rankKey(a, b);
+    if (e->status != PairStatus::Unknown) {
+      emit(e->status, PairStatus::Unknown, r, now, &res->events, &event_keys, rk);
+      e->status = PairStatus::Unknown;
+    }
+    res->pairs.push_back(std::move(r));
+    pair_keys.push_back(rk);
+  }
+
   static void emit(PairStatus from, PairStatus to, const PairResult& r, Stamp stamp,
                    std::vector<Event>* events, std::vector<std::uint64_t>* keys = nullptr,
                    std::uint64_t key = 0) {
@@ -1722,6 +1748,10 @@ CycleResult WorldModel::check(Stamp now) {
     PairEntry& e = m.pairs[key];
     e.last_seen = cycle;
     const Stamp to = m.pairStamp(a, b, now);
+    if (s.align_poses && to < m.knownFrom(a, b)) {
+      m.holdUnknown(a, b, &e, now, &res);
+      continue;
+    }
     if (catch_up) {
       // Not before a time already checked (at the last check, by the broad phase alone too; the
       // pair's stamp may go back when a body taken as still turns out to have moved) or an event
@@ -1844,6 +1874,12 @@ CycleResult WorldModel::check(Stamp now) {
     if (e.last_seen != cycle) {
       const int a = keyLo(it->first);
       const int b = keyHi(it->first);
+      if (s.align_poses && e.status == PairStatus::Unknown && m.bodies[a].fresh &&
+          m.bodies[b].fresh && m.allowed(a, b) && m.pairStamp(a, b, now) < m.knownFrom(a, b)) {
+        m.holdUnknown(a, b, &e, now, &res);
+        ++it;
+        continue;
+      }
       if (e.status != PairStatus::Clear) {
         // The END event says where the pair is when both poses are fresh (+inf otherwise), and
         // the pair is still checked: one no longer checked (a group or a disabled pair) has no
