@@ -1876,11 +1876,8 @@ CycleResult WorldModel::check(Stamp now) {
       const int b = keyHi(it->first);
       if (s.align_poses && e.status == PairStatus::Unknown && m.bodies[a].fresh &&
           m.bodies[b].fresh && m.allowed(a, b) && m.pairStamp(a, b, now) < m.knownFrom(a, b)) {
-        m.holdUnknown(a, b, &e, now, &res);
-        ++it;
-        continue;
-      }
-      if (e.status != PairStatus::Clear) {
+        m.holdUnknown(a, b, &e, now, &res);  // seen now: kept
+      } else if (e.status != PairStatus::Clear) {
         // The END event says where the pair is when both poses are fresh (+inf otherwise), and
         // the pair is still checked: one no longer checked (a group or a disabled pair) has no
         // distance the monitor stands behind, and an END to CLEAR at -0.05 m read as a contact.
