@@ -20,6 +20,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <iomanip>
 #include <iterator>
 #include <sstream>
 #include <tuple>
@@ -1245,14 +1246,33 @@ struct WorldModel::Impl {
     }
   }
 
-  /// The latest first known pose (BodyState::known_from) of the timed bodies of pair (a, b): a
-  /// verdict at a time before it would place that body where it is not known to have been (at its
-  /// first pose; poseAt()). A static pose holds at any time.
-  Stamp knownFrom(int a, int b) const {
-    const auto timed = [](const BodyState& x) {
-      return x.stamp.isStatic() ? Stamp() : x.known_from;
-    };
-    return std::max(timed(bodies[a]), timed(bodies[b]));
+  /// The stamp a timed body is known from at `now` (BodyState::known_from, as the next check()
+  /// sets it when it is not set yet: a body stale at the last check, new or renewed since); zero
+  /// for a static pose, which holds at any time.
+  Stamp knownAt(const BodyState& x, Stamp now) const {
+    if (x.stamp.isStatic()) return Stamp();
+    if (x.fresh && !x.renewed) return x.known_from;
+    return x.firstFreshPose(now, settings.pose_timeout);
+  }
+  /// The later of knownAt() of pair (a, b): a verdict at a time before it would place that body
+  /// where it is not known to have been (at its first pose; poseAt()).
+  Stamp knownFrom(int a, int b, Stamp now) const {
+    return std::max(knownAt(bodies[a], now), knownAt(bodies[b], now));
+  }
+  /// Why pair (a, b), both fresh, has no verdict at `now` (aligned, its time is before
+  /// knownFrom(): check() holds it UNKNOWN, holdUnknown()); empty when it has one.
+  std::string noVerdictYet(int a, int b, Stamp now) const {
+    if (!settings.align_poses) return {};
+    const Stamp known = knownFrom(a, b, now);
+    const Stamp t = pairStamp(a, b, now);
+    if (!(t < known)) return {};
+    const int late = knownAt(bodies[a], now) == known ? a : b;
+    std::ostringstream os;
+    os << std::fixed << std::setprecision(9) << "the pair of '" << bodies[a].spec.id << "' and '"
+       << bodies[b].spec.id << "' has no verdict yet: its time (" << t.seconds()
+       << " s, the older moving body's stamp) is before the first pose of body '"
+       << bodies[late].spec.id << "' since it came or came back (" << known.seconds() << " s)";
+    return os.str();
   }
   /// Pair (a, b), both fresh, whose time is before knownFrom(): no verdict yet. It is UNKNOWN
   /// (UNKNOWN_BEGIN at the check's time, after the END of a status it had) and listed so, until
@@ -1748,7 +1768,7 @@ CycleResult WorldModel::check(Stamp now) {
     PairEntry& e = m.pairs[key];
     e.last_seen = cycle;
     const Stamp to = m.pairStamp(a, b, now);
-    if (s.align_poses && to < m.knownFrom(a, b)) {
+    if (s.align_poses && to < m.knownFrom(a, b, now)) {
       m.holdUnknown(a, b, &e, now, &res);
       continue;
     }
@@ -1875,7 +1895,7 @@ CycleResult WorldModel::check(Stamp now) {
       const int a = keyLo(it->first);
       const int b = keyHi(it->first);
       if (s.align_poses && e.status == PairStatus::Unknown && m.bodies[a].fresh &&
-          m.bodies[b].fresh && m.allowed(a, b) && m.pairStamp(a, b, now) < m.knownFrom(a, b)) {
+          m.bodies[b].fresh && m.allowed(a, b) && m.pairStamp(a, b, now) < m.knownFrom(a, b, now)) {
         m.holdUnknown(a, b, &e, now, &res);  // seen now: kept
       } else if (e.status != PairStatus::Clear) {
         // The END event says where the pair is when both poses are fresh (+inf otherwise), and
@@ -1940,6 +1960,7 @@ std::optional<PairResult> WorldModel::distance(const std::string& a, const std::
   const BodyState& B = m.bodies[ib->second];
   if (!A.isFresh(now, m.settings.pose_timeout)) return fail(m.whyStale(ia->second, now));
   if (!B.isFresh(now, m.settings.pose_timeout)) return fail(m.whyStale(ib->second, now));
+  if (std::string w = m.noVerdictYet(ia->second, ib->second, now); !w.empty()) return fail(w);
   const Stamp at = m.pairTime(ia->second, ib->second);
   const Narrow n = m.narrowPhase(ia->second, ib->second, at, kInf, nullptr);
   if (m.abandoned.load(std::memory_order_relaxed)) return fail(kAbandoned);
@@ -1973,12 +1994,19 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
   // UNKNOWN, never CLEAR), not the nearest of the others.
   std::vector<std::pair<double, int>> order;
   std::vector<int> stale;
+  std::string unsettled;  // a pair without a verdict yet (noVerdictYet()), the first in id order
+  std::string unsettled_id;
   for (int o = 0; o < static_cast<int>(m.bodies.size()); ++o) {
     const BodyState& O = m.bodies[o];
     if (!O.used || !m.allowed(sa, o)) continue;
     if (!O.isFresh(now, m.settings.pose_timeout)) {
       stale.push_back(o);
       continue;
+    }
+    if (std::string w = m.noVerdictYet(sa, o, now);
+        !w.empty() && (unsettled.empty() || O.spec.id < unsettled_id)) {
+      unsettled = std::move(w);
+      unsettled_id = O.spec.id;
     }
     const auto [pa, po] = m.placedPair(sa, o, m.pairTime(sa, o));  // as the pair is checked
     const double gap = pa.at.box.distance(po.at.box);
@@ -1997,6 +2025,7 @@ std::optional<PairResult> WorldModel::nearest(const std::string& a, Stamp now, s
     if (stale.size() > 1) msg += " (and " + std::to_string(stale.size() - 1) + " more)";
     return fail(msg);
   }
+  if (!unsettled.empty()) return fail("the nearest body to '" + a + "' is unknown: " + unsettled);
   if (order.empty()) return fail("no other body that '" + a + "' may touch");
   std::sort(order.begin(), order.end());
   int best_slot = -1;

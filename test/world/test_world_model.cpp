@@ -342,6 +342,7 @@ TEST(WorldModel, DistanceAndNearestReportThePosesTime) {
   ASSERT_TRUE(w.setPose("fixed", at(0), 0.0));
   ASSERT_TRUE(w.setPose("fixed2", at(5), 0.0));
   ASSERT_TRUE(w.setPose("b", at(2), 2.5));
+  ASSERT_TRUE(w.setPose("c", at(3.25), 2.6));  // known from 2.6 on, still
   ASSERT_TRUE(w.setPose("c", at(3.25), 2.75));
   std::string why;
   Stamp stamp = 7.0;
@@ -352,8 +353,9 @@ TEST(WorldModel, DistanceAndNearestReportThePosesTime) {
   // b posed once is still as far as it is known: it holds its pose at c's time.
   ASSERT_TRUE(w.distance("c", "b", 2.8, &why, &stamp)) << why;
   EXPECT_EQ(stamp, Stamp(2.75));
-  // b moving: the verdict is of b's time (c has no pose that old: it stays where it is). The
-  // world keeps poses once a check has found stamps apart, as the node's checks do at once.
+  // b moving: the verdict is of b's time, c held there (still since 2.6; before its first pose
+  // there would be no verdict: APairHasNoVerdictBeforeABodysFirstPoseBack). The world keeps
+  // poses once a check has found stamps apart, as the node's checks do at once.
   w.check(2.8);
   ASSERT_TRUE(w.setPose("b", at(1.75), 2.625));
   ASSERT_TRUE(w.setPose("b", at(2), 2.7));
@@ -2007,10 +2009,27 @@ TEST(WorldModel, APairHasNoVerdictBeforeABodysFirstPoseBack) {
     EXPECT_EQ(got, (Timeline{{E::UnknownBegin, step(-20)}}));
     for (int k = 10; k <= 15; ++k)
       ASSERT_TRUE(w->setPose("dart", at(back), step(k)));
+    // ~get_distance and the nearest body say so too, before the check and after it.
+    const auto noVerdict = [&](Stamp now) {
+      std::string why;
+      EXPECT_FALSE(w->distance("dart", "mov", now, &why));
+      EXPECT_NE(why.find("the pair of 'dart' and 'mov' has no verdict yet: its time "
+                         "(1.000000000 s, the older moving body's stamp) is before the first "
+                         "pose of body 'dart' since it came or came back (1.100000000 s)"),
+                std::string::npos)
+          << why;
+      why.clear();
+      EXPECT_FALSE(w->nearest("mov", now, &why));
+      EXPECT_EQ(why.rfind("the nearest body to 'mov' is unknown: the pair of 'mov' and 'dart'", 0),
+                0u)
+          << why;
+    };
+    noVerdict(step(15));
     CycleResult r = w->check(step(15));
     EXPECT_TRUE(r.events.empty());
     EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"dart", "mov"}, S::Unknown}}));
     EXPECT_FALSE(r.in_collision);
+    noVerdict(step(15));
     for (int k = 16; k <= 25; ++k)
       ASSERT_TRUE(w->setPose("dart", at(back), step(k)));
     ASSERT_TRUE(w->setPose("mov", at(mov(20)), step(20)));
@@ -2020,6 +2039,10 @@ TEST(WorldModel, APairHasNoVerdictBeforeABodysFirstPoseBack) {
     EXPECT_EQ(r.events[0].stamp, near ? step(10) : step(20));
     EXPECT_NEAR(r.events[0].pair.distance, near ? 0.2 : 2.0, 1e-9);
     EXPECT_TRUE(r.pairs.empty());
+    // At mov's stamp, 20, the dart still where it came back.
+    const auto d = w->distance("dart", "mov", step(25), nullptr);
+    ASSERT_TRUE(d);
+    EXPECT_NEAR(d->distance, near ? 0.6 : 2.0, 1e-9);
   }
 }
 
@@ -3769,10 +3792,13 @@ TEST(WorldModel, NearestBreaksAnExactTieByIdWhateverTheOrderOfAdding) {
 
 TEST(WorldModel, NearestOrdersTheBodiesByTheirBoxesAtThePairsTime) {
   // At a's stamp (step 20) b was right beside a (interpolated between its poses); it is 1 m off
-  // now. c is 0.5 m away. The nearest, as the pair is checked, is b.
+  // now. c is 0.5 m away. The nearest, as the pair is checked, is b. (A check saw b's first
+  // pose fresh: b is known from it, as in
+  // APoseOlderThanPoseTimeoutIsKeptToPlaceABodyBackAtItsStart.)
   WorldModel w(dyadic());
   addSpheres(w, {"a", "b", "c"}, 0.5);
   ASSERT_TRUE(w.setPose("b", at(1.03, -1.0), step(0)));
+  w.check(step(0));
   ASSERT_TRUE(w.setPose("a", at(0), step(10)));
   ASSERT_TRUE(w.setPose("a", at(0.0001), step(20)));
   ASSERT_TRUE(w.setPose("b", at(1.03, 2.0), step(60)));

@@ -272,13 +272,16 @@ class WorldModel {
   void abandonChecks();
 
   /// Signed distance between two bodies at their current poses. nullopt with `why` set when an
-  /// id is unknown or a pose is stale/unresolved at `now`. `stamp` (optional): the time the
+  /// id is unknown, a pose is stale/unresolved at `now`, or the pair has no verdict yet (aligned,
+  /// its time is before a body's first pose since it came or came back: check() lists it
+  /// UNKNOWN). `stamp` (optional): the time the
   /// answer holds for, as an event's (the older pose stamp of a moving body; a zero Stamp when
   /// both bodies are static).
   std::optional<PairResult> distance(const std::string& a, const std::string& b, Stamp now,
                                      std::string* why, Stamp* stamp = nullptr) const;
   /// Nearest body to `a` among those it may collide with (respects groups and disabled pairs);
-  /// of bodies exactly as near, the smallest id. `stamp`: as distance()'s.
+  /// of bodies exactly as near, the smallest id. nullopt (the nearest unknown) while one of them
+  /// is stale or its pair with `a` has no verdict yet (distance()). `stamp`: as distance()'s.
   std::optional<PairResult> nearest(const std::string& a, Stamp now, std::string* why,
                                     Stamp* stamp = nullptr) const;
   /// A hypothetical body at `pose` (body frame -> fixed frame) against every body with a fresh
