@@ -1259,13 +1259,16 @@ struct WorldModel::Impl {
   Stamp knownFrom(int a, int b, Stamp now) const {
     return std::max(knownAt(bodies[a], now), knownAt(bodies[b], now));
   }
-  /// Why pair (a, b), both fresh, has no verdict at `now` (aligned, its time is before
-  /// knownFrom(): check() holds it UNKNOWN, holdUnknown()); empty when it has one.
+  /// Whether pair (a, b), both fresh, has no verdict at `now`: aligned, its time is before
+  /// knownFrom(). check() holds it UNKNOWN (holdUnknown()), the queries refuse it.
+  bool verdictPending(int a, int b, Stamp now) const {
+    return settings.align_poses && pairStamp(a, b, now) < knownFrom(a, b, now);
+  }
+  /// Why verdictPending(); empty when the pair has a verdict.
   std::string noVerdictYet(int a, int b, Stamp now) const {
-    if (!settings.align_poses) return {};
+    if (!verdictPending(a, b, now)) return {};
     const Stamp known = knownFrom(a, b, now);
     const Stamp t = pairStamp(a, b, now);
-    if (!(t < known)) return {};
     const int late = knownAt(bodies[a], now) == known ? a : b;
     std::ostringstream os;
     os << std::fixed << std::setprecision(9) << "the pair of '" << bodies[a].spec.id << "' and '"
@@ -1274,7 +1277,7 @@ struct WorldModel::Impl {
        << bodies[late].spec.id << "' since it came or came back (" << known.seconds() << " s)";
     return os.str();
   }
-  /// Pair (a, b), both fresh, whose time is before knownFrom(): no verdict yet. It is UNKNOWN
+  /// Pair (a, b) while verdictPending(): no verdict yet. It is UNKNOWN
   /// (UNKNOWN_BEGIN at the check's time, after the END of a status it had) and listed so, until
   /// a check finds its time at or after that pose; then it is checked there (catch-up) and from
   /// there on. A body back from a spell, or new, beside an older moving one stays UNKNOWN for as
@@ -1768,7 +1771,7 @@ CycleResult WorldModel::check(Stamp now) {
     PairEntry& e = m.pairs[key];
     e.last_seen = cycle;
     const Stamp to = m.pairStamp(a, b, now);
-    if (s.align_poses && to < m.knownFrom(a, b, now)) {
+    if (m.verdictPending(a, b, now)) {
       m.holdUnknown(a, b, &e, now, &res);
       continue;
     }
@@ -1894,8 +1897,8 @@ CycleResult WorldModel::check(Stamp now) {
     if (e.last_seen != cycle) {
       const int a = keyLo(it->first);
       const int b = keyHi(it->first);
-      if (s.align_poses && e.status == PairStatus::Unknown && m.bodies[a].fresh &&
-          m.bodies[b].fresh && m.allowed(a, b) && m.pairStamp(a, b, now) < m.knownFrom(a, b, now)) {
+      if (e.status == PairStatus::Unknown && m.bodies[a].fresh && m.bodies[b].fresh &&
+          m.allowed(a, b) && m.verdictPending(a, b, now)) {
         m.holdUnknown(a, b, &e, now, &res);  // seen now: kept
       } else if (e.status != PairStatus::Clear) {
         // The END event says where the pair is when both poses are fresh (+inf otherwise), and
