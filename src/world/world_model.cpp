@@ -891,8 +891,9 @@ struct WorldModel::Impl {
   /// the exact distances held, then GJK (with the best so far as cutoff) on the pairs not yet
   /// known whose lower bound is below it, nearest first. Pairs outside the far grid are more
   /// than far_margin apart on some axis: when the best is farther, the margin grows (the grid is
-  /// rebuilt) until it is not, or until it spans every box.
-  double farMinimum(double best, double reach, CycleResult* res) {
+  /// rebuilt) until it is not, or until it spans every box. A pair with no verdict yet at `now`
+  /// (verdictPending(): check() holds it UNKNOWN) is left out, as a pair of a stale body is.
+  double farMinimum(double best, double reach, Stamp now, CycleResult* res) {
     double span = -1.0;  // of every box; computed only when the margin has to grow
     if (!far_active || far_margin < 2.0 * reach) {
       far_margin = std::max(far_margin, 2.0 * reach);
@@ -906,12 +907,16 @@ struct WorldModel::Impl {
       p = FarPair{p.key, gap > 0.0 ? gap : -kInf, std::numeric_limits<double>::quiet_NaN(), at};
     }
     for (;;) {
-      for (const FarPair& p : far_pairs) {
-        if (p.exact < best) best = p.exact;  // NaN: false
-      }
       far_order.clear();
       for (int k = 0; k < static_cast<int>(far_pairs.size()); ++k) {
-        if (std::isnan(far_pairs[k].exact) && far_pairs[k].lower < best) far_order.push_back(k);
+        const FarPair& p = far_pairs[k];
+        if (!(p.exact < best) && !(std::isnan(p.exact) && p.lower < best)) continue;
+        if (verdictPending(keyLo(p.key), keyHi(p.key), now)) continue;
+        if (std::isnan(p.exact)) {
+          far_order.push_back(k);  // measured below, nearest first, while its bound is below best
+        } else {
+          best = p.exact;
+        }
       }
       std::sort(far_order.begin(), far_order.end(),
                 [&](int x, int y) { return far_pairs[x].lower < far_pairs[y].lower; });
@@ -1826,7 +1831,7 @@ CycleResult WorldModel::check(Stamp now) {
   if (s.exact_min_distance &&
       !(res.min_distance <=
         std::min(clearCutoff(PairStatus::Clear, s), clearCutoff(PairStatus::Warning, s)))) {
-    res.min_distance = m.farMinimum(res.min_distance, reach, &res);
+    res.min_distance = m.farMinimum(res.min_distance, reach, now, &res);
   } else {
     m.far_active = false;  // not needed: not followed either, until a cycle needs it again
   }

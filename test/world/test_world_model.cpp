@@ -2029,6 +2029,9 @@ TEST(WorldModel, APairHasNoVerdictBeforeABodysFirstPoseBack) {
     EXPECT_TRUE(r.events.empty());
     EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"dart", "mov"}, S::Unknown}}));
     EXPECT_FALSE(r.in_collision);
+    // Nor does min_distance measure it (its search beyond the clear cutoff did, with the dart at
+    // its first pose at mov's older stamp: -0.2 m, a contact, where mov was; 2.8 m back 3 m off).
+    EXPECT_EQ(r.min_distance, std::numeric_limits<double>::infinity());
     noVerdict(step(15));
     for (int k = 16; k <= 25; ++k)
       ASSERT_TRUE(w->setPose("dart", at(back), step(k)));
@@ -2039,6 +2042,7 @@ TEST(WorldModel, APairHasNoVerdictBeforeABodysFirstPoseBack) {
     EXPECT_EQ(r.events[0].stamp, near ? step(10) : step(20));
     EXPECT_NEAR(r.events[0].pair.distance, near ? 0.2 : 2.0, 1e-9);
     EXPECT_TRUE(r.pairs.empty());
+    EXPECT_NEAR(r.min_distance, near ? 0.6 : 2.0, 1e-9);
     // At mov's stamp, 20, the dart still where it came back.
     const auto d = w->distance("dart", "mov", step(25), nullptr);
     ASSERT_TRUE(d);

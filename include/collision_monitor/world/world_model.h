@@ -250,8 +250,8 @@ class WorldModel {
   ///
   /// Every pair that may collide (not the same body, not disabled, not sharing a non-empty
   /// group) gets a status. A pair with a stale body (no pose, older than pose_timeout at `now`,
-  /// or unresolved) is UNKNOWN; its UNKNOWN_BEGIN/END events are emitted only for pairs that were
-  /// known before (a body that never had a pose starts UNKNOWN silently). Pairs whose padded
+  /// or unresolved) is UNKNOWN, with an UNKNOWN_BEGIN when it becomes so, also a pair of a body
+  /// that never had a pose (while listed: Settings::max_unknown_pairs). Pairs whose padded
   /// boxes are farther apart than max(warning, contact) + hysteresis are CLEAR without GJK; a
   /// pair whose bodies both kept their pose and geometry reuses its previous result (counted in
   /// num_pairs_cached, not in num_pairs_checked). Pairs and events are sorted by (body_a,
