@@ -80,3 +80,16 @@ if(NOT COLLISION_MONITOR_CORE_ONLY)
       CM_FUZZ_DIR="${CMAKE_CURRENT_SOURCE_DIR}/fuzz")
   endif()
 endif()
+
+# Replays fuzz/regressions/world and fuzz/corpus/world with the world model's fuzzer checks
+# (fuzz/world_case.h; the libFuzzer target is fuzz/fuzz_world.cpp, built by scripts/fuzz.sh).
+if(NOT COLLISION_MONITOR_CORE_ONLY)
+  cm_add_gtest(test_world_fuzz_regressions
+    SOURCES test/robustness/test_world_fuzz_regressions.cpp
+    LIBS collision_monitor_world)
+  if(TARGET test_world_fuzz_regressions)
+    target_include_directories(test_world_fuzz_regressions PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/fuzz)
+    target_compile_definitions(test_world_fuzz_regressions PRIVATE
+      CM_FUZZ_DIR="${CMAKE_CURRENT_SOURCE_DIR}/fuzz")
+  endif()
+endif()

@@ -1,31 +1,34 @@
 #!/usr/bin/env bash
-# libFuzzer (clang, ASan + UBSan) on the geometry core and on the ROS layer's input, in its own
-# build folder.
+# libFuzzer (clang, ASan + UBSan) on the geometry core, the world model and the ROS layer's input,
+# in its own build folder.
 #   bash scripts/fuzz.sh [seconds]      # default 60 per target; longer by hand, e.g. 3600
 #                                       # (scripts/test.sh, the CI run: a fixed seed and input count)
-# Targets: fuzz_core (fuzz/fuzz_core.cpp: two shapes, two poses, every query, against an oracle)
-# and fuzz_ros_input (fuzz/fuzz_ros_input.cpp: ~bodies, ~body_poses and ~check_collision on the
-# wire, URDF, SRDF and the ~bodies parameter through the node's own functions). fuzz_ros_input
-# needs the message headers of a main build ($CM_BUILD/devel/include); without them only fuzz_core
-# runs. CM_FUZZ_TARGETS="core" or "ros" runs one.
+# Targets: fuzz_core (fuzz/fuzz_core.cpp: two shapes, two poses, every query, against an oracle),
+# fuzz_world (fuzz/fuzz_world.cpp: sequences of poses, checks, body changes and queries, every
+# check held to the contract and, without align_poses, to a reference model) and fuzz_ros_input
+# (fuzz/fuzz_ros_input.cpp: ~bodies, ~body_poses and ~check_collision on the wire, URDF, SRDF and
+# the ~bodies parameter through the node's own functions). fuzz_ros_input needs the message headers
+# of a main build ($CM_BUILD/devel/include); without them only fuzz_core and fuzz_world run.
+# CM_FUZZ_TARGETS (default "core world ros") picks some.
 # CM_FUZZ_SEED: libFuzzer's -seed (default 0: a new random seed each run). CI (scripts/test.sh)
 # fixes it, so that a CI failure is one a later run reproduces rather than a new random finding;
 # exploration is the job of the longer runs by hand.
-# CM_FUZZ_RUNS / CM_FUZZ_ROS_RUNS: stop after this many inputs (libFuzzer -runs; default: none,
-# time only). With a fixed seed and an empty corpus (a clean clone) the run is then the same on
-# every machine.
+# CM_FUZZ_RUNS / CM_FUZZ_WORLD_RUNS / CM_FUZZ_ROS_RUNS: stop after this many inputs (libFuzzer
+# -runs; default: none, time only). With a fixed seed and an empty corpus (a clean clone) the run
+# is then the same on every machine.
 # Steps, per target: build it with clang in $CM_FUZZ_BUILD (default build-fuzz), replay every
-# committed failing input (fuzz/regressions/<core|ros>) and the seed corpus (fuzz/corpus/...), then
-# fuzz for <seconds> from the seeds (new inputs go to $CM_FUZZ_BUILD/corpus-<core|ros>, never into
-# the repository). A failing input is saved as $CM_FUZZ_BUILD/artifacts/crash-*: copy it into
-# fuzz/regressions/<core|ros>/ (the replay gtests test_fuzz_regressions and
-# test_ros_fuzz_regressions then pin it in the normal suite). Exit code non-zero on any failure.
+# committed failing input (fuzz/regressions/<core|world|ros>) and the seed corpus
+# (fuzz/corpus/...), then fuzz for <seconds> from the seeds (new inputs go to
+# $CM_FUZZ_BUILD/corpus-<core|world|ros>, never into the repository). A failing input is saved as
+# $CM_FUZZ_BUILD/artifacts/crash-*: copy it into fuzz/regressions/<core|world|ros>/ (the replay
+# gtests test_fuzz_regressions, test_world_fuzz_regressions and test_ros_fuzz_regressions then pin
+# it in the normal suite). Exit code non-zero on any failure.
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
 SECONDS_TO_RUN="${1:-60}"
 B="${CM_FUZZ_BUILD:-$CM_ROOT/build-fuzz}"
 JOBS="${CM_FUZZ_JOBS:-1}"
-TARGETS="${CM_FUZZ_TARGETS:-core ros}"
+TARGETS="${CM_FUZZ_TARGETS:-core world ros}"
 MSG_INCLUDE="$CM_BUILD/devel/include"
 if [[ " $TARGETS " == *" ros "* ]] && [ ! -f "$MSG_INCLUDE/collision_monitor/Body.h" ]; then
   echo "fuzz.sh: no generated messages in $MSG_INCLUDE (build the package first): fuzz_ros_input skipped"
@@ -71,9 +74,11 @@ failed=0
 for t in $TARGETS; do
   case "$t" in
     core) fuzz_one core "${CM_FUZZ_RUNS:--1}" -max_len=2048 || failed=1 ;;
+    # 200 operations of at most 6 bytes each, and the set-up.
+    world) fuzz_one world "${CM_FUZZ_WORLD_RUNS:--1}" -max_len=1300 || failed=1 ;;
     # A message of 8 KB may not make an allocation above 64 MB (the layout walk's promise).
     ros) fuzz_one ros "${CM_FUZZ_ROS_RUNS:--1}" -max_len=8192 -malloc_limit_mb=64 || failed=1 ;;
-    *) echo "fuzz.sh: unknown target '$t' (core, ros)" >&2; exit 2 ;;
+    *) echo "fuzz.sh: unknown target '$t' (core, world, ros)" >&2; exit 2 ;;
   esac
 done
 exit "$failed"

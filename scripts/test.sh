@@ -49,11 +49,11 @@ cmake --build "$SAN_BUILD" -j"$JOBS"
 run_ctest "$SAN_BUILD" ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   CM_SWEEP_SCALE="${CM_SWEEP_SCALE_SANITIZER:-0.1}"
 
-echo "=== 3/5 libFuzzer (clang, ASan + UBSan) on the geometry core and the ROS layer's input: replay the corpora, fuzz ${CM_FUZZ_RUNS:-1200} and ${CM_FUZZ_ROS_RUNS:-20000} inputs (seed ${CM_FUZZ_SEED:-1}, at most ${CM_FUZZ_SECONDS:-120} s each)"
+echo "=== 3/5 libFuzzer (clang, ASan + UBSan) on the geometry core, the world model and the ROS layer's input: replay the corpora, fuzz ${CM_FUZZ_RUNS:-1200}, ${CM_FUZZ_WORLD_RUNS:-3000} and ${CM_FUZZ_ROS_RUNS:-20000} inputs (seed ${CM_FUZZ_SEED:-1}, at most ${CM_FUZZ_SECONDS:-120} s each)"
 # Fixed seed and input count: the same inputs on every machine (open findings of longer runs are
 # in fuzz/open/core, docs/reliability.md). The ROS target uses the messages built in step 1.
 if CM_FUZZ_SEED="${CM_FUZZ_SEED:-1}" CM_FUZZ_RUNS="${CM_FUZZ_RUNS:-1200}" \
-  CM_FUZZ_ROS_RUNS="${CM_FUZZ_ROS_RUNS:-20000}" \
+  CM_FUZZ_WORLD_RUNS="${CM_FUZZ_WORLD_RUNS:-3000}" CM_FUZZ_ROS_RUNS="${CM_FUZZ_ROS_RUNS:-20000}" \
   bash "$CM_ROOT/scripts/fuzz.sh" "${CM_FUZZ_SECONDS:-120}"; then
   PASSED=$((PASSED + 1))
 else

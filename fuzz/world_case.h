@@ -1,0 +1,918 @@
+/// \file
+/// One case of the world model's fuzzer (fuzz_world.cpp; replayed by the gtest
+/// test_world_fuzz_regressions): the bytes decode into settings, up to six bodies of one or two
+/// spheres, and a sequence of operations on a WorldModel (poses with stamps in and out of order,
+/// static poses, checks at times that move on by 0 to 0.7 s, bodies replaced, removed and added
+/// again, unresolved poses, forgotten poses, new thresholds, disabled pairs, and the three
+/// queries). Every check() is held to the contract:
+/// - always: the events replay as a status machine (END of the status a pair has, BEGIN from
+///   CLEAR; catch-up may give several transitions of a pair, in stamp order), and the statuses
+///   they leave are those listed (every pair in WARNING, COLLISION or UNKNOWN, sorted, no
+///   duplicate); a pair with a stale body is UNKNOWN; stale_bodies are the bodies without a fresh
+///   pose; in_collision is whether a pair is in COLLISION; a listed verdict is a fixed point of
+///   the status machine at its distance; a transition's distance gives it from the status before;
+///   min_distance is at most each listed distance; a pair's verdict events never go back in
+///   stamp.
+/// - against a reference model that knows only the documented rules and the spheres' closed-form
+///   distances: every status, every event (type, order, distance, stamp), min_distance,
+///   distance() and checkHypothetical(), with align_poses off (each body at its latest pose) or
+///   in frames mode (align_poses on, every body posed at each frame's stamp: each pair stepped
+///   over every frame, as catch-up promises).
+/// A failure is returned as text with the operations so far.
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <optional>
+#include <set>
+#include <sstream>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "collision_monitor/world/world_model.h"
+
+namespace cm_fuzz_world {
+
+namespace cw = collision_monitor::world;
+using collision_monitor::core::ConvexShape;
+using cw::EventType;
+using cw::PairStatus;
+using cw::Stamp;
+using cw::Vec3;
+
+struct Outcome {
+  std::string failure;  ///< empty: every check passed
+  bool exact = false;   ///< the reference model was used (align_poses off, or frames)
+  bool frames = false;  ///< frames mode (align_poses, every body posed at each frame's stamp)
+  int checks = 0;
+  int events = 0;
+  int collisions = 0;  ///< COLLISION_BEGIN events
+  double seconds = 0.0;
+};
+
+class Reader {
+ public:
+  Reader(const std::uint8_t* data, std::size_t size) : data_(data), size_(size) {}
+  std::uint8_t byte() { return pos_ < size_ ? data_[pos_++] : 0; }
+  bool done() const { return pos_ >= size_; }
+  template <typename T, std::size_t N>
+  T pick(const T (&table)[N]) {
+    return table[byte() % N];
+  }
+
+ private:
+  const std::uint8_t* data_;
+  std::size_t size_;
+  std::size_t pos_ = 0;
+};
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+/// Closed-form distances against GJK's on spheres of up to 1.5 m apart, and the band around a
+/// threshold within which either status is accepted.
+constexpr double kTol = 1e-8;
+constexpr std::uint64_t kForgetAfterCycles = 64;  // world_model.cpp: a CLEAR pair unseen so long
+
+/// A body as the reference knows it.
+struct RefBody {
+  bool exists = false;
+  std::vector<std::pair<Vec3, double>> spheres;  ///< centre in the body frame, radius
+  std::string group;
+  bool has_pose = false;
+  bool unresolved = false;
+  Stamp stamp;  ///< zero: static
+  Vec3 position = Vec3::Zero();
+  /// Frames mode: its poses since the last check that found it stale (or since it came), and
+  /// the first of them within pose_timeout of the first check that found it fresh since.
+  std::vector<std::pair<Stamp, Vec3>> frames;
+  Stamp known_from;
+  bool fresh_prev = false;  ///< fresh at the last check
+  Stamp checked;            ///< its stamp at the last check
+};
+
+using Key = std::pair<std::string, std::string>;  ///< first < second
+
+struct RefPair {
+  PairStatus status = PairStatus::Clear;
+  Stamp last_event;             ///< of its verdict events
+  std::uint64_t last_busy = 0;  ///< the last check it was not CLEAR
+};
+
+inline const char* name(PairStatus s) {
+  switch (s) {
+    case PairStatus::Clear:
+      return "CLEAR";
+    case PairStatus::Warning:
+      return "WARNING";
+    case PairStatus::Collision:
+      return "COLLISION";
+    default:
+      return "UNKNOWN";
+  }
+}
+
+inline const char* name(EventType t) {
+  switch (t) {
+    case EventType::CollisionBegin:
+      return "COLLISION_BEGIN";
+    case EventType::CollisionEnd:
+      return "COLLISION_END";
+    case EventType::WarningBegin:
+      return "WARNING_BEGIN";
+    case EventType::WarningEnd:
+      return "WARNING_END";
+    case EventType::UnknownBegin:
+      return "UNKNOWN_BEGIN";
+    default:
+      return "UNKNOWN_END";
+  }
+}
+
+inline PairStatus statusOf(EventType t) {
+  switch (t) {
+    case EventType::CollisionBegin:
+    case EventType::CollisionEnd:
+      return PairStatus::Collision;
+    case EventType::WarningBegin:
+    case EventType::WarningEnd:
+      return PairStatus::Warning;
+    default:
+      return PairStatus::Unknown;
+  }
+}
+
+inline bool isBegin(EventType t) {
+  return t == EventType::CollisionBegin || t == EventType::WarningBegin ||
+         t == EventType::UnknownBegin;
+}
+
+inline EventType endOf(PairStatus s) {
+  return s == PairStatus::Collision ? EventType::CollisionEnd
+         : s == PairStatus::Warning ? EventType::WarningEnd
+                                    : EventType::UnknownEnd;
+}
+inline EventType beginOf(PairStatus s) {
+  return s == PairStatus::Collision ? EventType::CollisionBegin
+         : s == PairStatus::Warning ? EventType::WarningBegin
+                                    : EventType::UnknownBegin;
+}
+
+/// The events of a transition (node.md): END(from) unless CLEAR, BEGIN(to) unless CLEAR.
+inline std::vector<EventType> transition(PairStatus from, PairStatus to) {
+  std::vector<EventType> out;
+  if (from == to) return out;
+  if (from != PairStatus::Clear) out.push_back(endOf(from));
+  if (to != PairStatus::Clear) out.push_back(beginOf(to));
+  return out;
+}
+
+class Run {
+ public:
+  Run(const std::uint8_t* data, std::size_t size) : in_(data, size) {}
+
+  Outcome go() {
+    const auto t0 = std::chrono::steady_clock::now();
+    setUp();
+    for (int op = 0; op < 200 && !in_.done() && out_.failure.empty(); ++op)
+      step();
+    if (out_.failure.empty()) check();  // the state the last operations left
+    out_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return out_;
+  }
+
+ private:
+  // --- set-up -------------------------------------------------------------------------------
+  void setUp() {
+    static const double warning[] = {0.05, 0.1, 0.0, 0.3};
+    static const double contact[] = {0.0, 0.0, 0.02, 0.1};
+    static const double hysteresis[] = {0.005, 0.02, 0.0, 0.1};
+    static const double timeout[] = {0.5, 0.2, 1.0, 0.05};
+    const std::uint8_t flags = in_.byte();
+    s_.warning_distance = in_.pick(warning);
+    s_.contact_distance = in_.pick(contact);
+    s_.hysteresis = in_.pick(hysteresis);
+    s_.pose_timeout = in_.pick(timeout);
+    s_.align_poses = (flags & 1) != 0;
+    s_.exact_min_distance = (flags & 2) == 0;
+    s_.backend = (flags & 4) ? collision_monitor::core::BackendType::Libccd
+                             : collision_monitor::core::BackendType::Gjk;
+    // libccd's penetration depth is not exact: its verdicts are held to the invariants only.
+    const bool gjk = s_.backend == collision_monitor::core::BackendType::Gjk;
+    exact_ = !s_.align_poses && gjk;
+    frames_ = s_.align_poses && gjk && (flags & 8) != 0;
+    out_.exact = exact_ || frames_;
+    out_.frames = frames_;
+    world_.emplace(s_);
+    log_ << "settings: w " << s_.warning_distance << " c " << s_.contact_distance << " h "
+         << s_.hysteresis << " timeout " << s_.pose_timeout << " align " << s_.align_poses
+         << " exact_min " << s_.exact_min_distance << " frames " << frames_ << " backend "
+         << (s_.backend == collision_monitor::core::BackendType::Gjk ? "gjk" : "libccd") << "\n";
+    const int n = 2 + in_.byte() % 5;
+    bodies_.resize(n);
+    for (int i = 0; i < n; ++i)
+      add(i);
+  }
+
+  static std::string id(int i) { return "b" + std::to_string(i); }
+
+  /// Adds (or replaces) body i with spheres decoded from the input.
+  void add(int i) {
+    static const double radius[] = {0.05, 0.1, 0.2, 0.3};
+    static const double offset[] = {0.0, 0.15, -0.25, 0.4};
+    RefBody b = bodies_[i];
+    b.spheres.clear();
+    const std::uint8_t k = in_.byte();
+    // Radii off the thresholds' grid (a tie with a threshold is accepted either way anyway).
+    b.spheres.emplace_back(Vec3::Zero(), radius[k % 4] + 1e-4 * std::sqrt(2.0 + i));
+    if (k & 4) {
+      b.spheres.emplace_back(Vec3(offset[(k >> 3) % 4], offset[(k >> 5) % 4], 0.07),
+                             radius[(k >> 1) % 4] * 0.5 + 1e-4 * std::sqrt(3.0 + i));
+    }
+    b.group = (k & 0x80) && (k & 0x40) ? "g" : "";
+    cw::BodySpec spec;
+    spec.id = id(i);
+    spec.frame = "map";
+    spec.group = b.group;
+    spec.pose_source = cw::PoseSource::Topic;
+    for (const auto& [c, r] : b.spheres) {
+      cw::Part part{ConvexShape::sphere(r), cw::Transform3::Identity()};
+      part.pose.t = c;
+      spec.parts.push_back(part);
+    }
+    log_ << "add " << spec.id << " (spheres";
+    for (const auto& [c, r] : b.spheres)
+      log_ << " r " << r << " at (" << c.transpose() << ")";
+    log_ << ", group '" << b.group << "')\n";
+    const std::string why = world_->addBody(spec);
+    if (!why.empty()) return fail("addBody refused: " + why);
+    if (!b.exists) {  // new (or again after a removal): no pose yet
+      b.has_pose = false;
+      b.unresolved = false;
+      b.stamp = Stamp();
+      b.frames.clear();
+      b.fresh_prev = false;
+    }
+    b.exists = true;
+    bodies_[i] = b;
+  }
+
+  // --- operations ---------------------------------------------------------------------------
+  void step() {
+    const std::uint8_t op = in_.byte();
+    const int i = static_cast<int>(in_.byte() % bodies_.size());
+    switch (op % 12) {
+      case 0:
+      case 1:
+      case 2:
+      case 3:
+        return frames_ ? frame() : setPose(i);
+      case 4:
+      case 5:
+      case 6:
+        return advanceAndCheck();
+      case 7:
+        if (bodies_[i].exists) return remove(i);
+        return add(i);
+      case 8:
+        if (!bodies_[i].exists) return;
+        // Replaced: statuses and pose kept. With frames, between two checks: a new geometry, like
+        // new thresholds, applies from the next check, at the pairs' time then (frames since the
+        // last check would be caught up with it, or a pair it puts beyond the broad phase's reach
+        // would end at the check: either is a reading of "at the next check").
+        if (frames_) check();
+        add(i);
+        if (frames_) check();
+        return;
+      case 9:
+        if (frames_) return;
+        return markUnresolved(i);
+      case 10:
+        return query(i);
+      default:
+        return rare(i);
+    }
+  }
+
+  /// Within 0.64 m of the origin, or a step of up to 64 mm from `from` (a body moving on).
+  Vec3 position(const Vec3& from = Vec3::Zero()) {
+    const std::uint8_t mode = in_.byte();
+    const double unit = mode & 1 ? 0.005 : 0.0005;
+    const auto c = [&] { return (static_cast<int>(in_.byte()) - 128) * unit; };
+    const double x = c(), y = c(), z = c() * 0.25;
+    return mode & 1 ? Vec3(x, y, z) : Vec3(from + Vec3(x, y, z));
+  }
+
+  void setPose(int i) {
+    // ms relative to the clock; 1000: a static pose.
+    static const int offset_ms[] = {0, 0, 0, -10, -100, 5, 1000, -600, -1, 20};
+    const Vec3 p = position(bodies_[i].position);
+    const int off = in_.pick(offset_ms);
+    const Stamp stamp = off == 1000 ? Stamp() : Stamp::fromNanoseconds(now_ns_ + off * 1000000LL);
+    cw::Transform3 pose = cw::Transform3::Identity();
+    pose.t = p;
+    RefBody& b = bodies_[i];
+    log_ << "setPose " << id(i) << " (" << p.transpose() << ") at " << stamp.nanoseconds() << "\n";
+    const bool ok = world_->setPose(id(i), pose, stamp);
+    const bool expected =
+        b.exists && !(b.has_pose && !stamp.isStatic() && !b.stamp.isStatic() && stamp < b.stamp);
+    if (ok != expected) {
+      return fail(std::string("setPose returned ") + (ok ? "true" : "false") +
+                  " (out of order only between timed stamps: a stamp older than the one held)");
+    }
+    if (!ok) return;
+    b.has_pose = true;
+    b.unresolved = false;
+    b.stamp = stamp;
+    b.position = p;
+  }
+
+  /// Frames mode: every body posed at one new stamp, 1 to 20 ms on, never behind the clock. A
+  /// check comes first when the frames since the last check would span more than half of
+  /// pose_timeout (node.md: catch-up has the poses of the last pose_timeout).
+  void frame() {
+    static const int step_ms[] = {1, 10, 20};
+    const std::int64_t stamp = std::max(frame_ns_, now_ns_) + in_.pick(step_ms) * 1000000LL;
+    if (span_from_ && (stamp - *span_from_) * 1e-9 > 0.5 * s_.pose_timeout) {
+      now_ns_ = std::max(now_ns_, frame_ns_);
+      check();
+    }
+    if (!span_from_) span_from_ = stamp;
+    frame_ns_ = stamp;
+    log_ << "frame at " << stamp << "\n";
+    for (int i = 0; i < static_cast<int>(bodies_.size()); ++i) {
+      RefBody& b = bodies_[i];
+      if (!b.exists) continue;
+      const Vec3 p = position(b.position);
+      cw::Transform3 pose = cw::Transform3::Identity();
+      pose.t = p;
+      log_ << "  " << id(i) << " (" << p.transpose() << ")\n";
+      if (!world_->setPose(id(i), pose, Stamp::fromNanoseconds(stamp))) {
+        return fail("setPose of a frame refused");
+      }
+      b.has_pose = true;
+      b.stamp = Stamp::fromNanoseconds(stamp);
+      b.position = p;
+      b.frames.emplace_back(b.stamp, p);
+    }
+  }
+
+  void remove(int i) {
+    log_ << "remove " << id(i) << "\n";
+    if (!world_->removeBody(id(i))) return fail("removeBody of an existing body returned false");
+    for (auto it = pairs_.begin(); it != pairs_.end();) {
+      if (it->first.first == id(i) || it->first.second == id(i)) {
+        if (it->second.status != PairStatus::Clear) {
+          removed_.push_back({it->first, it->second.status});
+        }
+        it = pairs_.erase(it);
+      } else {
+        ++it;
+      }
+    }
+    bodies_[i].exists = false;
+  }
+
+  void markUnresolved(int i) {
+    log_ << "markUnresolved " << id(i) << "\n";
+    world_->markUnresolved(id(i), "fuzz");
+    if (bodies_[i].exists) bodies_[i].unresolved = true;
+  }
+
+  void rare(int i) {
+    const std::uint8_t k = in_.byte();
+    switch (frames_ ? 1 + k % 3 : k % 4) {
+      case 0: {
+        log_ << "clearPoses\n";
+        world_->clearPoses();
+        for (RefBody& b : bodies_) {
+          if (b.has_pose && !b.unresolved && b.stamp.isStatic()) continue;
+          b.has_pose = false;
+          b.unresolved = false;
+          b.stamp = Stamp();
+        }
+        for (auto& kv : pairs_)
+          kv.second.last_event = Stamp();
+        return;
+      }
+      case 1: {
+        static const double warning[] = {0.05, 0.1, 0.0, 0.3};
+        static const double hysteresis[] = {0.005, 0.02, 0.0, 0.1};
+        const double w = in_.pick(warning), h = in_.pick(hysteresis);
+        if (frames_) check();  // see the replacement in step()
+        s_.warning_distance = w;
+        s_.hysteresis = h;
+        log_ << "setSettings w " << s_.warning_distance << " h " << s_.hysteresis << "\n";
+        world_->setSettings(s_);
+        if (frames_) check();
+        return;
+      }
+      default: {
+        const int j = static_cast<int>(in_.byte() % bodies_.size());
+        if (i == j) return;
+        log_ << "disablePair " << id(i) << " " << id(j) << "\n";
+        world_->disablePair(id(i), id(j));
+        disabled_.insert(key(i, j));
+        return;
+      }
+    }
+  }
+
+  void advanceAndCheck() {
+    static const int advance_ms[] = {0, 1, 1, 10, 10, 20, 50, 200, 700};
+    now_ns_ = std::max(now_ns_, frames_ ? frame_ns_ : 0) + in_.pick(advance_ms) * 1000000LL;
+    check();
+  }
+
+  // --- the reference --------------------------------------------------------------------------
+  static Key key(int i, int j) { return i < j ? Key{id(i), id(j)} : Key{id(j), id(i)}; }
+  static int index(const std::string& id) { return std::stoi(id.substr(1)); }
+
+  bool fresh(const RefBody& b, Stamp now) const {
+    if (!b.exists || !b.has_pose || b.unresolved) return false;
+    return b.stamp.isStatic() || now - b.stamp <= s_.pose_timeout;
+  }
+  bool allowed(int i, int j) const {
+    if (i == j || !bodies_[i].exists || !bodies_[j].exists) return false;
+    if (!bodies_[i].group.empty() && bodies_[i].group == bodies_[j].group) return false;
+    return disabled_.count(key(i, j)) == 0;
+  }
+  /// Closed-form signed distance of bodies i and j at positions pi and pj.
+  double distanceAt(int i, const Vec3& pi, int j, const Vec3& pj) const {
+    double best = kInf;
+    for (const auto& [ca, ra] : bodies_[i].spheres) {
+      for (const auto& [cb, rb] : bodies_[j].spheres)
+        best = std::min(best, ((pi + ca) - (pj + cb)).norm() - ra - rb);
+    }
+    return best;
+  }
+  /// At their latest poses.
+  double distance(int i, int j) const {
+    return distanceAt(i, bodies_[i].position, j, bodies_[j].position);
+  }
+  /// The status machine as node.md states it, written out apart from pair_logic.h's: a status
+  /// is entered at its threshold (COLLISION at d <= contact, WARNING at d < warning) and left
+  /// only once past it by the hysteresis.
+  PairStatus next(PairStatus prev, double d) const {
+    const double c = s_.contact_distance, w = s_.warning_distance, h = s_.hysteresis;
+    const bool held = prev == PairStatus::Collision || prev == PairStatus::Warning;
+    if (d <= c || (prev == PairStatus::Collision && d <= c + h)) return PairStatus::Collision;
+    if (d < w || (held && d < w + h)) return PairStatus::Warning;
+    return PairStatus::Clear;
+  }
+  /// The statuses the thresholds may give within kTol of `d` (one, or two at a threshold).
+  std::set<PairStatus> statusesNear(PairStatus prev, double d) const {
+    return {next(prev, d - kTol), next(prev, d), next(prev, d + kTol)};
+  }
+  /// pairStamp() without align_poses: the older timed stamp; the timed one; `now` when both
+  /// are static.
+  static Stamp pairStamp(const RefBody& a, const RefBody& b, Stamp now) {
+    if (a.stamp.isStatic()) return b.stamp.isStatic() ? now : b.stamp;
+    if (b.stamp.isStatic()) return a.stamp;
+    return std::min(a.stamp, b.stamp);
+  }
+
+  // --- one check ----------------------------------------------------------------------------
+  void check() {
+    const Stamp now = Stamp::fromNanoseconds(now_ns_);
+    log_ << "check at " << now_ns_ << "\n";
+    const cw::CycleResult r = world_->check(now);
+    span_from_.reset();
+    for (RefBody& b : bodies_) {
+      if (!fresh(b, now)) {
+        b.frames.clear();  // its next pose starts again
+      } else if (!b.fresh_prev) {
+        b.known_from = b.stamp;
+        for (const auto& f : b.frames) {
+          if (now - f.first <= s_.pose_timeout) {
+            b.known_from = f.first;
+            break;
+          }
+        }
+      }
+    }
+    ++cycle_;
+    ++out_.checks;
+    out_.events += static_cast<int>(r.events.size());
+    std::ostringstream got;
+    for (const cw::Event& e : r.events) {
+      got << "  event " << name(e.type) << " " << e.pair.body_a << "-" << e.pair.body_b << " d "
+          << e.pair.distance << " at " << e.stamp.nanoseconds() << "\n";
+      if (e.type == EventType::CollisionBegin) ++out_.collisions;
+    }
+    for (const cw::PairResult& p : r.pairs)
+      got << "  pair " << p.body_a << "-" << p.body_b << " " << name(p.status) << " d "
+          << p.distance << "\n";
+    got << "  min_distance " << r.min_distance << "\n";
+    log_ << got.str();
+    std::stable_sort(removed_.begin(), removed_.end(),
+                     [](const auto& x, const auto& y) { return x.first < y.first; });
+    structure(r, now);
+    if (out_.failure.empty() && (exact_ || frames_)) reference(r, now);
+    removed_.clear();
+    for (RefBody& b : bodies_) {
+      b.fresh_prev = fresh(b, now);
+      b.checked = b.stamp;
+    }
+  }
+
+  /// The invariants of every mode.
+  void structure(const cw::CycleResult& r, Stamp now) {
+    // Pairs: sorted, unique, ordered ids, each of existing bodies that may collide.
+    std::map<Key, const cw::PairResult*> listed;
+    for (std::size_t k = 0; k < r.pairs.size(); ++k) {
+      const cw::PairResult& p = r.pairs[k];
+      if (!(p.body_a < p.body_b)) return fail("a listed pair's ids are not in order");
+      if (k > 0 && !(std::tie(r.pairs[k - 1].body_a, r.pairs[k - 1].body_b) <
+                     std::tie(p.body_a, p.body_b))) {
+        return fail("the listed pairs are not sorted, or one is listed twice");
+      }
+      if (p.status == PairStatus::Clear) return fail("a CLEAR pair is listed");
+      if (!allowed(index(p.body_a), index(p.body_b))) {
+        return fail("listed: a pair that may not collide, or of a removed body: " + p.body_a + "-" +
+                    p.body_b);
+      }
+      if (p.status != PairStatus::Unknown) {
+        if (!std::isfinite(p.distance)) return fail("a listed verdict without a distance");
+        if (next(p.status, p.distance) != p.status) {
+          return fail("listed " + std::string(name(p.status)) + " at " +
+                      std::to_string(p.distance) + " m, which that status does not hold at");
+        }
+        if (r.min_distance > p.distance) return fail("min_distance above a listed pair's distance");
+      }
+      listed[{p.body_a, p.body_b}] = &p;
+    }
+    bool collision = false;
+    for (const cw::PairResult& p : r.pairs)
+      collision |= p.status == PairStatus::Collision;
+    if (collision != r.in_collision) return fail("in_collision is not whether a pair collides");
+    if (std::isnan(r.min_distance)) return fail("min_distance is NaN");
+
+    // Stale bodies, and their pairs UNKNOWN.
+    std::vector<std::string> stale;
+    for (int i = 0; i < static_cast<int>(bodies_.size()); ++i) {
+      if (bodies_[i].exists && !fresh(bodies_[i], now)) stale.push_back(id(i));
+    }
+    if (stale != r.stale_bodies)
+      return fail("stale_bodies are not the bodies without a fresh pose");
+    for (int i = 0; i < static_cast<int>(bodies_.size()); ++i) {
+      for (int j = i + 1; j < static_cast<int>(bodies_.size()); ++j) {
+        if (!allowed(i, j) || (fresh(bodies_[i], now) && fresh(bodies_[j], now))) continue;
+        const auto it = listed.find(key(i, j));
+        if (it == listed.end() || it->second->status != PairStatus::Unknown) {
+          return fail("the pair " + id(i) + "-" + id(j) + " of a stale body is not listed UNKNOWN");
+        }
+      }
+    }
+
+    // Events: removal ENDs first, then by pair; per pair END before BEGIN, replayed on the
+    // statuses of the last check.
+    std::map<Key, std::vector<const cw::Event*>> by_pair;
+    std::size_t k = 0;
+    for (; k < removed_.size() && k < r.events.size(); ++k) {
+      const cw::Event& e = r.events[k];
+      const auto& [pk, status] = removed_[k];
+      if (Key{e.pair.body_a, e.pair.body_b} != pk || e.type != endOf(status) || e.stamp != now) {
+        return fail("removal: expected " + std::string(name(endOf(status))) + " of " + pk.first +
+                    "-" + pk.second + " at the check's time first");
+      }
+    }
+    if (k < removed_.size()) return fail("a removed body's pair got no END");
+    Key last{"", ""};
+    for (; k < r.events.size(); ++k) {
+      const cw::Event& e = r.events[k];
+      const Key pk{e.pair.body_a, e.pair.body_b};
+      if (!(pk.first < pk.second)) return fail("an event's ids are not in order");
+      if (pk < last) return fail("events are not sorted by pair");
+      last = pk;
+      by_pair[pk].push_back(&e);
+    }
+    std::set<Key> all;
+    for (const auto& kv : pairs_)
+      all.insert(kv.first);
+    for (const auto& kv : by_pair)
+      all.insert(kv.first);
+    for (const auto& kv : listed)
+      all.insert(kv.first);
+    before_ = pairs_;
+    for (const Key& pk : all) {
+      RefPair& rp = pairs_[pk];
+      PairStatus status = rp.status;
+      const auto ev = by_pair.find(pk);
+      const std::vector<const cw::Event*> none;
+      const auto& events = ev == by_pair.end() ? none : ev->second;
+      const bool may = allowed(index(pk.first), index(pk.second));
+      // Replayed as transitions: END(X) and BEGIN(Y) of one stamp are X -> Y; catch-up
+      // (align_poses) may give several of a pair, in stamp order.
+      for (std::size_t x = 0; x < events.size(); ++x) {
+        const cw::Event& e = *events[x];
+        const std::string what = std::string(name(e.type)) + " of " + pk.first + "-" + pk.second +
+                                 " (the pair " + name(status) + ")";
+        if (isBegin(e.type) ? status != PairStatus::Clear : status != statusOf(e.type)) {
+          return fail("unmatched " + what);
+        }
+        const PairStatus from = status;
+        PairStatus to = isBegin(e.type) ? statusOf(e.type) : PairStatus::Clear;
+        if (!isBegin(e.type) && x + 1 < events.size() && isBegin(events[x + 1]->type) &&
+            events[x + 1]->stamp == e.stamp) {
+          to = statusOf(events[++x]->type);
+        }
+        status = to;
+        if (to == PairStatus::Unknown) continue;  // at the check's time, no verdict
+        // A verdict: its distance gives it from the status before (not for an END of a pair no
+        // longer allowed, which has none), and its stamp does not go back (while the pair is
+        // remembered).
+        if (may && !statusesNear(from, e.pair.distance).count(to)) {
+          return fail("the transition " + std::string(name(from)) + " -> " + name(to) + " of " +
+                      pk.first + "-" + pk.second + " at " + std::to_string(e.pair.distance) + " m");
+        }
+        if (cycle_ - rp.last_busy <= kForgetAfterCycles && e.stamp < rp.last_event) {
+          return fail("a verdict event of " + pk.first + "-" + pk.second +
+                      " went back in stamp, from " + std::to_string(rp.last_event.nanoseconds()) +
+                      " to " + std::to_string(e.stamp.nanoseconds()));
+        }
+        rp.last_event = std::max(rp.last_event, e.stamp);
+      }
+      const auto li = listed.find(pk);
+      const PairStatus shown = li == listed.end() ? PairStatus::Clear : li->second->status;
+      if (shown != status) {
+        return fail("the events leave " + pk.first + "-" + pk.second + " " + name(status) +
+                    " but it is listed " + name(shown));
+      }
+      if (rp.status != PairStatus::Clear || status != PairStatus::Clear) rp.last_busy = cycle_;
+      rp.status = status;
+    }
+  }
+
+  /// One evaluation of a pair in the reference: its time and the spheres' distance then.
+  struct Eval {
+    Stamp stamp;
+    double d;
+  };
+
+  /// Steps a pair from `before` over `evals` and matches the world's events of it (`got`, in
+  /// order): at each evaluation the world's transition must be one the thresholds give within
+  /// kTol (so a tie goes either way), with the evaluation's distance, and with its stamp when
+  /// `stamped` (else one evaluation takes every event). Returns the status it leaves.
+  std::optional<PairStatus> match(const std::string& pair, PairStatus before,
+                                  const std::vector<Eval>& evals,
+                                  const std::vector<const cw::Event*>& got, bool stamped) {
+    std::size_t g = 0;
+    PairStatus st = before;
+    for (const Eval& ev : evals) {
+      std::vector<const cw::Event*> here;
+      while (g < got.size() && (!stamped || got[g]->stamp == ev.stamp))
+        here.push_back(got[g++]);
+      PairStatus to = st;
+      if (!here.empty())
+        to = isBegin(here.back()->type) ? statusOf(here.back()->type) : PairStatus::Clear;
+      const std::vector<EventType> want = transition(st, to);
+      bool same = want.size() == here.size();
+      for (std::size_t k = 0; same && k < want.size(); ++k)
+        same = here[k]->type == want[k] && std::abs(here[k]->pair.distance - ev.d) <= kTol;
+      if (!same || !statusesNear(st, ev.d).count(to)) {
+        fail(pair + " at " + std::to_string(ev.stamp.nanoseconds()) + ": " + name(st) + " -> " +
+             name(to) + " (" + std::to_string(here.size()) + " events) where the spheres are " +
+             std::to_string(ev.d) + " m apart: the reference gives " + name(next(st, ev.d)));
+        return std::nullopt;
+      }
+      st = to;
+    }
+    if (g < got.size()) {
+      fail(pair + ": an event at " + std::to_string(got[g]->stamp.nanoseconds()) +
+           " where the reference has no evaluation");
+      return std::nullopt;
+    }
+    return st;
+  }
+
+  /// The frames (`frames_` mode) both bodies have after `after`, or from `from` on.
+  std::vector<Eval> framesOf(int i, int j, std::optional<Stamp> after, Stamp from) const {
+    std::vector<Eval> out;
+    for (const auto& [t, pi] : bodies_[i].frames) {
+      if (after ? !(*after < t) : t < from) continue;
+      for (const auto& [u, pj] : bodies_[j].frames) {
+        if (u != t) continue;
+        out.push_back({t, distanceAt(i, pi, j, pj)});
+      }
+    }
+    return out;
+  }
+
+  /// Every status, event and min_distance against the reference: align_poses off (each body at
+  /// its latest pose, one evaluation a check), or frames (every body posed at each frame's
+  /// stamp: each pair stepped over every frame since its last evaluation, or from its bodies'
+  /// first frames since they came or came back, as catch-up promises).
+  void reference(const cw::CycleResult& r, Stamp now) {
+    std::map<Key, std::vector<const cw::Event*>> by_pair;
+    for (std::size_t k = removed_.size(); k < r.events.size(); ++k)
+      by_pair[{r.events[k].pair.body_a, r.events[k].pair.body_b}].push_back(&r.events[k]);
+    double min_expected = kInf;
+    const int n = static_cast<int>(bodies_.size());
+    for (int i = 0; i < n; ++i) {
+      for (int j = i + 1; j < n; ++j) {
+        const Key pk = key(i, j);
+        const auto was = before_.find(pk);
+        const PairStatus before = was == before_.end() ? PairStatus::Clear : was->second.status;
+        const Stamp last_event = was == before_.end() ? Stamp() : was->second.last_event;
+        const PairStatus after = pairs_.count(pk) ? pairs_[pk].status : PairStatus::Clear;
+        const auto ev = by_pair.find(pk);
+        const std::vector<const cw::Event*> none;
+        const auto& events = ev == by_pair.end() ? none : ev->second;
+        const std::string pair = pk.first + "-" + pk.second;
+        if (!bodies_[i].exists || !bodies_[j].exists) continue;
+        if (!allowed(i, j) || !fresh(bodies_[i], now) || !fresh(bodies_[j], now)) {
+          if (!allowed(i, j) && after != PairStatus::Clear) {
+            return fail(pair + " may not collide but is " + name(after));
+          }
+          continue;  // stale: structure() holds it UNKNOWN
+        }
+        const double d = distance(i, j);
+        min_expected = std::min(min_expected, d);
+        std::vector<Eval> evals;
+        if (frames_) {
+          // After the last check's stamp when both were fresh then, else from their first frames
+          // since they came or came back.
+          const RefBody& A = bodies_[i];
+          const RefBody& B = bodies_[j];
+          evals = framesOf(i, j,
+                           A.fresh_prev && B.fresh_prev
+                               ? std::optional<Stamp>(std::min(A.checked, B.checked))
+                               : std::nullopt,
+                           std::max(A.known_from, B.known_from));
+          // The live check: at the pair's time, new frames or not (thresholds may have changed).
+          const Stamp to = std::min(A.stamp, B.stamp);
+          if (evals.empty() || evals.back().stamp != to) evals.push_back({to, d});
+        } else {
+          evals.push_back({pairStamp(bodies_[i], bodies_[j], now), d});
+        }
+        std::optional<PairStatus> left;
+        if (frames_ && before == PairStatus::Unknown && events.size() == 1 &&
+            events[0]->type == EventType::UnknownEnd && evals.size() > 1 &&
+            events[0]->stamp == evals.back().stamp &&
+            std::abs(events[0]->pair.distance - evals.back().d) <= kTol &&
+            std::all_of(evals.begin(), evals.end(), [&](const Eval& e) {
+              return statusesNear(PairStatus::Clear, e.d).count(PairStatus::Clear) > 0;
+            })) {
+          // node.md: a pair beyond the broad phase's reach all along is not caught up; its
+          // UNKNOWN_END carries its time at the check.
+          left = PairStatus::Clear;
+        } else {
+          left = match(pair, before, evals, events, frames_);
+        }
+        if (!left) return;
+        if (*left != after) return fail(pair + ": the reference leaves it " + name(*left));
+        if (after != PairStatus::Clear) {
+          const auto it =
+              std::find_if(r.pairs.begin(), r.pairs.end(), [&](const cw::PairResult& p) {
+                return p.body_a == pk.first && p.body_b == pk.second;
+              });
+          if (std::abs(it->distance - d) > kTol) {
+            return fail(pair + " listed at " + std::to_string(it->distance) + " m, the spheres " +
+                        std::to_string(d) + " m apart");
+          }
+        }
+        if (frames_) continue;
+        // Its poses' time, or the pair's last event's when that is later.
+        const Stamp stamp = evals.front().stamp;
+        for (const cw::Event* e : events) {
+          if (e->stamp < stamp || e->stamp > std::max(stamp, last_event)) {
+            return fail(pair + ": an event is not stamped with its poses' time (" +
+                        std::to_string(stamp.nanoseconds()) + ")");
+          }
+        }
+      }
+    }
+    // min_distance: over every pair of fresh bodies that may collide; without
+    // exact_min_distance, only a pair within the clear cutoff is sure to count.
+    const double base = std::max(s_.warning_distance, s_.contact_distance);
+    if (s_.exact_min_distance || min_expected <= base - kTol) {
+      if (!(std::abs(r.min_distance - min_expected) <= kTol) &&
+          !(std::isinf(min_expected) && std::isinf(r.min_distance))) {
+        return fail("min_distance " + std::to_string(r.min_distance) + ", the spheres' " +
+                    std::to_string(min_expected));
+      }
+    } else if (r.min_distance < min_expected - kTol ||
+               (std::isfinite(r.min_distance) &&
+                r.min_distance > base + std::max(0.0, s_.hysteresis) + kTol)) {
+      return fail("min_distance " + std::to_string(r.min_distance) + " without the far search");
+    }
+  }
+
+  // --- queries --------------------------------------------------------------------------------
+  void query(int i) {
+    const std::uint8_t k = in_.byte();
+    const Stamp now = Stamp::fromNanoseconds(now_ns_);
+    if (k % 2 == 0) {
+      const int j = static_cast<int>(in_.byte() % bodies_.size());
+      log_ << "distance " << id(i) << " " << id(j) << "\n";
+      std::string why;
+      const auto d = world_->distance(id(i), id(j), now, &why);
+      if (d && why.empty() == false) return fail("distance answered with a reason");
+      if (!d && why.empty()) return fail("distance refused without a reason");
+      const bool answerable = i != j && bodies_[i].exists && bodies_[j].exists &&
+                              fresh(bodies_[i], now) && fresh(bodies_[j], now);
+      if (!answerable && d) return fail("distance answered for a stale, unknown or same body");
+      if (!exact_ && !frames_) return;
+      if (answerable != d.has_value()) return fail("distance refused: " + why);
+      if (!d) return;
+      const double want = distance(i, j);
+      if (std::abs(d->distance - want) > kTol || d->body_a != id(i)) {
+        return fail("distance " + std::to_string(d->distance) + ", the spheres " +
+                    std::to_string(want));
+      }
+      const auto it = pairs_.find(key(i, j));
+      const PairStatus tracked = it == pairs_.end() ? PairStatus::Clear : it->second.status;
+      if (!statusesNear(tracked, want).count(d->status)) return fail("distance's status");
+      return;
+    }
+    // A probe sphere at a position: every fresh body within the margin (or colliding), each
+    // stale one UNKNOWN.
+    const Vec3 p = position();
+    const double margin = (k >> 1) % 4 * 0.1;
+    cw::BodySpec probe;
+    probe.id = "probe";
+    probe.frame = "map";
+    probe.parts.push_back({ConvexShape::sphere(0.1), cw::Transform3::Identity()});
+    cw::Transform3 pose = cw::Transform3::Identity();
+    pose.t = p;
+    log_ << "checkHypothetical at (" << p.transpose() << ") margin " << margin << "\n";
+    std::string why;
+    const auto got = world_->checkHypothetical(probe, pose, margin, now, false, nullptr, &why);
+    if (!got) return fail("checkHypothetical refused: " + why);
+    std::map<std::string, std::pair<PairStatus, double>> want;
+    for (int b = 0; b < static_cast<int>(bodies_.size()); ++b) {
+      if (!bodies_[b].exists) continue;
+      if (!fresh(bodies_[b], now)) {
+        want[id(b)] = {PairStatus::Unknown, kInf};
+        continue;
+      }
+      double d = kInf;
+      for (const auto& [c, r] : bodies_[b].spheres)
+        d = std::min(d, (bodies_[b].position + c - p).norm() - r - 0.1);
+      if (d <= margin + kTol || d <= s_.contact_distance + kTol) {
+        want[id(b)] = {next(PairStatus::Clear, d), d};
+      }
+    }
+    double prev = -kInf;
+    for (const cw::PairResult& x : *got) {
+      const std::string other = x.body_a == "probe" ? x.body_b : x.body_a;
+      const auto w = want.find(other);
+      if (w == want.end()) {
+        return fail("checkHypothetical lists " + other + " at " + std::to_string(x.distance));
+      }
+      if (x.status != PairStatus::Unknown) {
+        if (!exact_ && !frames_) {
+          want.erase(w);
+          continue;
+        }
+        if (std::abs(x.distance - w->second.second) > kTol)
+          return fail("checkHypothetical distance");
+        if (!statusesNear(PairStatus::Clear, x.distance).count(x.status)) {
+          return fail("checkHypothetical status");
+        }
+        if (x.distance < prev) return fail("checkHypothetical not sorted by distance");
+        prev = x.distance;
+      } else if (w->second.first != PairStatus::Unknown) {
+        return fail("checkHypothetical: " + other + " UNKNOWN");
+      }
+      want.erase(w);
+    }
+    for (const auto& [other, v] : want) {
+      // A fresh body within kTol of the margin may be left out.
+      if (v.first == PairStatus::Unknown || v.second < margin - kTol) {
+        return fail("checkHypothetical leaves out " + other);
+      }
+    }
+  }
+
+  void fail(const std::string& why) {
+    if (out_.failure.empty()) out_.failure = why + "\noperations:\n" + log_.str();
+  }
+
+  Reader in_;
+  Outcome out_;
+  cw::Settings s_;
+  bool exact_ = false;
+  bool frames_ = false;  ///< align_poses, every body posed at each frame's stamp
+  std::int64_t frame_ns_ = 0;
+  std::optional<std::int64_t> span_from_;  ///< the first frame's stamp since the last check
+  std::optional<cw::WorldModel> world_;
+  std::vector<RefBody> bodies_;
+  std::map<Key, RefPair> pairs_;
+  std::map<Key, RefPair> before_;  ///< pairs_ before the check's events
+  std::set<Key> disabled_;
+  std::vector<std::pair<Key, PairStatus>> removed_;  ///< END events due at the next check
+  std::int64_t now_ns_ = 1000000000LL;
+  std::uint64_t cycle_ = 0;
+  std::ostringstream log_;
+};
+
+inline Outcome runCase(const std::uint8_t* data, std::size_t size) {
+  return Run(data, size).go();
+}
+
+}  // namespace cm_fuzz_world
