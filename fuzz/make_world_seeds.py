@@ -16,10 +16,10 @@ def main():
         os.path.dirname(os.path.abspath(__file__)), "corpus", "world")
     os.makedirs(out, exist_ok=True)
     rng = random.Random(20261130)
-    for k in range(160):
+    for k in range(192):
         length = rng.choice([40, 120, 300, 600, 1200])
-        data = bytes([k % 16]) + bytes(rng.randrange(256) for _ in range(length - 1))
-        with open(os.path.join(out, "seed_%03d_flags%d" % (k, k % 16)), "wb") as f:
+        data = bytes([k % 32]) + bytes(rng.randrange(256) for _ in range(length - 1))
+        with open(os.path.join(out, "seed_%03d_flags%d" % (k, k % 32)), "wb") as f:
             f.write(data)
 
 

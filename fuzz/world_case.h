@@ -90,8 +90,9 @@ struct RefBody {
   /// the first of them within pose_timeout of the first check that found it fresh since.
   std::vector<std::pair<Stamp, Vec3>> frames;
   Stamp known_from;
-  bool fresh_prev = false;  ///< fresh at the last check
-  Stamp checked;            ///< its stamp at the last check
+  bool fresh_prev = false;      ///< fresh at the last check
+  Stamp checked;                ///< its stamp at the last check
+  bool checked_moving = false;  ///< moving() at the last check
 };
 
 using Key = std::pair<std::string, std::string>;  ///< first < second
@@ -99,6 +100,7 @@ using Key = std::pair<std::string, std::string>;  ///< first < second
 struct RefPair {
   PairStatus status = PairStatus::Clear;
   Stamp last_event;             ///< of its verdict events
+  Stamp max_to;                 ///< frames mode: the latest time the reference evaluated it at
   std::uint64_t last_busy = 0;  ///< the last check it was not CLEAR
 };
 
@@ -204,12 +206,14 @@ class Run {
     const bool gjk = s_.backend == collision_monitor::core::BackendType::Gjk;
     exact_ = !s_.align_poses && gjk;
     frames_ = s_.align_poses && gjk && (flags & 8) != 0;
+    rates_ = frames_ && (flags & 16) != 0;
     out_.exact = exact_ || frames_;
     out_.frames = frames_;
     world_.emplace(s_);
     log_ << "settings: w " << s_.warning_distance << " c " << s_.contact_distance << " h "
          << s_.hysteresis << " timeout " << s_.pose_timeout << " align " << s_.align_poses
-         << " exact_min " << s_.exact_min_distance << " frames " << frames_ << " backend "
+         << " exact_min " << s_.exact_min_distance << " frames " << frames_ << " rates " << rates_
+         << " backend "
          << (s_.backend == collision_monitor::core::BackendType::Gjk ? "gjk" : "libccd") << "\n";
     const int n = 2 + in_.byte() % 5;
     bodies_.resize(n);
@@ -331,22 +335,31 @@ class Run {
   }
 
   /// Frames mode: every body posed at one new stamp, 1 to 20 ms on, never behind the clock. A
-  /// check comes first when the frames since the last check would span more than half of
-  /// pose_timeout (node.md: catch-up has the poses of the last pose_timeout).
+  /// check comes first when the frame would be more than half of pose_timeout after the oldest
+  /// stamp the last check had of a fresh body (the frames since it, else), and with rates a body
+  /// is posed anyway once its pose is a quarter of pose_timeout old: catch-up has the poses of the
+  /// last pose_timeout (node.md), and needs them back to the pairs' last time.
   void frame() {
     static const int step_ms[] = {1, 10, 20};
     const std::int64_t stamp = std::max(frame_ns_, now_ns_) + in_.pick(step_ms) * 1000000LL;
-    if (span_from_ && (stamp - *span_from_) * 1e-9 > 0.5 * s_.pose_timeout) {
+    const std::optional<std::int64_t> since = oldest_checked_ ? oldest_checked_ : span_from_;
+    if (since && (stamp - *since) * 1e-9 > 0.5 * s_.pose_timeout) {
       now_ns_ = std::max(now_ns_, frame_ns_);
       check();
     }
     if (!span_from_) span_from_ = stamp;
     frame_ns_ = stamp;
+    // With rates, the bodies the mask names (all when it names none): sources of different
+    // rates, each pair at the older stamp.
+    const std::uint8_t mask = rates_ ? in_.byte() : 0;
     log_ << "frame at " << stamp << "\n";
     for (int i = 0; i < static_cast<int>(bodies_.size()); ++i) {
       RefBody& b = bodies_[i];
-      if (!b.exists) continue;
-      const Vec3 p = position(b.position);
+      const bool lags =
+          b.has_pose && (stamp - b.stamp.nanoseconds()) * 1e-9 > 0.25 * s_.pose_timeout;
+      if (!b.exists || (mask != 0 && !(mask >> i & 1) && !lags)) continue;
+      Vec3 p = position(b.position);
+      if (b.has_pose && p == b.position) p.x() += 1e-6;  // every pose moves (moving() above)
       cw::Transform3 pose = cw::Transform3::Identity();
       pose.t = p;
       log_ << "  " << id(i) << " (" << p.transpose() << ")\n";
@@ -481,6 +494,13 @@ class Run {
     log_ << "check at " << now_ns_ << "\n";
     const cw::CycleResult r = world_->check(now);
     span_from_.reset();
+    oldest_checked_.reset();
+    for (const RefBody& b : bodies_) {
+      if (fresh(b, now) && !b.stamp.isStatic() &&
+          (!oldest_checked_ || b.stamp.nanoseconds() < *oldest_checked_)) {
+        oldest_checked_ = b.stamp.nanoseconds();
+      }
+    }
     for (RefBody& b : bodies_) {
       if (!fresh(b, now)) {
         b.frames.clear();  // its next pose starts again
@@ -506,7 +526,9 @@ class Run {
     for (const cw::PairResult& p : r.pairs)
       got << "  pair " << p.body_a << "-" << p.body_b << " " << name(p.status) << " d "
           << p.distance << "\n";
-    got << "  min_distance " << r.min_distance << "\n";
+    got << "  min_distance " << r.min_distance << "; " << r.num_broad_phase_pairs
+        << " broad-phase pairs, " << r.num_pairs_caught_up << " caught up, " << r.num_catch_up_skips
+        << " passed over\n";
     log_ << got.str();
     std::stable_sort(removed_.begin(), removed_.end(),
                      [](const auto& x, const auto& y) { return x.first < y.first; });
@@ -516,6 +538,7 @@ class Run {
     for (RefBody& b : bodies_) {
       b.fresh_prev = fresh(b, now);
       b.checked = b.stamp;
+      b.checked_moving = moving(b);
     }
   }
 
@@ -649,8 +672,9 @@ class Run {
 
   /// One evaluation of a pair in the reference: its time and the spheres' distance then.
   struct Eval {
-    Stamp stamp;
+    Stamp stamp;  ///< the poses' time
     double d;
+    Stamp at;  ///< its events' stamp (the live check's: never before the pair's last event's)
   };
 
   /// Steps a pair from `before` over `evals` and matches the world's events of it (`got`, in
@@ -664,7 +688,7 @@ class Run {
     PairStatus st = before;
     for (const Eval& ev : evals) {
       std::vector<const cw::Event*> here;
-      while (g < got.size() && (!stamped || got[g]->stamp == ev.stamp))
+      while (g < got.size() && (!stamped || got[g]->stamp == ev.at))
         here.push_back(got[g++]);
       PairStatus to = st;
       if (!here.empty())
@@ -674,7 +698,7 @@ class Run {
       for (std::size_t k = 0; same && k < want.size(); ++k)
         same = here[k]->type == want[k] && std::abs(here[k]->pair.distance - ev.d) <= kTol;
       if (!same || !statusesNear(st, ev.d).count(to)) {
-        fail(pair + " at " + std::to_string(ev.stamp.nanoseconds()) + ": " + name(st) + " -> " +
+        fail(pair + " at " + std::to_string(ev.at.nanoseconds()) + ": " + name(st) + " -> " +
              name(to) + " (" + std::to_string(here.size()) + " events) where the spheres are " +
              std::to_string(ev.d) + " m apart: the reference gives " + name(next(st, ev.d)));
         return std::nullopt;
@@ -689,16 +713,46 @@ class Run {
     return st;
   }
 
-  /// The frames (`frames_` mode) both bodies have after `after`, or from `from` on.
-  std::vector<Eval> framesOf(int i, int j, std::optional<Stamp> after, Stamp from) const {
-    std::vector<Eval> out;
-    for (const auto& [t, pi] : bodies_[i].frames) {
-      if (after ? !(*after < t) : t < from) continue;
-      for (const auto& [u, pj] : bodies_[j].frames) {
-        if (u != t) continue;
-        out.push_back({t, distanceAt(i, pi, j, pj)});
+  /// Frames mode: body b's position at `t`, along its frames (interpolated between two; before
+  /// the first, the first; after the last, the last).
+  static Vec3 positionAt(const RefBody& b, Stamp t) {
+    if (b.frames.empty() || !(b.frames.front().first < t)) {
+      return b.frames.empty() ? b.position : b.frames.front().second;
+    }
+    for (std::size_t k = 1; k < b.frames.size(); ++k) {
+      const auto& [t1, p1] = b.frames[k];
+      if (t1 < t) continue;
+      const auto& [t0, p0] = b.frames[k - 1];
+      return p0 + (p1 - p0) * ((t - t0) / (t1 - t0));
+    }
+    return b.frames.back().second;
+  }
+  /// A body posed once since it came or came back is still as far as is known.
+  static bool moving(const RefBody& b) { return b.frames.size() >= 2; }
+  /// The pair's time (align_poses): the older stamp, or the newer when the older body is still.
+  static Stamp alignedStamp(Stamp sa, bool moving_a, Stamp sb, bool moving_b) {
+    if (sa == sb) return sa;
+    const bool older_moving = sa < sb ? moving_a : moving_b;
+    return older_moving ? std::min(sa, sb) : std::max(sa, sb);
+  }
+  Eval evalAt(int i, int j, Stamp t) const {
+    return {t, distanceAt(i, positionAt(bodies_[i], t), j, positionAt(bodies_[j], t)), t};
+  }
+  /// The pair's evaluations at a check: from `from` (at it too when `from_too`), every stamp of
+  /// either body before `to`, then the live check at `to`.
+  std::vector<Eval> evaluations(int i, int j, Stamp from, bool from_too, Stamp to) const {
+    std::set<Stamp> stamps;
+    if (from < to) {
+      if (from_too) stamps.insert(from);
+      for (const int x : {i, j}) {
+        for (const auto& f : bodies_[x].frames)
+          if (from < f.first && f.first < to) stamps.insert(f.first);
       }
     }
+    std::vector<Eval> out;
+    for (const Stamp t : stamps)
+      out.push_back(evalAt(i, j, t));
+    out.push_back(evalAt(i, j, to));
     return out;
   }
 
@@ -730,33 +784,55 @@ class Run {
           }
           continue;  // stale: structure() holds it UNKNOWN
         }
-        const double d = distance(i, j);
-        min_expected = std::min(min_expected, d);
         std::vector<Eval> evals;
+        bool ambiguous = false;
         if (frames_) {
-          // After the last check's stamp when both were fresh then, else from their first frames
-          // since they came or came back.
           const RefBody& A = bodies_[i];
           const RefBody& B = bodies_[j];
-          evals = framesOf(i, j,
-                           A.fresh_prev && B.fresh_prev
-                               ? std::optional<Stamp>(std::min(A.checked, B.checked))
-                               : std::nullopt,
-                           std::max(A.known_from, B.known_from));
-          // The live check: at the pair's time, new frames or not (thresholds may have changed).
-          const Stamp to = std::min(A.stamp, B.stamp);
-          if (evals.empty() || evals.back().stamp != to) evals.push_back({to, d});
+          const Stamp to = alignedStamp(A.stamp, moving(A), B.stamp, moving(B));
+          const Stamp known = std::max(A.known_from, B.known_from);
+          if (to < known) {  // no verdict yet: held UNKNOWN (structure() checked its events)
+            // A new pair beyond the broad phase's reach stays CLEAR, without events (node.md).
+            if (before == PairStatus::Clear && after == PairStatus::Clear && events.empty()) {
+              continue;
+            }
+            if (after != PairStatus::Unknown) {
+              return fail(pair + " has no verdict before " + std::to_string(known.nanoseconds()) +
+                          " but is " + name(after));
+            }
+            continue;
+          }
+          // From the pair's time at the last check (both fresh then), its last verdict event
+          // and its first poses since they came or came back; the world also goes from the
+          // latest time it checked the pair at, which the reference knows only while the pair
+          // was within the broad phase's reach: where that changes the evaluations, the pair
+          // is taken as the world has it this once.
+          const Stamp prev =
+              A.fresh_prev && B.fresh_prev
+                  ? alignedStamp(A.checked, A.checked_moving, B.checked, B.checked_moving)
+                  : Stamp();
+          const Stamp lo = std::max(last_event, prev);
+          const Stamp hi = std::max(lo, was == before_.end() ? Stamp() : was->second.max_to);
+          evals = evaluations(i, j, std::max(lo, known), lo < known, to);
+          const std::vector<Eval> other = evaluations(i, j, std::max(hi, known), hi < known, to);
+          ambiguous = other.size() != evals.size();
+          evals.back().at = std::max(to, last_event);
+          pairs_[pk].max_to = std::max(pairs_[pk].max_to, to);
         } else {
-          evals.push_back({pairStamp(bodies_[i], bodies_[j], now), d});
+          evals.push_back({pairStamp(bodies_[i], bodies_[j], now), distance(i, j), Stamp()});
         }
+        const double d = evals.back().d;
+        min_expected = std::min(min_expected, d);
         std::optional<PairStatus> left;
-        if (frames_ && before == PairStatus::Unknown && events.size() == 1 &&
-            events[0]->type == EventType::UnknownEnd && evals.size() > 1 &&
-            events[0]->stamp == evals.back().stamp &&
-            std::abs(events[0]->pair.distance - evals.back().d) <= kTol &&
-            std::all_of(evals.begin(), evals.end(), [&](const Eval& e) {
-              return statusesNear(PairStatus::Clear, e.d).count(PairStatus::Clear) > 0;
-            })) {
+        if (ambiguous) {
+          left = after;
+        } else if (frames_ && before == PairStatus::Unknown && events.size() == 1 &&
+                   events[0]->type == EventType::UnknownEnd && evals.size() > 1 &&
+                   events[0]->stamp == evals.back().at &&
+                   std::abs(events[0]->pair.distance - evals.back().d) <= kTol &&
+                   std::all_of(evals.begin(), evals.end(), [&](const Eval& e) {
+                     return statusesNear(PairStatus::Clear, e.d).count(PairStatus::Clear) > 0;
+                   })) {
           // node.md: a pair beyond the broad phase's reach all along is not caught up; its
           // UNKNOWN_END carries its time at the check.
           left = PairStatus::Clear;
@@ -817,9 +893,27 @@ class Run {
                               fresh(bodies_[i], now) && fresh(bodies_[j], now);
       if (!answerable && d) return fail("distance answered for a stale, unknown or same body");
       if (!exact_ && !frames_) return;
+      double want = answerable ? distance(i, j) : kInf;
+      if (frames_ && answerable) {
+        // At the pair's time; none before a body's first pose since it came or came back (as
+        // the next check will know it).
+        const RefBody& A = bodies_[i];
+        const RefBody& B = bodies_[j];
+        const auto knownAt = [&](const RefBody& b) {
+          if (b.fresh_prev) return b.known_from;
+          for (const auto& f : b.frames)
+            if (now - f.first <= s_.pose_timeout) return f.first;
+          return b.stamp;
+        };
+        const Stamp to = alignedStamp(A.stamp, moving(A), B.stamp, moving(B));
+        if (to < std::max(knownAt(A), knownAt(B))) {
+          if (d) return fail("distance answered before a body's first pose since it came");
+          return;
+        }
+        want = evalAt(i, j, to).d;
+      }
       if (answerable != d.has_value()) return fail("distance refused: " + why);
       if (!d) return;
-      const double want = distance(i, j);
       if (std::abs(d->distance - want) > kTol || d->body_a != id(i)) {
         return fail("distance " + std::to_string(d->distance) + ", the spheres " +
                     std::to_string(want));
@@ -898,8 +992,10 @@ class Run {
   cw::Settings s_;
   bool exact_ = false;
   bool frames_ = false;  ///< align_poses, every body posed at each frame's stamp
+  bool rates_ = false;   ///< frames: only some bodies posed at a frame
   std::int64_t frame_ns_ = 0;
-  std::optional<std::int64_t> span_from_;  ///< the first frame's stamp since the last check
+  std::optional<std::int64_t> span_from_;       ///< the first frame's stamp since the last check
+  std::optional<std::int64_t> oldest_checked_;  ///< the oldest stamp of a fresh body then
   std::optional<cw::WorldModel> world_;
   std::vector<RefBody> bodies_;
   std::map<Key, RefPair> pairs_;

@@ -1705,13 +1705,16 @@ CycleResult WorldModel::check(Stamp now) {
   }
   m.outran = false;
   // Sources whose stamps meet now and then (10 Hz and 100 Hz ones at every tenth) stay mixed.
+  const bool kept_since = m.mixed_stamps;  // setPose() kept every pose since the last check
   m.mixed_stamps = m.mixed_seen && now - *m.mixed_seen <= s.pose_timeout;
   res.stamp = stamps.verdict(s.align_poses, now);
   // A body elsewhere at the oldest stamp of a moving body is boxed over every place it was
   // since: a pair of such a stamp takes it back there (pairTime()). Catching up, from the last
   // check's oldest pair stamp too, so that every pair's stretch since is boxed.
   const Stamp earliest = s.align_poses && stamps.oldest_moving ? *stamps.oldest_moving : Stamp();
-  const bool catch_up = s.align_poses && m.mixed_stamps;
+  // Also when the last check found them more than pose_timeout ago (checks farther apart than
+  // that): the poses since are kept.
+  const bool catch_up = s.align_poses && (m.mixed_stamps || kept_since);
   Stamp caught_from = earliest;
   if (catch_up && !m.last_verdict.isStatic() &&
       (caught_from.isStatic() || m.last_verdict < caught_from)) {

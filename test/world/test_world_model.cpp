@@ -1984,6 +1984,35 @@ TEST(WorldModel, APoseThatCameBackStaleIsNotWhereItsPairStartsAgain) {
   EXPECT_EQ(got, (Timeline{{E::UnknownBegin, step(-30)}, {E::UnknownEnd, step(1)}}));
 }
 
+TEST(WorldModel, ChecksFartherApartThanPoseTimeoutStillCatchUp) {
+  // pose_timeout 50 ms, checks 50 and 60 ms apart (a node whose rate is below 1/pose_timeout,
+  // its sources faster). a (r 0.1) at -0.5 m at step 2, then at 0.75 m at step 7: it passes b
+  // (r 0.1, at the origin from step 4 on) at step 4 (interpolated there: x = 0). The check at
+  // step 5 finds the stamps apart (a at 2, b at 4); the one at step 11 finds both at step 7, 60 ms
+  // after the last check that found stamps apart. Only keeping poses "while a check within
+  // pose_timeout found stamps apart" stopped catch-up there: the pass was lost, no event came
+  // (fuzz_world, forty-second session).
+  Settings s = dyadic();
+  s.pose_timeout = 0.05;
+  const auto w = twoSpheres(s, "a", "b", 0.1);
+  ASSERT_TRUE(w->setPose("a", at(-0.6), step(1)));
+  ASSERT_TRUE(w->setPose("a", at(-0.5), step(2)));
+  ASSERT_TRUE(w->setPose("b", at(0, 1), step(2)));
+  ASSERT_TRUE(w->setPose("b", at(0), step(4)));
+  CycleResult r = w->check(step(5));
+  EXPECT_TRUE(r.events.empty());  // at step 2: 0.918 m
+  ASSERT_TRUE(w->setPose("a", at(0.75), step(7)));
+  ASSERT_TRUE(w->setPose("b", at(0), step(7)));
+  r = w->check(step(11));
+  ASSERT_EQ(r.events.size(), 2u);
+  EXPECT_EQ(r.events[0].type, E::CollisionBegin);
+  EXPECT_EQ(r.events[0].stamp, step(4));
+  EXPECT_NEAR(r.events[0].pair.distance, -0.2, 1e-9);
+  EXPECT_EQ(r.events[1].type, E::CollisionEnd);
+  EXPECT_EQ(r.events[1].stamp, step(7));
+  EXPECT_NEAR(r.events[1].pair.distance, 0.55, 1e-9);
+}
+
 TEST(WorldModel, APairHasNoVerdictBeforeABodysFirstPoseBack) {
   // mov (r 0.1, 4 m/s along x, posed every 0.2 s) and a dart (r 0.1) back from a spell, still,
   // from 0.1 s after mov's last stamp on, where mov was at that stamp (mov 0.4 m on by then,
