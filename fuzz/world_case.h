@@ -334,14 +334,18 @@ class Run {
     b.position = p;
   }
 
-  /// Frames mode: every body posed at one new stamp, 1 to 20 ms on, never behind the clock. A
-  /// check comes first when the frame would be more than half of pose_timeout after the oldest
-  /// stamp the last check had of a fresh body (the frames since it, else), and with rates a body
-  /// is posed anyway once its pose is a quarter of pose_timeout old: catch-up has the poses of the
-  /// last pose_timeout (node.md), and needs them back to the pairs' last time.
+  /// Frames mode: every body posed at one new stamp, 1 to 20 ms on (at most a tenth of
+  /// pose_timeout), from the last frame, or from the clock once every pose is stale there. A check
+  /// comes first when the frame would be more than half of pose_timeout after the oldest stamp the
+  /// last check had of a fresh body (the frames since it, else), and with rates a body is posed
+  /// anyway once its pose is a quarter of pose_timeout old: catch-up has the poses of the last
+  /// pose_timeout (node.md), and needs them back to the pairs' last time.
   void frame() {
     static const int step_ms[] = {1, 10, 20};
-    const std::int64_t stamp = std::max(frame_ns_, now_ns_) + in_.pick(step_ms) * 1000000LL;
+    const std::int64_t timeout_ns = static_cast<std::int64_t>(s_.pose_timeout * 1e9);
+    const std::int64_t step_ns = std::min<std::int64_t>(
+        in_.pick(step_ms) * 1000000LL, std::max<std::int64_t>(timeout_ns / 10, 1000000));
+    const std::int64_t stamp = (now_ns_ - frame_ns_ > timeout_ns ? now_ns_ : frame_ns_) + step_ns;
     const std::optional<std::int64_t> since = oldest_checked_ ? oldest_checked_ : span_from_;
     if (since && (stamp - *since) * 1e-9 > 0.5 * s_.pose_timeout) {
       now_ns_ = std::max(now_ns_, frame_ns_);
