@@ -910,12 +910,13 @@ struct WorldModel::Impl {
       far_order.clear();
       for (int k = 0; k < static_cast<int>(far_pairs.size()); ++k) {
         const FarPair& p = far_pairs[k];
-        if (!(p.exact < best) && !(std::isnan(p.exact) && p.lower < best)) continue;
+        const bool known = !std::isnan(p.exact);
+        if (!(known ? p.exact < best : p.lower < best)) continue;  // cannot lower it
         if (verdictPending(keyLo(p.key), keyHi(p.key), now)) continue;
-        if (std::isnan(p.exact)) {
-          far_order.push_back(k);  // measured below, nearest first, while its bound is below best
-        } else {
+        if (known) {
           best = p.exact;
+        } else {
+          far_order.push_back(k);  // measured below, nearest first, while its bound is below best
         }
       }
       std::sort(far_order.begin(), far_order.end(),
@@ -1712,8 +1713,8 @@ CycleResult WorldModel::check(Stamp now) {
   // since: a pair of such a stamp takes it back there (pairTime()). Catching up, from the last
   // check's oldest pair stamp too, so that every pair's stretch since is boxed.
   const Stamp earliest = s.align_poses && stamps.oldest_moving ? *stamps.oldest_moving : Stamp();
-  // Also when the last check found them more than pose_timeout ago (checks farther apart than
-  // that): the poses since are kept.
+  // Also when the check before was mixed, however long ago: setPose() has kept every pose since
+  // (keepsPoses()), and checks farther apart than pose_timeout would otherwise go over nothing.
   const bool catch_up = s.align_poses && (m.mixed_stamps || kept_since);
   Stamp caught_from = earliest;
   if (catch_up && !m.last_verdict.isStatic() &&
