@@ -6,31 +6,18 @@
 
 #include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <string>
 #include <vector>
 
 #include "core_case.h"
+#include "fuzz_inputs.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-std::vector<fs::path> inputs(const std::string& dir) {
-  std::vector<fs::path> out;
-  if (!fs::is_directory(dir)) return out;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    if (e.is_regular_file() && e.path().extension() != ".md") out.push_back(e.path());
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
-std::vector<std::uint8_t> read(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  return std::vector<std::uint8_t>(std::istreambuf_iterator<char>(f), {});
-}
+using cm_fuzz_inputs::bytes;
+using cm_fuzz_inputs::inputs;
 
 struct Tally {
   int files = 0, checked = 0, oracle = 0, overlap = 0, unconverged = 0, refused = 0;
@@ -41,8 +28,8 @@ struct Tally {
 Tally replay(const std::string& dir) {
   Tally t;
   for (const fs::path& p : inputs(dir)) {
-    const std::vector<std::uint8_t> bytes = read(p);
-    const cm_fuzz::Outcome out = cm_fuzz::runCase(bytes.data(), bytes.size());
+    const std::vector<std::uint8_t> data = bytes(p);
+    const cm_fuzz::Outcome out = cm_fuzz::runCase(data.data(), data.size());
     EXPECT_EQ(out.failure, "") << p.filename().string();
     ++t.files;
     t.checked += out.checked;

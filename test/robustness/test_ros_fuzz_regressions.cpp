@@ -4,36 +4,27 @@
 // on the bug it pins.
 #include <gtest/gtest.h>
 
-#include <algorithm>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <map>
 #include <string>
 #include <vector>
 
+#include "fuzz_inputs.h"
 #include "ros_input_case.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-std::vector<fs::path> inputs(const std::string& dir) {
-  std::vector<fs::path> out;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    if (e.is_regular_file() && e.path().extension() != ".md") out.push_back(e.path());
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
+using cm_fuzz_inputs::bytes;
+using cm_fuzz_inputs::inputs;
 
 /// Every input's note (what became of it), by file name; each failure is a test failure.
 std::map<std::string, std::string> replay(const std::string& dir) {
   std::map<std::string, std::string> notes;
   for (const fs::path& p : inputs(dir)) {
-    std::ifstream f(p, std::ios::binary);
-    const std::vector<std::uint8_t> bytes(std::istreambuf_iterator<char>(f), {});
-    const cm_fuzz_ros::Outcome out = cm_fuzz_ros::runRosInput(bytes.data(), bytes.size());
+    const std::vector<std::uint8_t> data = bytes(p);
+    const cm_fuzz_ros::Outcome out = cm_fuzz_ros::runRosInput(data.data(), data.size());
     EXPECT_EQ(out.failure, "") << p.filename().string();
     notes[p.filename().string()] = out.note;
   }

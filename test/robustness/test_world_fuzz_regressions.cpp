@@ -7,26 +7,18 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <string>
 #include <vector>
 
+#include "fuzz_inputs.h"
 #include "world_case.h"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-std::vector<fs::path> inputs(const std::string& dir) {
-  std::vector<fs::path> out;
-  if (!fs::is_directory(dir)) return out;
-  for (const auto& e : fs::directory_iterator(dir)) {
-    if (e.is_regular_file() && e.path().extension() != ".md") out.push_back(e.path());
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
+using cm_fuzz_inputs::bytes;
+using cm_fuzz_inputs::inputs;
 
 struct Tally {
   int files = 0, exact = 0, frames = 0, checks = 0, events = 0, collisions = 0;
@@ -36,9 +28,8 @@ struct Tally {
 Tally replay(const std::string& dir) {
   Tally t;
   for (const fs::path& p : inputs(dir)) {
-    std::ifstream f(p, std::ios::binary);
-    const std::vector<std::uint8_t> bytes(std::istreambuf_iterator<char>(f), {});
-    const cm_fuzz_world::Outcome out = cm_fuzz_world::runCase(bytes.data(), bytes.size());
+    const std::vector<std::uint8_t> data = bytes(p);
+    const cm_fuzz_world::Outcome out = cm_fuzz_world::runCase(data.data(), data.size());
     EXPECT_EQ(out.failure, "") << p.filename().string();
     ++t.files;
     t.exact += out.exact;
