@@ -5,7 +5,8 @@
 #                                       # (scripts/test.sh, the CI run: a fixed seed and input count)
 # Targets: fuzz_core (fuzz/fuzz_core.cpp: two shapes, two poses, every query, against an oracle),
 # fuzz_world (fuzz/fuzz_world.cpp: sequences of poses, checks, body changes and queries, every
-# check held to the contract and, without align_poses, to a reference model) and fuzz_ros_input
+# check held to the contract and, with align_poses off or bodies posed in frames, to a reference
+# model) and fuzz_ros_input
 # (fuzz/fuzz_ros_input.cpp: ~bodies, ~body_poses and ~check_collision on the wire, URDF, SRDF and
 # the ~bodies parameter through the node's own functions). fuzz_ros_input needs the message headers
 # of a main build ($CM_BUILD/devel/include); without them only fuzz_core and fuzz_world run.
@@ -74,7 +75,7 @@ failed=0
 for t in $TARGETS; do
   case "$t" in
     core) fuzz_one core "${CM_FUZZ_RUNS:--1}" -max_len=2048 || failed=1 ;;
-    # 200 operations of at most 6 bytes each, and the set-up.
+    # The set-up and up to 200 operations (a frame of six bodies reads 26 bytes, most read 2 to 6).
     world) fuzz_one world "${CM_FUZZ_WORLD_RUNS:--1}" -max_len=1300 || failed=1 ;;
     # A message of 8 KB may not make an allocation above 64 MB (the layout walk's promise).
     ros) fuzz_one ros "${CM_FUZZ_ROS_RUNS:--1}" -max_len=8192 -malloc_limit_mb=64 || failed=1 ;;
