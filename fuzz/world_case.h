@@ -820,7 +820,11 @@ class Run {
           const Stamp hi = std::max(lo, was == before_.end() ? Stamp() : was->second.max_to);
           evals = evaluations(i, j, std::max(lo, known), lo < known, to);
           const std::vector<Eval> other = evaluations(i, j, std::max(hi, known), hi < known, to);
-          ambiguous = other.size() != evals.size();
+          // A CLEAR pair the world has not seen for kForgetAfterCycles checks may be forgotten,
+          // its last event's stamp with it: then it goes from the pair's last time alone.
+          const bool forgotten =
+              was != before_.end() && cycle_ - was->second.last_busy > kForgetAfterCycles;
+          ambiguous = other.size() != evals.size() || (forgotten && prev < last_event);
           evals.back().at = std::max(to, last_event);
           pairs_[pk].max_to = std::max(pairs_[pk].max_to, to);
         } else {
