@@ -79,11 +79,9 @@ if(NOT COLLISION_MONITOR_CORE_ONLY)
     target_compile_definitions(test_ros_fuzz_regressions PRIVATE
       CM_FUZZ_DIR="${CMAKE_CURRENT_SOURCE_DIR}/fuzz")
   endif()
-endif()
 
-# Replays fuzz/regressions/world and fuzz/corpus/world with the world model's fuzzer checks
-# (fuzz/world_case.h; the libFuzzer target is fuzz/fuzz_world.cpp, built by scripts/fuzz.sh).
-if(NOT COLLISION_MONITOR_CORE_ONLY)
+  # The same for fuzz/regressions/world and fuzz/corpus/world with the world model's fuzzer
+  # checks (fuzz/world_case.h; the libFuzzer target is fuzz/fuzz_world.cpp).
   cm_add_gtest(test_world_fuzz_regressions
     SOURCES test/robustness/test_world_fuzz_regressions.cpp
     LIBS collision_monitor_world)

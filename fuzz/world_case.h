@@ -510,13 +510,7 @@ class Run {
       if (!fresh(b, now)) {
         b.frames.clear();  // its next pose starts again
       } else if (!b.fresh_prev) {
-        b.known_from = b.stamp;
-        for (const auto& f : b.frames) {
-          if (now - f.first <= s_.pose_timeout) {
-            b.known_from = f.first;
-            break;
-          }
-        }
+        b.known_from = firstFreshFrame(b, now);
       }
     }
     ++cycle_;
@@ -732,6 +726,13 @@ class Run {
     }
     return b.frames.back().second;
   }
+  /// Where a body found fresh at `now` after a spell (or for the first time) is known from: its
+  /// first frame since then within pose_timeout of `now` (its latest, else).
+  Stamp firstFreshFrame(const RefBody& b, Stamp now) const {
+    for (const auto& f : b.frames)
+      if (now - f.first <= s_.pose_timeout) return f.first;
+    return b.stamp;
+  }
   /// A body posed once since it came or came back is still as far as is known.
   static bool moving(const RefBody& b) { return b.frames.size() >= 2; }
   /// The pair's time (align_poses): the older stamp, or the newer when the older body is still.
@@ -909,10 +910,7 @@ class Run {
         const RefBody& A = bodies_[i];
         const RefBody& B = bodies_[j];
         const auto knownAt = [&](const RefBody& b) {
-          if (b.fresh_prev) return b.known_from;
-          for (const auto& f : b.frames)
-            if (now - f.first <= s_.pose_timeout) return f.first;
-          return b.stamp;
+          return b.fresh_prev ? b.known_from : firstFreshFrame(b, now);
         };
         const Stamp to = alignedStamp(A.stamp, moving(A), B.stamp, moving(B));
         if (to < std::max(knownAt(A), knownAt(B))) {
