@@ -1,7 +1,8 @@
 /// \file
 /// One case of the world model's fuzzer (fuzz_world.cpp; replayed by the gtest
 /// test_world_fuzz_regressions): the bytes decode into settings, up to six bodies of one or two
-/// spheres, and a sequence of operations on a WorldModel (poses with stamps in and out of order,
+/// spheres (which, in a case that turns bodies, turn with them, each body about an axis of its
+/// own), and a sequence of operations on a WorldModel (poses with stamps in and out of order,
 /// static poses, checks at times that move on by 0 to 0.7 s, bodies replaced, removed and added
 /// again, unresolved poses, forgotten poses, new thresholds, disabled pairs, and the three
 /// queries). Every check() is held to the contract:
@@ -35,6 +36,8 @@
 #include <utility>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "collision_monitor/world/world_model.h"
 
 namespace cm_fuzz_world {
@@ -50,6 +53,7 @@ struct Outcome {
   std::string failure;  ///< empty: every check passed
   bool exact = false;   ///< the reference model was used (align_poses off, or frames)
   bool frames = false;  ///< frames mode (align_poses, every body posed at each frame's stamp)
+  bool turns = false;   ///< bodies turn as well (each about an axis of its own)
   int checks = 0;
   int events = 0;
   int collisions = 0;  ///< COLLISION_BEGIN events
@@ -73,23 +77,31 @@ class Reader {
 };
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-/// Closed-form distances against GJK's on spheres of up to 1.5 m apart, and the band around a
+/// Closed-form distances against GJK's on spheres of up to 5 m apart, and the band around a
 /// threshold within which either status is accepted.
 constexpr double kTol = 1e-8;
 constexpr std::uint64_t kForgetAfterCycles = 64;  // world_model.cpp: a CLEAR pair unseen so long
+
+/// A body's pose as the reference knows it: a position, and an angle about the body's own axis
+/// (RefBody::axis; 0 unless the case turns bodies).
+struct RefPose {
+  Vec3 position = Vec3::Zero();
+  double angle = 0.0;
+};
 
 /// A body as the reference knows it.
 struct RefBody {
   bool exists = false;
   std::vector<std::pair<Vec3, double>> spheres;  ///< centre in the body frame, radius
   std::string group;
+  Vec3 axis = Vec3::UnitZ();  ///< it turns about this axis through its origin, only
   bool has_pose = false;
   bool unresolved = false;
   Stamp stamp;  ///< zero: static
-  Vec3 position = Vec3::Zero();
+  RefPose pose;
   /// Frames mode: its poses since the last check that found it stale (or since it came), and
   /// the first of them within pose_timeout of the first check that found it fresh since.
-  std::vector<std::pair<Stamp, Vec3>> frames;
+  std::vector<std::pair<Stamp, RefPose>> frames;
   Stamp known_from;
   bool fresh_prev = false;      ///< fresh at the last check
   Stamp checked;                ///< its stamp at the last check
@@ -208,18 +220,30 @@ class Run {
     exact_ = !s_.align_poses && gjk;
     frames_ = s_.align_poses && gjk && (flags & 8) != 0;
     rates_ = frames_ && (flags & 16) != 0;
+    turns_ = (flags & 128) != 0;
     out_.exact = exact_ || frames_;
     out_.frames = frames_;
+    out_.turns = turns_;
     world_.emplace(s_);
     log_ << "settings: w " << s_.warning_distance << " c " << s_.contact_distance << " h "
          << s_.hysteresis << " timeout " << s_.pose_timeout << " align " << s_.align_poses
          << " exact_min " << s_.exact_min_distance << " frames " << frames_ << " rates " << rates_
-         << " backend "
+         << " turns " << turns_ << " backend "
          << (s_.backend == collision_monitor::core::BackendType::Gjk ? "gjk" : "libccd") << "\n";
     const int n = 2 + in_.byte() % 5;
     bodies_.resize(n);
-    for (int i = 0; i < n; ++i)
+    // Each body turns about an axis of its own (kept when it is replaced, or removed and added
+    // again), so a pair's two bodies turn about different axes.
+    static const Vec3 axes[] = {Vec3::UnitZ(),
+                                Vec3::UnitX(),
+                                Vec3(1.0, 1.0, 1.0).normalized(),
+                                Vec3::UnitY(),
+                                Vec3(0.3, -0.8, 0.5).normalized(),
+                                Vec3(0.0, 0.6, 0.8)};
+    for (int i = 0; i < n; ++i) {
+      bodies_[i].axis = axes[i];
       add(i);
+    }
   }
 
   static std::string id(int i) { return "b" + std::to_string(i); }
@@ -231,8 +255,13 @@ class Run {
     RefBody b = bodies_[i];
     b.spheres.clear();
     const std::uint8_t k = in_.byte();
+    // When bodies turn, the first sphere may be off the body's origin too, up to 1.6 m out on a
+    // lever: a turn between two poses then sweeps it through places neither pose's box is near
+    // (1 m beyond them for a turn of 2.5 rad: the broad phase's bulge).
+    static const double lever[] = {0.0, 0.4, -0.9, 1.6};
+    const Vec3 first = turns_ ? Vec3(lever[in_.byte() % 4], 0.0, 0.1) : Vec3::Zero();
     // Radii off the thresholds' grid (a tie with a threshold is accepted either way anyway).
-    b.spheres.emplace_back(Vec3::Zero(), radius[k % 4] + 1e-4 * std::sqrt(2.0 + i));
+    b.spheres.emplace_back(first, radius[k % 4] + 1e-4 * std::sqrt(2.0 + i));
     if (k & 4) {
       b.spheres.emplace_back(Vec3(offset[(k >> 3) % 4], offset[(k >> 5) % 4], 0.07),
                              radius[(k >> 1) % 4] * 0.5 + 1e-4 * std::sqrt(3.0 + i));
@@ -314,14 +343,13 @@ class Run {
   void setPose(int i) {
     // ms relative to the clock; 1000: a static pose.
     static const int offset_ms[] = {0, 0, 0, -10, -100, 5, 1000, -600, -1, 20};
-    const Vec3 p = position(bodies_[i].position);
+    RefBody& b = bodies_[i];
+    // Any angle (in 0.05 rad steps) when bodies turn.
+    const RefPose p{position(b.pose.position), turns_ ? (in_.byte() - 128) * 0.05 : 0.0};
     const int off = in_.pick(offset_ms);
     const Stamp stamp = off == 1000 ? Stamp() : Stamp::fromNanoseconds(now_ns_ + off * 1000000LL);
-    cw::Transform3 pose = cw::Transform3::Identity();
-    pose.t = p;
-    RefBody& b = bodies_[i];
-    log_ << "setPose " << id(i) << " (" << p.transpose() << ") at " << stamp.nanoseconds() << "\n";
-    const bool ok = world_->setPose(id(i), pose, stamp);
+    log_ << "setPose " << id(i) << " " << describe(p) << " at " << stamp.nanoseconds() << "\n";
+    const bool ok = world_->setPose(id(i), transform(b, p), stamp);
     const bool expected =
         b.exists && !(b.has_pose && !stamp.isStatic() && !b.stamp.isStatic() && stamp < b.stamp);
     if (ok != expected) {
@@ -332,7 +360,21 @@ class Run {
     b.has_pose = true;
     b.unresolved = false;
     b.stamp = stamp;
-    b.position = p;
+    b.pose = p;
+  }
+
+  /// The world's pose for a reference pose of body b.
+  static cw::Transform3 transform(const RefBody& b, const RefPose& p) {
+    cw::Transform3 pose = cw::Transform3::Identity();
+    pose.t = p.position;
+    if (p.angle != 0.0) pose.R = Eigen::AngleAxisd(p.angle, b.axis).toRotationMatrix();
+    return pose;
+  }
+  static std::string describe(const RefPose& p) {
+    std::ostringstream out;
+    out << "(" << p.position.transpose() << ")";
+    if (p.angle != 0.0) out << " turned " << p.angle;
+    return out.str();
   }
 
   /// Frames mode: every body posed at one new stamp, 1 to 20 ms on (at most a tenth of
@@ -363,17 +405,20 @@ class Run {
       const bool lags =
           b.has_pose && (stamp - b.stamp.nanoseconds()) * 1e-9 > 0.25 * s_.pose_timeout;
       if (!b.exists || (mask != 0 && !(mask >> i & 1) && !lags)) continue;
-      Vec3 p = position(b.position);
-      if (b.has_pose && p == b.position) p.x() += 1e-6;  // every pose moves (moving() above)
-      cw::Transform3 pose = cw::Transform3::Identity();
-      pose.t = p;
-      log_ << "  " << id(i) << " (" << p.transpose() << ")\n";
-      if (!world_->setPose(id(i), pose, Stamp::fromNanoseconds(stamp))) {
+      // A turn of up to 2.56 rad from the last pose (the shortest arc, which the world
+      // interpolates along, is then this turn).
+      RefPose p{position(b.pose.position),
+                b.pose.angle + (turns_ ? (in_.byte() - 128) * 0.02 : 0.0)};
+      if (b.has_pose && p.position == b.pose.position) {
+        p.position.x() += 1e-6;  // every pose moves (moving() above)
+      }
+      log_ << "  " << id(i) << " " << describe(p) << "\n";
+      if (!world_->setPose(id(i), transform(b, p), Stamp::fromNanoseconds(stamp))) {
         return fail("setPose of a frame refused");
       }
       b.has_pose = true;
       b.stamp = Stamp::fromNanoseconds(stamp);
-      b.position = p;
+      b.pose = p;
       b.frames.emplace_back(b.stamp, p);
     }
   }
@@ -458,19 +503,23 @@ class Run {
     if (!bodies_[i].group.empty() && bodies_[i].group == bodies_[j].group) return false;
     return disabled_.count(key(i, j)) == 0;
   }
-  /// Closed-form signed distance of bodies i and j at positions pi and pj.
-  double distanceAt(int i, const Vec3& pi, int j, const Vec3& pj) const {
+  /// Where a sphere's centre `c` (body frame) of body b is at pose p: turned about b's axis.
+  static Vec3 centreAt(const RefBody& b, const RefPose& p, const Vec3& c) {
+    return p.position + Eigen::AngleAxisd(p.angle, b.axis) * c;
+  }
+  /// Closed-form signed distance of bodies i and j at poses pi and pj.
+  double distanceAt(int i, const RefPose& pi, int j, const RefPose& pj) const {
     double best = kInf;
     for (const auto& [ca, ra] : bodies_[i].spheres) {
-      for (const auto& [cb, rb] : bodies_[j].spheres)
-        best = std::min(best, ((pi + ca) - (pj + cb)).norm() - ra - rb);
+      for (const auto& [cb, rb] : bodies_[j].spheres) {
+        const Vec3 apart = centreAt(bodies_[i], pi, ca) - centreAt(bodies_[j], pj, cb);
+        best = std::min(best, apart.norm() - ra - rb);
+      }
     }
     return best;
   }
   /// At their latest poses.
-  double distance(int i, int j) const {
-    return distanceAt(i, bodies_[i].position, j, bodies_[j].position);
-  }
+  double distance(int i, int j) const { return distanceAt(i, bodies_[i].pose, j, bodies_[j].pose); }
   /// The status machine as node.md states it, written out apart from pair_logic.h's: a status
   /// is entered at its threshold (COLLISION at d <= contact, WARNING at d < warning) and left
   /// only once past it by the hysteresis.
@@ -712,17 +761,19 @@ class Run {
     return st;
   }
 
-  /// Frames mode: body b's position at `t`, along its frames (interpolated between two; before
-  /// the first, the first; after the last, the last).
-  static Vec3 positionAt(const RefBody& b, Stamp t) {
+  /// Frames mode: body b's pose at `t`, along its frames (interpolated between two: position
+  /// and angle linear, each turn below pi being the shortest arc; before the first, the first;
+  /// after the last, the last).
+  static RefPose poseAt(const RefBody& b, Stamp t) {
     if (b.frames.empty() || !(b.frames.front().first < t)) {
-      return b.frames.empty() ? b.position : b.frames.front().second;
+      return b.frames.empty() ? b.pose : b.frames.front().second;
     }
     for (std::size_t k = 1; k < b.frames.size(); ++k) {
       const auto& [t1, p1] = b.frames[k];
       if (t1 < t) continue;
       const auto& [t0, p0] = b.frames[k - 1];
-      return p0 + (p1 - p0) * ((t - t0) / (t1 - t0));
+      const double s = (t - t0) / (t1 - t0);
+      return {p0.position + (p1.position - p0.position) * s, p0.angle + (p1.angle - p0.angle) * s};
     }
     return b.frames.back().second;
   }
@@ -742,7 +793,7 @@ class Run {
     return older_moving ? std::min(sa, sb) : std::max(sa, sb);
   }
   Eval evalAt(int i, int j, Stamp t) const {
-    return {t, distanceAt(i, positionAt(bodies_[i], t), j, positionAt(bodies_[j], t)), t};
+    return {t, distanceAt(i, poseAt(bodies_[i], t), j, poseAt(bodies_[j], t)), t};
   }
   /// The pair's evaluations at a check: from `from` (at it too when `from_too`), every stamp of
   /// either body before `to`, then the live check at `to`.
@@ -953,7 +1004,7 @@ class Run {
       }
       double d = kInf;
       for (const auto& [c, r] : bodies_[b].spheres)
-        d = std::min(d, (bodies_[b].position + c - p).norm() - r - 0.1);
+        d = std::min(d, (centreAt(bodies_[b], bodies_[b].pose, c) - p).norm() - r - 0.1);
       if (d <= margin + kTol || d <= s_.contact_distance + kTol) {
         want[id(b)] = {next(PairStatus::Clear, d), d};
       }
@@ -1000,6 +1051,7 @@ class Run {
   bool exact_ = false;
   bool frames_ = false;  ///< align_poses, every body posed at each frame's stamp
   bool rates_ = false;   ///< frames: only some bodies posed at a frame
+  bool turns_ = false;   ///< bodies turn (each about its own axis), not only move
   std::int64_t frame_ns_ = 0;
   std::optional<std::int64_t> span_from_;       ///< the first frame's stamp since the last check
   std::optional<std::int64_t> oldest_checked_;  ///< the oldest stamp of a fresh body then

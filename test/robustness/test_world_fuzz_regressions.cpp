@@ -21,7 +21,7 @@ using cm_fuzz_inputs::bytes;
 using cm_fuzz_inputs::inputs;
 
 struct Tally {
-  int files = 0, exact = 0, frames = 0, checks = 0, events = 0, collisions = 0;
+  int files = 0, exact = 0, frames = 0, turns = 0, checks = 0, events = 0, collisions = 0;
   double slowest = 0.0;
 };
 
@@ -34,15 +34,17 @@ Tally replay(const std::string& dir) {
     ++t.files;
     t.exact += out.exact;
     t.frames += out.frames;
+    t.turns += out.turns && out.exact;
     t.checks += out.checks;
     t.events += out.events;
     t.collisions += out.collisions;
     t.slowest = std::max(t.slowest, out.seconds);
   }
   std::printf(
-      "%s: %d inputs (%d against the reference model, %d of them in frames), %d checks, "
-      "%d events (%d COLLISION_BEGIN), slowest %.1f ms\n",
-      dir.c_str(), t.files, t.exact, t.frames, t.checks, t.events, t.collisions, 1e3 * t.slowest);
+      "%s: %d inputs (%d against the reference model, %d of them in frames, %d with bodies that "
+      "turn), %d checks, %d events (%d COLLISION_BEGIN), slowest %.1f ms\n",
+      dir.c_str(), t.files, t.exact, t.frames, t.turns, t.checks, t.events, t.collisions,
+      1e3 * t.slowest);
   return t;
 }
 
@@ -58,10 +60,11 @@ TEST(WorldFuzzRegressions, EveryFailingInputPasses) {
 TEST(WorldFuzzRegressions, SeedCorpusPassesAndIsMeaningful) {
   const Tally t = replay(CM_FUZZ_DIR "/corpus/world");
   ASSERT_GE(t.files, 100);
-  // The seeds reach the reference model (catch-up too: frames) and the events, collisions among
-  // them.
+  // The seeds reach the reference model (catch-up too: frames; bodies that turn) and the events,
+  // collisions among them.
   EXPECT_GE(t.exact, t.files / 4);
   EXPECT_GE(t.frames, t.files / 8);
+  EXPECT_GE(t.turns, t.files / 16);
   EXPECT_GE(t.checks, 10 * t.files);
   EXPECT_GE(t.collisions, t.files);
 }

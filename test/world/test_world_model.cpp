@@ -2486,43 +2486,61 @@ TEST(WorldModel, ABodyReplacedWithNewGeometryIsBoxedOverItsKeptPosesAsItIsNow) {
 }
 
 TEST(WorldModel, TheSweptBoxCoversATurnBetweenTwoKeptPoses) {
-  // An arm (a ball of r 0.1 on a part 2 m out) turning 120 degrees between two of its poses
-  // (10 Hz) about its origin, and a ball (posed at 1 kHz, drifting) at (0, 2.05): the arm's
-  // ball passes through it at 90 degrees, between the arm's poses at 0 and 120 degrees, whose
-  // boxes reach y = 1.83 m, 0.12 m short of the ball's. The broad phase's swept box adds the
-  // turn's bulge (2.1 m x (1 - cos 60 degrees)), so the pair is handed on and caught up.
-  // Oracle: the closed-form distance at every stamp from 0 on (slerp turns at a constant rate).
-  const Settings s = dyadic();
-  WorldModel w(s);
-  Part tip{ConvexShape::sphere(0.1), Transform3::Identity()};
-  tip.pose.t = Vec3(2, 0, 0);
-  ASSERT_EQ(w.addBody(body("arm", {tip})), "");
-  ASSERT_EQ(w.addBody(sphere("ball", 0.1)), "");
-  const auto turn = [](int ms) { return 2.0 * M_PI / 3.0 * ms / 100.0; };
-  const auto ball = [](int ms) { return Vec3(0, 2.05, 1e-6 * ms); };
-  const auto stampAt = [](int ms) { return Stamp::fromNanoseconds(1000000000LL + ms * 1000000LL); };
-  Timeline events;
-  for (int ms = -200; ms <= 900; ++ms) {
-    ASSERT_TRUE(w.setPose("ball", at(ball(ms).x(), ball(ms).y(), ball(ms).z()), stampAt(ms)));
-    if (ms % 100 == 0) {
-      Transform3 arm;
-      arm.R = Eigen::AngleAxisd(turn(ms), Vec3::UnitZ()).toRotationMatrix();
-      ASSERT_TRUE(w.setPose("arm", arm, stampAt(ms)));
+  // An arm (a ball of r 0.1 on a part 2 m out) turning between two of its poses (10 Hz) about
+  // its origin, and a ball (posed at 1 kHz, drifting) 2.05 m out, which the arm's ball passes
+  // through between two of the arm's poses, where neither pose's box is near:
+  // - a turn of 120 degrees a step, the ball at 90 degrees: the boxes at 0 and 120 degrees reach
+  //   y = 1.83 m, 0.12 m short of the ball's;
+  // - a turn of 170 degrees, the ball at 85: the boxes at 0 and 170 degrees reach y = 0.45 m,
+  //   1.5 m short. A bulge taken for half the turn (2.1 m x (1 - cos 42.5 degrees) = 0.55 m)
+  //   falls short there; the turn's own (1.92 m) does not.
+  // The broad phase's swept box adds the turn's bulge (2.1 m x (1 - cos(turn / 2))), so the pair
+  // is handed on and caught up. Oracle: the closed-form distance at every stamp from 0 on (slerp
+  // turns at a constant rate).
+  struct Case {
+    double step_deg, ball_deg;
+    long begins;
+  };
+  for (const Case& c : {Case{120.0, 90.0, 3}, Case{170.0, 85.0, 5}}) {
+    SCOPED_TRACE(c.step_deg);
+    const Settings s = dyadic();
+    WorldModel w(s);
+    Part tip{ConvexShape::sphere(0.1), Transform3::Identity()};
+    tip.pose.t = Vec3(2, 0, 0);
+    ASSERT_EQ(w.addBody(body("arm", {tip})), "");
+    ASSERT_EQ(w.addBody(sphere("ball", 0.1)), "");
+    const auto turn = [&](int ms) { return c.step_deg * M_PI / 180.0 * ms / 100.0; };
+    const double ball_rad = c.ball_deg * M_PI / 180.0;
+    const auto ball = [&](int ms) {
+      return Vec3(2.05 * std::cos(ball_rad), 2.05 * std::sin(ball_rad), 1e-6 * ms);
+    };
+    const auto stampAt = [](int ms) {
+      return Stamp::fromNanoseconds(1000000000LL + ms * 1000000LL);
+    };
+    Timeline events;
+    for (int ms = -200; ms <= 900; ++ms) {
+      ASSERT_TRUE(w.setPose("ball", at(ball(ms).x(), ball(ms).y(), ball(ms).z()), stampAt(ms)));
+      if (ms % 100 == 0) {
+        Transform3 arm;
+        arm.R = Eigen::AngleAxisd(turn(ms), Vec3::UnitZ()).toRotationMatrix();
+        ASSERT_TRUE(w.setPose("arm", arm, stampAt(ms)));
+      }
+      const CycleResult r = w.check(stampAt(ms));
+      for (const Event& e : r.events)
+        if (stampAt(0) < e.stamp) events.emplace_back(e.type, e.stamp);
     }
-    const CycleResult r = w.check(stampAt(ms));
-    for (const Event& e : r.events)
-      if (stampAt(0) < e.stamp) events.emplace_back(e.type, e.stamp);
+    std::vector<std::pair<Stamp, double>> steps;
+    for (int ms = 1; ms <= 900; ++ms) {
+      const Vec3 tip_at(2.0 * std::cos(turn(ms)), 2.0 * std::sin(turn(ms)), 0.0);
+      steps.emplace_back(stampAt(ms), (tip_at - ball(ms)).norm() - 0.2);
+    }
+    const Timeline expected = expectedTimeline(S::Clear, steps, s);
+    EXPECT_EQ(events, expected);
+    // 120: at 75, 375 and 675 ms; 170: at 50, 262, 474, 685 and 897 ms.
+    EXPECT_EQ(std::count_if(expected.begin(), expected.end(),
+                            [](const auto& x) { return x.first == E::CollisionBegin; }),
+              c.begins);
   }
-  std::vector<std::pair<Stamp, double>> steps;
-  for (int ms = 1; ms <= 900; ++ms) {
-    const Vec3 tip_at(2.0 * std::cos(turn(ms)), 2.0 * std::sin(turn(ms)), 0.0);
-    steps.emplace_back(stampAt(ms), (tip_at - ball(ms)).norm() - 0.2);
-  }
-  const Timeline expected = expectedTimeline(S::Clear, steps, s);
-  EXPECT_EQ(events, expected);
-  EXPECT_EQ(std::count_if(expected.begin(), expected.end(),
-                          [](const auto& x) { return x.first == E::CollisionBegin; }),
-            3);  // at 75, 375 and 675 ms
 }
 
 TEST(WorldModel, ABodyPosedFasterThanTheChecksIsCaughtUpBetweenThem) {
