@@ -3,7 +3,9 @@
 /// test_world_fuzz_regressions): the bytes decode into settings, up to six bodies of one or two
 /// spheres (which, in a case that turns bodies, turn with them, each body about an axis of its
 /// own), and a sequence of operations on a WorldModel (poses with stamps in and out of order,
-/// static poses, checks at times that move on by 0 to 0.7 s, bodies replaced, removed and added
+/// static poses, poses stamped ahead of the clock (aging from when they came), checks at times
+/// that move on by 0 to 0.7 s, the clock going back by up to 0.4 s, bodies replaced, removed and
+/// added
 /// again, unresolved poses, forgotten poses, new thresholds, disabled pairs, and the three
 /// queries). Every check() is held to the contract:
 /// - always: the events replay as a status machine (END of the status a pair has, BEGIN from
@@ -80,7 +82,9 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 /// Closed-form distances against GJK's on spheres of up to 5 m apart, and the band around a
 /// threshold within which either status is accepted.
 constexpr double kTol = 1e-8;
-constexpr std::uint64_t kForgetAfterCycles = 64;  // world_model.cpp: a CLEAR pair unseen so long
+/// world_model.cpp: a pair unseen for so many checks is forgotten, once its last event is more
+/// than pose_timeout old.
+constexpr std::uint64_t kForgetAfterCycles = 64;
 
 /// A body's pose as the reference knows it: a position, and an angle about the body's own axis
 /// (RefBody::axis; 0 unless the case turns bodies).
@@ -98,6 +102,9 @@ struct RefBody {
   bool has_pose = false;
   bool unresolved = false;
   Stamp stamp;  ///< zero: static
+  /// The time its pose ages from: its stamp, or when it came if earlier (a stamp ahead of the
+  /// clock), or the time of a check that saw the clock go back before it.
+  Stamp fresh_from;
   RefPose pose;
   /// Frames mode: its poses since the last check that found it stale (or since it came), and
   /// the first of them within pose_timeout of the first check that found it fresh since.
@@ -115,6 +122,9 @@ struct RefPair {
   Stamp last_event;             ///< of its verdict events
   Stamp max_to;                 ///< frames mode: the latest time the reference evaluated it at
   std::uint64_t last_busy = 0;  ///< the last check it was not CLEAR
+  /// CLEAR for more than kForgetAfterCycles checks, its last event more than pose_timeout old
+  /// at one of them: the world may have forgotten it with that stamp (until its next event).
+  bool forgettable = false;
 };
 
 inline const char* name(PairStatus s) {
@@ -349,7 +359,9 @@ class Run {
     const int off = in_.pick(offset_ms);
     const Stamp stamp = off == 1000 ? Stamp() : Stamp::fromNanoseconds(now_ns_ + off * 1000000LL);
     log_ << "setPose " << id(i) << " " << describe(p) << " at " << stamp.nanoseconds() << "\n";
-    const bool ok = world_->setPose(id(i), transform(b, p), stamp);
+    // As the node does: with the ROS time it came (a pose stamped ahead ages from then).
+    const Stamp came = Stamp::fromNanoseconds(now_ns_);
+    const bool ok = world_->setPose(id(i), transform(b, p), stamp, std::nullopt, came);
     const bool expected =
         b.exists && !(b.has_pose && !stamp.isStatic() && !b.stamp.isStatic() && stamp < b.stamp);
     if (ok != expected) {
@@ -360,6 +372,7 @@ class Run {
     b.has_pose = true;
     b.unresolved = false;
     b.stamp = stamp;
+    b.fresh_from = std::min(stamp, came);
     b.pose = p;
   }
 
@@ -418,6 +431,7 @@ class Run {
       }
       b.has_pose = true;
       b.stamp = Stamp::fromNanoseconds(stamp);
+      b.fresh_from = b.stamp;
       b.pose = p;
       b.frames.emplace_back(b.stamp, p);
     }
@@ -447,7 +461,7 @@ class Run {
 
   void rare(int i) {
     const std::uint8_t k = in_.byte();
-    switch (frames_ ? 1 + k % 3 : k % 4) {
+    switch (frames_ ? 1 + k % 3 : k % 5) {
       case 0: {
         log_ << "clearPoses\n";
         world_->clearPoses();
@@ -473,6 +487,14 @@ class Run {
         if (frames_) check();
         return;
       }
+      case 4: {
+        // The clock goes back a little (a bag played again, a second /clock; further back the
+        // node forgets every pose: clearPoses()). Poses and checks follow from the new time.
+        static const int back_ms[] = {1, 10, 100, 400};
+        now_ns_ = std::max<std::int64_t>(now_ns_ - in_.pick(back_ms) * 1000000LL, 700000000LL);
+        log_ << "clock back to " << now_ns_ << "\n";
+        return;
+      }
       default: {
         const int j = static_cast<int>(in_.byte() % bodies_.size());
         if (i == j) return;
@@ -496,7 +518,7 @@ class Run {
 
   bool fresh(const RefBody& b, Stamp now) const {
     if (!b.exists || !b.has_pose || b.unresolved) return false;
-    return b.stamp.isStatic() || now - b.stamp <= s_.pose_timeout;
+    return b.stamp.isStatic() || now - b.fresh_from <= s_.pose_timeout;
   }
   bool allowed(int i, int j) const {
     if (i == j || !bodies_[i].exists || !bodies_[j].exists) return false;
@@ -547,6 +569,13 @@ class Run {
     const Stamp now = Stamp::fromNanoseconds(now_ns_);
     log_ << "check at " << now_ns_ << "\n";
     const cw::CycleResult r = world_->check(now);
+    // A check whose time is before the last one's (the clock went back): a pose that came after
+    // it ages from it (node.md).
+    if (last_check_ns_ && now_ns_ < *last_check_ns_) {
+      for (RefBody& b : bodies_)
+        if (!b.stamp.isStatic() && now < b.fresh_from) b.fresh_from = now;
+    }
+    last_check_ns_ = now_ns_;
     span_from_.reset();
     oldest_checked_.reset();
     for (const RefBody& b : bodies_) {
@@ -695,17 +724,18 @@ class Run {
         if (to == PairStatus::Unknown) continue;  // at the check's time, no verdict
         // A verdict: its distance gives it from the status before (not for an END of a pair no
         // longer allowed, which has none), and its stamp does not go back (while the pair is
-        // remembered).
+        // remembered: its next event after the world may have forgotten it starts again).
         if (may && !statusesNear(from, e.pair.distance).count(to)) {
           return fail("the transition " + std::string(name(from)) + " -> " + name(to) + " of " +
                       pk.first + "-" + pk.second + " at " + std::to_string(e.pair.distance) + " m");
         }
-        if (cycle_ - rp.last_busy <= kForgetAfterCycles && e.stamp < rp.last_event) {
+        if (!rp.forgettable && e.stamp < rp.last_event) {
           return fail("a verdict event of " + pk.first + "-" + pk.second +
                       " went back in stamp, from " + std::to_string(rp.last_event.nanoseconds()) +
                       " to " + std::to_string(e.stamp.nanoseconds()));
         }
-        rp.last_event = std::max(rp.last_event, e.stamp);
+        rp.last_event = rp.forgettable ? e.stamp : std::max(rp.last_event, e.stamp);
+        rp.forgettable = false;
       }
       const auto li = listed.find(pk);
       const PairStatus shown = li == listed.end() ? PairStatus::Clear : li->second->status;
@@ -715,6 +745,10 @@ class Run {
       }
       if (rp.status != PairStatus::Clear || status != PairStatus::Clear) rp.last_busy = cycle_;
       rp.status = status;
+      if (status == PairStatus::Clear && cycle_ - rp.last_busy > kForgetAfterCycles &&
+          now - rp.last_event > s_.pose_timeout) {
+        rp.forgettable = true;
+      }
     }
   }
 
@@ -872,10 +906,9 @@ class Run {
           const Stamp hi = std::max(lo, was == before_.end() ? Stamp() : was->second.max_to);
           evals = evaluations(i, j, std::max(lo, known), lo < known, to);
           const std::vector<Eval> other = evaluations(i, j, std::max(hi, known), hi < known, to);
-          // A CLEAR pair the world has not seen for kForgetAfterCycles checks may be forgotten,
-          // its last event's stamp with it: then it goes from the pair's last time alone.
-          const bool forgotten =
-              was != before_.end() && cycle_ - was->second.last_busy > kForgetAfterCycles;
+          // A pair the world may have forgotten (RefPair::forgettable), its last event's stamp
+          // with it, goes from the pair's last time alone.
+          const bool forgotten = was != before_.end() && was->second.forgettable;
           ambiguous = other.size() != evals.size() || (forgotten && prev < last_event);
           evals.back().at = std::max(to, last_event);
           pairs_[pk].max_to = std::max(pairs_[pk].max_to, to);
@@ -1062,6 +1095,7 @@ class Run {
   std::set<Key> disabled_;
   std::vector<std::pair<Key, PairStatus>> removed_;  ///< END events due at the next check
   std::int64_t now_ns_ = 1000000000LL;
+  std::optional<std::int64_t> last_check_ns_;
   std::uint64_t cycle_ = 0;
   std::ostringstream log_;
 };

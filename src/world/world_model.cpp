@@ -50,7 +50,9 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 /// Tracked pairs not reported by the broad phase for this many cycles are forgotten (their
-/// warm-start caches go with them). A pair hovering at the broad-phase margin keeps its cache.
+/// warm-start caches go with them), once their last event is more than pose_timeout old: the
+/// events of a fresh pose come no earlier, so the pair's next events stay in stamp order without
+/// it. A pair hovering at the broad-phase margin keeps its cache.
 constexpr std::uint64_t kForgetAfterCycles = 64;
 /// Why a query fails after abandonChecks(): its part queries were cut short.
 constexpr const char* kAbandoned = "checks abandoned: the monitor is shutting down";
@@ -1923,7 +1925,7 @@ CycleResult WorldModel::check(Stamp now) {
                    &res.events, &m.event_keys, m.rankKey(a, b));
         e.status = PairStatus::Clear;
       }
-      if (cycle - e.last_seen > kForgetAfterCycles) {
+      if (cycle - e.last_seen > kForgetAfterCycles && now - e.last_event > s.pose_timeout) {
         it = m.pairs.erase(it);
         continue;
       }

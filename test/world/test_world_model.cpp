@@ -4171,6 +4171,49 @@ TEST(WorldModel, GroupsKeepTheirMembersWhenUnusedGroupNamesAreForgotten) {
   EXPECT_EQ(events(r), (std::vector<Ev>{{E::CollisionBegin, "u", "v"}}));
 }
 
+TEST(WorldModel, APairIsRememberedUntilItsLastEventIsPoseTimeoutOld) {
+  // Checks every 10 ms (k), pose_timeout 2 s. Two static spheres (r 0.1) meet (COLLISION_BEGIN at
+  // k 0, the check's time) and part (END at k 1); b then stays 5 m off, beyond reach, unseen for
+  // 70 checks. Its next poses come from a source 1.21 s behind the clock (still fresh): back in
+  // contact at k 71, stamped 9.50 s. The pair's events stay in stamp order: that BEGIN carries
+  // its last event's stamp, k 1, where the world used to have forgotten the pair (64 checks
+  // unseen) with that stamp and gave 9.50 s, before the END at 10.01 s. It is forgotten (its
+  // warm-start cache with it) once unseen for 64 checks and its last event over 2 s old: at k
+  // 202, the first check more than 2 s after k 1 (unseen since k 72: 64 checks were up at 136).
+  Settings s = dyadic();
+  s.pose_timeout = 2.0;
+  const auto w = twoSpheres(s, "a", "b", 0.1);
+  const auto ms = [](int k) { return Stamp::fromNanoseconds(10000000000LL + k * 10000000LL); };
+  const auto events = [](const CycleResult& r) {
+    std::vector<std::pair<E, Stamp>> out;
+    for (const Event& e : r.events)
+      out.emplace_back(e.type, e.stamp);
+    return out;
+  };
+  using Got = std::vector<std::pair<E, Stamp>>;
+  ASSERT_TRUE(w->setPose("a", at(0), Stamp()));
+  ASSERT_TRUE(w->setPose("b", at(0.15), Stamp()));
+  EXPECT_EQ(events(w->check(ms(0))), (Got{{E::CollisionBegin, ms(0)}}));
+  ASSERT_TRUE(w->setPose("b", at(5), Stamp()));
+  const CycleResult apart = w->check(ms(1));
+  EXPECT_EQ(events(apart), (Got{{E::CollisionEnd, ms(1)}}));
+  EXPECT_EQ(apart.num_part_caches, 1u);
+  for (int k = 2; k <= 70; ++k)
+    EXPECT_EQ(events(w->check(ms(k))), Got()) << k;
+  ASSERT_TRUE(w->setPose("b", at(0.15), ms(71 - 121)));
+  EXPECT_EQ(events(w->check(ms(71))), (Got{{E::CollisionBegin, ms(1)}}));
+  ASSERT_TRUE(w->setPose("b", at(5), ms(72 - 121)));
+  EXPECT_EQ(events(w->check(ms(72))), (Got{{E::CollisionEnd, ms(1)}}));
+  int forgotten_at = -1;
+  for (int k = 73; k <= 250 && forgotten_at < 0; ++k) {
+    ASSERT_TRUE(w->setPose("b", at(5), ms(k - 121)));
+    const CycleResult r = w->check(ms(k));
+    ASSERT_TRUE(r.stale_bodies.empty()) << k;
+    if (r.num_part_caches == 0) forgotten_at = k;
+  }
+  EXPECT_EQ(forgotten_at, 202);
+}
+
 TEST(WorldModel, TwoChecksAtTheSameTimeAreNoClockGoingBack) {
   // b's pose is stamped 1/4 s ahead of the checks (no arrival time): it ages from its stamp,
   // fresh until 10.75, though check() is called twice at 10.0 (the clock did not go back).
