@@ -269,6 +269,14 @@ TEST(WorldModel, PosesAgeFromTheCheckThatSawTheClockGoBack) {
   EXPECT_TRUE(w.check(10.75).stale_bodies.empty());
   EXPECT_TRUE(w.check(10.625).stale_bodies.empty());  // back 0.125 s; 10.5 is not ahead of it
   EXPECT_EQ(w.check(11.125).stale_bodies, std::vector<std::string>{"b"});
+  // Nor a pose stamped ahead that came before the new time: stamped 12.25, come at 12.0, it
+  // ages from 12.0 after the clock went back to 12.0625 (stale at 12.53125, not fresh until
+  // 12.5625 as it would be from the check).
+  ASSERT_TRUE(w.setPose("b", at(2), 12.25, std::nullopt, Stamp(12.0)));
+  EXPECT_TRUE(w.check(12.125).stale_bodies.empty());
+  EXPECT_TRUE(w.check(12.0625).stale_bodies.empty());
+  EXPECT_TRUE(w.check(12.5).stale_bodies.empty());
+  EXPECT_EQ(w.check(12.53125).stale_bodies, std::vector<std::string>{"b"});
 }
 
 // SRDF <disable_default_collisions> and <enable_collisions>, as MoveIt reads them: a body off by
