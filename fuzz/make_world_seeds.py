@@ -2,8 +2,9 @@
 """Writes the seed corpus of the world model's fuzzer (fuzz/corpus/world/), deterministically.
 
 Each seed is the settings byte (every combination of its five low bits in turn; the last 64 seeds
-with bodies that turn, bit 7), then random bytes: world_case.h decodes any bytes, so random ones are a fair sample of
-its operations (poses, checks, replacements, removals, queries). Lengths from 40 to 1,200 bytes.
+with bodies that turn, bit 7), then random bytes: world_case.h decodes any bytes, so random ones
+are a fair sample of its operations (poses, checks, replacements, removals, queries). Lengths from
+40 to 1,200 bytes.
 Usage: fuzz/make_world_seeds.py [out_dir]
 """
 import os

@@ -5,8 +5,7 @@
 /// own), and a sequence of operations on a WorldModel (poses with stamps in and out of order,
 /// static poses, poses stamped ahead of the clock (aging from when they came), checks at times
 /// that move on by 0 to 0.7 s, the clock going back by up to 0.4 s, bodies replaced, removed and
-/// added
-/// again, unresolved poses, forgotten poses, new thresholds, disabled pairs, and the three
+/// added again, unresolved poses, forgotten poses, new thresholds, disabled pairs, and the three
 /// queries). Every check() is held to the contract:
 /// - always: the events replay as a status machine (END of the status a pair has, BEGIN from
 ///   CLEAR; catch-up may give several transitions of a pair, in stamp order), and the statuses
