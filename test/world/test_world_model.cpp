@@ -4193,25 +4193,24 @@ TEST(WorldModel, APairIsRememberedUntilItsLastEventIsPoseTimeoutOld) {
   const auto w = twoSpheres(s, "a", "b", 0.1);
   const auto ms = [](int k) { return Stamp::fromNanoseconds(10000000000LL + k * 10000000LL); };
   const auto events = [](const CycleResult& r) {
-    std::vector<std::pair<E, Stamp>> out;
+    Timeline out;
     for (const Event& e : r.events)
       out.emplace_back(e.type, e.stamp);
     return out;
   };
-  using Got = std::vector<std::pair<E, Stamp>>;
   ASSERT_TRUE(w->setPose("a", at(0), Stamp()));
   ASSERT_TRUE(w->setPose("b", at(0.15), Stamp()));
-  EXPECT_EQ(events(w->check(ms(0))), (Got{{E::CollisionBegin, ms(0)}}));
+  EXPECT_EQ(events(w->check(ms(0))), (Timeline{{E::CollisionBegin, ms(0)}}));
   ASSERT_TRUE(w->setPose("b", at(5), Stamp()));
   const CycleResult apart = w->check(ms(1));
-  EXPECT_EQ(events(apart), (Got{{E::CollisionEnd, ms(1)}}));
+  EXPECT_EQ(events(apart), (Timeline{{E::CollisionEnd, ms(1)}}));
   EXPECT_EQ(apart.num_part_caches, 1u);
   for (int k = 2; k <= 70; ++k)
-    EXPECT_EQ(events(w->check(ms(k))), Got()) << k;
+    EXPECT_EQ(events(w->check(ms(k))), Timeline()) << k;
   ASSERT_TRUE(w->setPose("b", at(0.15), ms(71 - 121)));
-  EXPECT_EQ(events(w->check(ms(71))), (Got{{E::CollisionBegin, ms(1)}}));
+  EXPECT_EQ(events(w->check(ms(71))), (Timeline{{E::CollisionBegin, ms(1)}}));
   ASSERT_TRUE(w->setPose("b", at(5), ms(72 - 121)));
-  EXPECT_EQ(events(w->check(ms(72))), (Got{{E::CollisionEnd, ms(1)}}));
+  EXPECT_EQ(events(w->check(ms(72))), (Timeline{{E::CollisionEnd, ms(1)}}));
   int forgotten_at = -1;
   for (int k = 73; k <= 250 && forgotten_at < 0; ++k) {
     ASSERT_TRUE(w->setPose("b", at(5), ms(k - 121)));
