@@ -75,7 +75,8 @@ failed=0
 for t in $TARGETS; do
   case "$t" in
     core) fuzz_one core "${CM_FUZZ_RUNS:--1}" -max_len=2048 || failed=1 ;;
-    # The set-up and up to 200 operations (a frame of six bodies reads 26 bytes, most read 2 to 6).
+    # The set-up and up to 200 operations (a frame of six bodies turning reads up to 34 bytes, most
+    # read 2 to 7).
     world) fuzz_one world "${CM_FUZZ_WORLD_RUNS:--1}" -max_len=1300 || failed=1 ;;
     # A message of 8 KB may not make an allocation above 64 MB (the layout walk's promise).
     ros) fuzz_one ros "${CM_FUZZ_ROS_RUNS:--1}" -max_len=8192 -malloc_limit_mb=64 || failed=1 ;;
