@@ -1,8 +1,10 @@
 #!/usr/bin/python3
 """Writes the seed corpus of the world model's fuzzer (fuzz/corpus/world/), deterministically.
 
-Each seed is the settings byte (every combination of its five low bits in turn; the last 64 seeds
-with bodies that turn, bit 7), then random bytes: world_case.h decodes any bytes, so random ones
+Each seed is the settings byte (every combination of its five low bits in turn; seeds 192 to 255
+with bodies that turn, bit 7; the 32 after them in frames mode with the clock going back, bit 5,
+each with or without rates and turns; the 32 after those of capsules, bit 6, every combination of
+the five low bits, half of them turning), then random bytes: world_case.h decodes any bytes, so random ones
 are a fair sample of its operations (poses, checks, replacements, removals, queries). Lengths from
 40 to 1,200 bytes.
 Usage: fuzz/make_world_seeds.py [out_dir]
@@ -17,8 +19,13 @@ def main():
         os.path.dirname(os.path.abspath(__file__)), "corpus", "world")
     os.makedirs(out, exist_ok=True)
     rng = random.Random(20261130)
-    for k in range(256):
-        flags = k % 32 | (128 if k >= 192 else 0)
+    for k in range(320):
+        if k < 256:
+            flags = k % 32 | (128 if k >= 192 else 0)
+        elif k < 288:
+            flags = 1 | 8 | 32 | (16 if k % 2 else 0) | (128 if k % 4 >= 2 else 0)
+        else:
+            flags = k % 32 | 64 | (128 if k % 2 else 0)
         length = rng.choice([40, 120, 300, 600, 1200])
         data = bytes([flags]) + bytes(rng.randrange(256) for _ in range(length - 1))
         with open(os.path.join(out, "seed_%03d_flags%d" % (k, flags)), "wb") as f:

@@ -1,12 +1,12 @@
 /// \file
 /// One case of the world model's fuzzer (fuzz_world.cpp; replayed by the gtest
 /// test_world_fuzz_regressions): the bytes decode into settings, up to six bodies of one or two
-/// spheres (which, in a case that turns bodies, turn with them, each body about an axis of its
-/// own), and a sequence of operations on a WorldModel (poses with stamps in and out of order,
-/// static poses, poses stamped ahead of the clock (aging from when they came), checks at times
-/// that move on by 0 to 0.7 s, the clock going back by up to 0.4 s, bodies replaced, removed and
-/// added again, unresolved poses, forgotten poses, new thresholds, disabled pairs, and the three
-/// queries). Every check() is held to the contract:
+/// spheres or capsules (which, in a case that turns bodies, turn with them, each body about an
+/// axis of its own), and a sequence of operations on a WorldModel (poses with stamps in and out of
+/// order, static poses, poses stamped ahead of the clock (aging from when they came), checks at
+/// times that move on by 0 to 0.7 s, the clock going back by up to 0.4 s (in frames mode too),
+/// bodies replaced, removed and added again, unresolved poses, forgotten poses, new thresholds,
+/// disabled pairs, and the three queries). Every check() is held to the contract:
 /// - always: the events replay as a status machine (END of the status a pair has, BEGIN from
 ///   CLEAR; catch-up may give several transitions of a pair, in stamp order), and the statuses
 ///   they leave are those listed (every pair in WARNING, COLLISION or UNKNOWN, sorted, no
@@ -15,11 +15,11 @@
 ///   the status machine at its distance; a transition's distance gives it from the status before;
 ///   min_distance is at most each listed distance; a pair's verdict events never go back in
 ///   stamp.
-/// - against a reference model that knows only the documented rules and the spheres' closed-form
-///   distances: every status, every event (type, order, distance, stamp), min_distance,
-///   distance() and checkHypothetical(), with align_poses off (each body at its latest pose) or
-///   in frames mode (align_poses on, every body posed at each frame's stamp: each pair stepped
-///   over every frame, as catch-up promises).
+/// - against a reference model that knows only the documented rules and the parts' closed-form
+///   distances (segment to segment): every status, every event (type, order, distance, stamp),
+///   min_distance, distance() and checkHypothetical(), with align_poses off (each body at its
+///   latest pose) or in frames mode (align_poses on, every body posed at each frame's stamp: each
+///   pair stepped over every frame, as catch-up promises).
 /// A failure is returned as text with the operations so far.
 #pragma once
 
@@ -51,10 +51,12 @@ using cw::Stamp;
 using cw::Vec3;
 
 struct Outcome {
-  std::string failure;  ///< empty: every check passed
-  bool exact = false;   ///< the reference model was used (align_poses off, or frames)
-  bool frames = false;  ///< frames mode (align_poses, every body posed at each frame's stamp)
-  bool turns = false;   ///< bodies turn as well (each about an axis of its own)
+  std::string failure;      ///< empty: every check passed
+  bool exact = false;       ///< the reference model was used (align_poses off, or frames)
+  bool frames = false;      ///< frames mode (align_poses, every body posed at each frame's stamp)
+  bool turns = false;       ///< bodies turn as well (each about an axis of its own)
+  bool clock_back = false;  ///< frames mode, and the clock went back
+  bool capsules = false;    ///< bodies of capsules rather than spheres
   int checks = 0;
   int events = 0;
   int collisions = 0;  ///< COLLISION_BEGIN events
@@ -78,8 +80,8 @@ class Reader {
 };
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-/// Closed-form distances against GJK's on spheres of up to 5 m apart, and the band around a
-/// threshold within which either status is accepted.
+/// Closed-form distances against GJK's on spheres and capsules of up to 5 m apart, and the band
+/// around a threshold within which either status is accepted.
 constexpr double kTol = 1e-8;
 /// world_model.cpp: a pair unseen for so many checks is forgotten, once its last event is more
 /// than pose_timeout old.
@@ -92,10 +94,42 @@ struct RefPose {
   double angle = 0.0;
 };
 
+/// A part of a body as the reference knows it: a sphere, or in a case of capsules a capsule (a
+/// segment swept by the radius; a sphere when the segment is a point).
+struct RefPart {
+  Vec3 centre;  ///< in the body frame
+  Vec3 half;    ///< half the segment, in the body frame: from the centre to one end
+  double radius;
+};
+
+/// The distance between segments [p0, p1] and [q0, q1] in closed form: the least of the squared
+/// distance |p0 + s (p1 - p0) - q0 - t (q1 - q0)|^2 over [0, 1]^2, a convex quadratic, lies at its
+/// stationary point when that is inside the square, else on an edge, where it is a clamped
+/// projection (written apart from the core's GJK, which it checks).
+inline double segmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
+  const auto toSegment = [](const Vec3& x, const Vec3& a, const Vec3& b) {
+    const Vec3 ab = b - a;
+    const double len2 = ab.squaredNorm();
+    const double t = len2 > 0.0 ? std::clamp((x - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+    return (a + t * ab - x).norm();
+  };
+  double best = std::min(
+      {toSegment(p0, q0, q1), toSegment(p1, q0, q1), toSegment(q0, p0, p1), toSegment(q1, p0, p1)});
+  const Vec3 u = p1 - p0, v = q1 - q0, w = p0 - q0;
+  const double a = u.dot(u), b = u.dot(v), c = v.dot(v), d = u.dot(w), e = v.dot(w);
+  const double det = a * c - b * b;
+  if (det > 1e-12 * a * c) {
+    const double sc = (b * e - c * d) / det, tc = (a * e - b * d) / det;
+    if (sc > 0.0 && sc < 1.0 && tc > 0.0 && tc < 1.0)
+      best = std::min(best, (w + sc * u - tc * v).norm());
+  }
+  return best;
+}
+
 /// A body as the reference knows it.
 struct RefBody {
   bool exists = false;
-  std::vector<std::pair<Vec3, double>> spheres;  ///< centre in the body frame, radius
+  std::vector<RefPart> parts;
   std::string group;
   Vec3 axis = Vec3::UnitZ();  ///< it turns about this axis through its origin, only
   bool has_pose = false;
@@ -230,14 +264,21 @@ class Run {
     frames_ = s_.align_poses && gjk && (flags & 8) != 0;
     rates_ = frames_ && (flags & 16) != 0;
     turns_ = (flags & 128) != 0;
+    // Bit 5 without bit 6 (a regression input from before has both): frames with checks at
+    // times before the last check's.
+    clock_back_ = frames_ && (flags & 0x60) == 0x20;
+    // Bit 6 without bit 5: capsules rather than spheres.
+    capsules_ = (flags & 0x60) == 0x40;
     out_.exact = exact_ || frames_;
     out_.frames = frames_;
     out_.turns = turns_;
+    out_.capsules = capsules_;
     world_.emplace(s_);
     log_ << "settings: w " << s_.warning_distance << " c " << s_.contact_distance << " h "
          << s_.hysteresis << " timeout " << s_.pose_timeout << " align " << s_.align_poses
          << " exact_min " << s_.exact_min_distance << " frames " << frames_ << " rates " << rates_
-         << " turns " << turns_ << " backend "
+         << " turns " << turns_ << " clock back " << clock_back_ << " capsules " << capsules_
+         << " backend "
          << (s_.backend == collision_monitor::core::BackendType::Gjk ? "gjk" : "libccd") << "\n";
     const int n = 2 + in_.byte() % 5;
     bodies_.resize(n);
@@ -257,12 +298,12 @@ class Run {
 
   static std::string id(int i) { return "b" + std::to_string(i); }
 
-  /// Adds (or replaces) body i with spheres decoded from the input.
+  /// Adds (or replaces) body i with spheres (or capsules) decoded from the input.
   void add(int i) {
     static const double radius[] = {0.05, 0.1, 0.2, 0.3};
     static const double offset[] = {0.0, 0.15, -0.25, 0.4};
     RefBody b = bodies_[i];
-    b.spheres.clear();
+    b.parts.clear();
     const std::uint8_t k = in_.byte();
     // When bodies turn, the first sphere may be off the body's origin too, up to 1.6 m out on a
     // lever: a turn between two poses then sweeps it through places neither pose's box is near
@@ -270,10 +311,20 @@ class Run {
     static const double lever[] = {0.0, 0.4, -0.9, 1.6};
     const Vec3 first = turns_ ? Vec3(lever[in_.byte() % 4], 0.0, 0.1) : Vec3::Zero();
     // Radii off the thresholds' grid (a tie with a threshold is accepted either way anyway).
-    b.spheres.emplace_back(first, radius[k % 4] + 1e-4 * std::sqrt(2.0 + i));
+    b.parts.push_back({first, Vec3::Zero(), radius[k % 4] + 1e-4 * std::sqrt(2.0 + i)});
     if (k & 4) {
-      b.spheres.emplace_back(Vec3(offset[(k >> 3) % 4], offset[(k >> 5) % 4], 0.07),
-                             radius[(k >> 1) % 4] * 0.5 + 1e-4 * std::sqrt(3.0 + i));
+      b.parts.push_back({Vec3(offset[(k >> 3) % 4], offset[(k >> 5) % 4], 0.07), Vec3::Zero(),
+                         radius[(k >> 1) % 4] * 0.5 + 1e-4 * std::sqrt(3.0 + i)});
+    }
+    // Capsules: each part's segment up to 1.6 m long, along an axis of the body's or across
+    // them; a segment reaches out of the part's centre as a lever does.
+    for (RefPart& part : b.parts) {
+      if (!capsules_) break;
+      static const double length[] = {0.0, 0.3, 0.8, 1.6};
+      static const Vec3 along[] = {Vec3::UnitX(), Vec3::UnitZ(), Vec3(1.0, 1.0, 0.0).normalized(),
+                                   Vec3(0.0, -0.6, 0.8)};
+      const std::uint8_t c = in_.byte();
+      part.half = 0.5 * length[c % 4] * along[(c >> 2) % 4];
     }
     b.group = (k & 0x80) && (k & 0x40) ? "g" : "";
     cw::BodySpec spec;
@@ -281,14 +332,20 @@ class Run {
     spec.frame = "map";
     spec.group = b.group;
     spec.pose_source = cw::PoseSource::Topic;
-    for (const auto& [c, r] : b.spheres) {
-      cw::Part part{ConvexShape::sphere(r), cw::Transform3::Identity()};
-      part.pose.t = c;
+    for (const RefPart& x : b.parts) {
+      cw::Part part{capsules_ ? ConvexShape::capsule(2.0 * x.half.norm(), x.radius)
+                              : ConvexShape::sphere(x.radius),
+                    cw::Transform3::Identity()};
+      part.pose.t = x.centre;
+      if (x.half != Vec3::Zero()) {
+        part.pose.R = Eigen::Quaterniond::FromTwoVectors(Vec3::UnitZ(), x.half).toRotationMatrix();
+      }
       spec.parts.push_back(part);
     }
-    log_ << "add " << spec.id << " (spheres";
-    for (const auto& [c, r] : b.spheres)
-      log_ << " r " << r << " at (" << c.transpose() << ")";
+    log_ << "add " << spec.id << " (" << (capsules_ ? "capsules" : "spheres");
+    for (const RefPart& x : b.parts)
+      log_ << " r " << x.radius << " at (" << x.centre.transpose() << ") half ("
+           << x.half.transpose() << ")";
     log_ << ", group '" << b.group << "')\n";
     const std::string why = world_->addBody(spec);
     if (!why.empty()) return fail("addBody refused: " + why);
@@ -460,7 +517,7 @@ class Run {
 
   void rare(int i) {
     const std::uint8_t k = in_.byte();
-    switch (frames_ ? 1 + k % 3 : k % 5) {
+    switch (frames_ ? 1 + k % (clock_back_ ? 4 : 3) : k % 5) {
       case 0: {
         log_ << "clearPoses\n";
         world_->clearPoses();
@@ -488,10 +545,16 @@ class Run {
       }
       case 4: {
         // The clock goes back a little (a bag played again, a second /clock; further back the
-        // node forgets every pose: clearPoses()). Poses and checks follow from the new time.
+        // node forgets every pose: clearPoses()). Poses and checks follow from the new time. In
+        // frames mode a check follows at once (the next would take the clock to the frames'
+        // time again): the frames since the last check, and those after, are ahead of it.
         static const int back_ms[] = {1, 10, 100, 400};
         now_ns_ = std::max<std::int64_t>(now_ns_ - in_.pick(back_ms) * 1000000LL, 700000000LL);
         log_ << "clock back to " << now_ns_ << "\n";
+        if (frames_) {
+          out_.clock_back = true;
+          check();
+        }
         return;
       }
       default: {
@@ -524,17 +587,19 @@ class Run {
     if (!bodies_[i].group.empty() && bodies_[i].group == bodies_[j].group) return false;
     return disabled_.count(key(i, j)) == 0;
   }
-  /// Where a sphere's centre `c` (body frame) of body b is at pose p: turned about b's axis.
-  static Vec3 centreAt(const RefBody& b, const RefPose& p, const Vec3& c) {
+  /// Where a point `c` (body frame) of body b is at pose p: turned about b's axis.
+  static Vec3 pointAt(const RefBody& b, const RefPose& p, const Vec3& c) {
     return p.position + Eigen::AngleAxisd(p.angle, b.axis) * c;
   }
   /// Closed-form signed distance of bodies i and j at poses pi and pj.
   double distanceAt(int i, const RefPose& pi, int j, const RefPose& pj) const {
     double best = kInf;
-    for (const auto& [ca, ra] : bodies_[i].spheres) {
-      for (const auto& [cb, rb] : bodies_[j].spheres) {
-        const Vec3 apart = centreAt(bodies_[i], pi, ca) - centreAt(bodies_[j], pj, cb);
-        best = std::min(best, apart.norm() - ra - rb);
+    for (const RefPart& x : bodies_[i].parts) {
+      for (const RefPart& y : bodies_[j].parts) {
+        const double apart = segmentDistance(
+            pointAt(bodies_[i], pi, x.centre - x.half), pointAt(bodies_[i], pi, x.centre + x.half),
+            pointAt(bodies_[j], pj, y.centre - y.half), pointAt(bodies_[j], pj, y.centre + y.half));
+        best = std::min(best, apart - x.radius - y.radius);
       }
     }
     return best;
@@ -586,9 +651,11 @@ class Run {
     for (RefBody& b : bodies_) {
       if (!fresh(b, now)) {
         b.frames.clear();  // its next pose starts again
-      } else if (!b.fresh_prev) {
-        b.known_from = firstFreshFrame(b, now);
+        continue;
       }
+      // Fresh again without a new frame (the clock went back): its pose is where it starts.
+      if (frames_ && b.frames.empty()) b.frames.emplace_back(b.stamp, b.pose);
+      if (!b.fresh_prev) b.known_from = firstFreshFrame(b, now);
     }
     ++cycle_;
     ++out_.checks;
@@ -751,7 +818,7 @@ class Run {
     }
   }
 
-  /// One evaluation of a pair in the reference: its time and the spheres' distance then.
+  /// One evaluation of a pair in the reference: its time and the bodies' distance then.
   struct Eval {
     Stamp stamp;  ///< the poses' time
     double d;
@@ -780,7 +847,7 @@ class Run {
         same = here[k]->type == want[k] && std::abs(here[k]->pair.distance - ev.d) <= kTol;
       if (!same || !statusesNear(st, ev.d).count(to)) {
         fail(pair + " at " + std::to_string(ev.at.nanoseconds()) + ": " + name(st) + " -> " +
-             name(to) + " (" + std::to_string(here.size()) + " events) where the spheres are " +
+             name(to) + " (" + std::to_string(here.size()) + " events) where the bodies are " +
              std::to_string(ev.d) + " m apart: the reference gives " + name(next(st, ev.d)));
         return std::nullopt;
       }
@@ -940,7 +1007,7 @@ class Run {
                 return p.body_a == pk.first && p.body_b == pk.second;
               });
           if (std::abs(it->distance - d) > kTol) {
-            return fail(pair + " listed at " + std::to_string(it->distance) + " m, the spheres " +
+            return fail(pair + " listed at " + std::to_string(it->distance) + " m, the bodies " +
                         std::to_string(d) + " m apart");
           }
         }
@@ -961,7 +1028,7 @@ class Run {
     if (s_.exact_min_distance || min_expected <= base - kTol) {
       if (!(std::abs(r.min_distance - min_expected) <= kTol) &&
           !(std::isinf(min_expected) && std::isinf(r.min_distance))) {
-        return fail("min_distance " + std::to_string(r.min_distance) + ", the spheres' " +
+        return fail("min_distance " + std::to_string(r.min_distance) + ", the bodies' " +
                     std::to_string(min_expected));
       }
     } else if (r.min_distance < min_expected - kTol ||
@@ -1005,7 +1072,7 @@ class Run {
       if (answerable != d.has_value()) return fail("distance refused: " + why);
       if (!d) return;
       if (std::abs(d->distance - want) > kTol || d->body_a != id(i)) {
-        return fail("distance " + std::to_string(d->distance) + ", the spheres " +
+        return fail("distance " + std::to_string(d->distance) + ", the bodies " +
                     std::to_string(want));
       }
       const auto it = pairs_.find(key(i, j));
@@ -1035,8 +1102,12 @@ class Run {
         continue;
       }
       double d = kInf;
-      for (const auto& [c, r] : bodies_[b].spheres)
-        d = std::min(d, (centreAt(bodies_[b], bodies_[b].pose, c) - p).norm() - r - 0.1);
+      for (const RefPart& x : bodies_[b].parts) {
+        const RefBody& B = bodies_[b];
+        d = std::min(d, segmentDistance(pointAt(B, B.pose, x.centre - x.half),
+                                        pointAt(B, B.pose, x.centre + x.half), p, p) -
+                            x.radius - 0.1);
+      }
       if (d <= margin + kTol || d <= s_.contact_distance + kTol) {
         want[id(b)] = {next(PairStatus::Clear, d), d};
       }
@@ -1081,9 +1152,11 @@ class Run {
   Outcome out_;
   cw::Settings s_;
   bool exact_ = false;
-  bool frames_ = false;  ///< align_poses, every body posed at each frame's stamp
-  bool rates_ = false;   ///< frames: only some bodies posed at a frame
-  bool turns_ = false;   ///< bodies turn (each about its own axis), not only move
+  bool frames_ = false;      ///< align_poses, every body posed at each frame's stamp
+  bool rates_ = false;       ///< frames: only some bodies posed at a frame
+  bool turns_ = false;       ///< bodies turn (each about its own axis), not only move
+  bool clock_back_ = false;  ///< frames: the clock may go back, a check at once
+  bool capsules_ = false;    ///< bodies of capsules (segments swept by a radius), not spheres
   std::int64_t frame_ns_ = 0;
   std::optional<std::int64_t> span_from_;       ///< the first frame's stamp since the last check
   std::optional<std::int64_t> oldest_checked_;  ///< the oldest stamp of a fresh body then

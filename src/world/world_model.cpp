@@ -1670,6 +1670,9 @@ CycleResult WorldModel::check(Stamp now) {
     b.fresh_prev = b.fresh;
     b.fresh = b.isFresh(now, s.pose_timeout);
     if (b.fresh) {
+      // Fresh again without a new pose (the clock went back, or pose_timeout grew): the held
+      // pose, forgotten with the others while the body was stale, is where its next move starts.
+      if (!b.stamp.isStatic() && b.history.empty()) b.history.push(b.stamp, b.at.pose, b.at.box);
       m.active.push_back(slot);
       stamps.add(b);
       b.new_stamps = 0;

@@ -21,7 +21,8 @@ using cm_fuzz_inputs::bytes;
 using cm_fuzz_inputs::inputs;
 
 struct Tally {
-  int files = 0, exact = 0, frames = 0, turns = 0, checks = 0, events = 0, collisions = 0;
+  int files = 0, exact = 0, frames = 0, turns = 0, clock_back = 0, capsules = 0, checks = 0,
+      events = 0, collisions = 0;
   double slowest = 0.0;
 };
 
@@ -35,16 +36,19 @@ Tally replay(const std::string& dir) {
     t.exact += out.exact;
     t.frames += out.frames;
     t.turns += out.turns && out.exact;
+    t.clock_back += out.clock_back;
+    t.capsules += out.capsules && out.exact;
     t.checks += out.checks;
     t.events += out.events;
     t.collisions += out.collisions;
     t.slowest = std::max(t.slowest, out.seconds);
   }
   std::printf(
-      "%s: %d inputs (%d against the reference model, %d of them in frames, %d with bodies that "
-      "turn), %d checks, %d events (%d COLLISION_BEGIN), slowest %.1f ms\n",
-      dir.c_str(), t.files, t.exact, t.frames, t.turns, t.checks, t.events, t.collisions,
-      1e3 * t.slowest);
+      "%s: %d inputs (%d against the reference model, %d of them in frames, %d of those with the "
+      "clock going back, %d with bodies that turn, %d of capsules), %d checks, %d events (%d "
+      "COLLISION_BEGIN), slowest %.1f ms\n",
+      dir.c_str(), t.files, t.exact, t.frames, t.clock_back, t.turns, t.capsules, t.checks,
+      t.events, t.collisions, 1e3 * t.slowest);
   return t;
 }
 
@@ -52,20 +56,22 @@ Tally replay(const std::string& dir) {
 
 TEST(WorldFuzzRegressions, EveryFailingInputPasses) {
   const Tally t = replay(CM_FUZZ_DIR "/regressions/world");
-  // Regression inputs are only ever added (5 on 2026-11-30), and all but one (of the checks held
+  // Regression inputs are only ever added (6 on 2026-11-30), and all but one (of the checks held
   // in every mode) reach the reference.
-  EXPECT_GE(t.files, 5) << "regression inputs lost from " CM_FUZZ_DIR "/regressions/world";
-  EXPECT_GE(t.exact, 4);
+  EXPECT_GE(t.files, 6) << "regression inputs lost from " CM_FUZZ_DIR "/regressions/world";
+  EXPECT_GE(t.exact, 5);
 }
 
 TEST(WorldFuzzRegressions, SeedCorpusPassesAndIsMeaningful) {
   const Tally t = replay(CM_FUZZ_DIR "/corpus/world");
   ASSERT_GE(t.files, 100);
-  // The seeds reach the reference model (catch-up too: frames; bodies that turn) and the events,
-  // collisions among them.
+  // The seeds reach the reference model (catch-up too: frames, in some with the clock going
+  // back; bodies that turn; capsules) and the events, collisions among them.
   EXPECT_GE(t.exact, t.files / 4);
   EXPECT_GE(t.frames, t.files / 8);
+  EXPECT_GE(t.clock_back, t.files / 40);
   EXPECT_GE(t.turns, t.files / 16);
+  EXPECT_GE(t.capsules, t.files / 40);
   EXPECT_GE(t.checks, 10 * t.files);
   EXPECT_GE(t.collisions, t.files);
 }

@@ -1644,6 +1644,46 @@ TEST(WorldModel, ABodyBackFromASpellWithoutPosesIsNotInterpolatedAcrossIt) {
   }
 }
 
+TEST(WorldModel, APoseFreshAgainWithoutANewOneIsWhereTheNextMoveStarts) {
+  // a (r 0.125) at x = 0 and b at x = 1, both at 10.0, go stale; the clock goes back (or
+  // pose_timeout grows) and the same poses are fresh again: the pair ends its UNKNOWN at 10.0.
+  // Then a moves to x = 0.5 at 10.125 and b to x = 0.5625 at 10.25. The pair's time is a's
+  // older stamp, b halfway there, x = 0.78125: WARNING at 0.03125 m. The fresh-again poses had
+  // left the bodies' kept poses when they went stale, so each body's next pose read as its first
+  // since the spell, the bodies as still, and the pair was checked at 10.25, a held at x = 0.5:
+  // COLLISION at -0.1875 m (the world-model fuzzer, frames with the clock going back, forty-
+  // fourth session).
+  for (const bool clock_back : {true, false}) {
+    SCOPED_TRACE(clock_back ? "the clock goes back" : "pose_timeout grows");
+    Settings s = dyadic();
+    s.align_poses = true;
+    const auto w = twoSpheres(s, "a", "b", 0.125);
+    ASSERT_TRUE(w->setPose("a", at(0), 10.0));
+    ASSERT_TRUE(w->setPose("b", at(1), 10.0));
+    EXPECT_TRUE(w->check(10.0).events.empty());
+    CycleResult r = w->check(10.75);
+    ASSERT_EQ(r.events.size(), 1u);
+    EXPECT_EQ(r.events[0].type, E::UnknownBegin);
+    if (!clock_back) {
+      s.pose_timeout = 1.0;
+      w->setSettings(s);
+    }
+    r = w->check(clock_back ? 10.25 : 10.75);
+    ASSERT_EQ(r.events.size(), 1u);
+    EXPECT_EQ(r.events[0].type, E::UnknownEnd);
+    EXPECT_EQ(r.events[0].stamp, Stamp(10.0));
+    EXPECT_EQ(r.events[0].pair.distance, 0.75);
+    ASSERT_TRUE(w->setPose("a", at(0.5), 10.125));
+    ASSERT_TRUE(w->setPose("b", at(0.5625), 10.25));
+    r = w->check(clock_back ? 10.375 : 10.875);
+    ASSERT_EQ(r.events.size(), 1u);
+    EXPECT_EQ(r.events[0].type, E::WarningBegin);
+    EXPECT_EQ(r.events[0].stamp, Stamp(10.125));
+    EXPECT_NEAR(r.events[0].pair.distance, 0.03125, 1e-12);
+    EXPECT_EQ(statuses(r), (std::map<Key, S>{{{"a", "b"}, S::Warning}}));
+  }
+}
+
 TEST(WorldModel, ForgottenPosesTakeTheirEventStampsAlong) {
   // Time jumps back (the node forgets the poses): the next verdicts carry the new poses' stamps.
   // They carried the last event's stamp from before the jump, 100 s, until the clock passed it
