@@ -648,13 +648,17 @@ class Run {
         oldest_checked_ = b.stamp.nanoseconds();
       }
     }
+    revived_.clear();
     for (RefBody& b : bodies_) {
       if (!fresh(b, now)) {
         b.frames.clear();  // its next pose starts again
         continue;
       }
       // Fresh again without a new frame (the clock went back): its pose is where it starts.
-      if (frames_ && b.frames.empty()) b.frames.emplace_back(b.stamp, b.pose);
+      if (frames_ && b.frames.empty()) {
+        b.frames.emplace_back(b.stamp, b.pose);
+        revived_.insert(&b - bodies_.data());
+      }
       if (!b.fresh_prev) b.known_from = firstFreshFrame(b, now);
     }
     ++cycle_;
@@ -975,7 +979,13 @@ class Run {
           // A pair the world may have forgotten (RefPair::forgettable), its last event's stamp
           // with it, goes from the pair's last time alone.
           const bool forgotten = was != before_.end() && was->second.forgettable;
-          ambiguous = other.size() != evals.size() || (forgotten && prev < last_event);
+          // A body fresh again without a new pose (the clock went back) may bring a stamp before
+          // the other body's kept poses: the world keeps every pose of the last pose_timeout
+          // only while its checks find stamps apart (WorldModel::keepsPoses()), else the last
+          // two, and places a body before its first kept pose at that pose. The reference does
+          // not model which poses are kept: such a pair, too, is taken as the world has it.
+          ambiguous = other.size() != evals.size() || (forgotten && prev < last_event) ||
+                      revived_.count(i) > 0 || revived_.count(j) > 0;
           evals.back().at = std::max(to, last_event);
           pairs_[pk].max_to = std::max(pairs_[pk].max_to, to);
         } else {
@@ -1165,6 +1175,7 @@ class Run {
   std::map<Key, RefPair> pairs_;
   std::map<Key, RefPair> before_;  ///< pairs_ before the check's events
   std::set<Key> disabled_;
+  std::set<int> revived_;  ///< frames: bodies fresh again at this check without a new pose
   std::vector<std::pair<Key, PairStatus>> removed_;  ///< END events due at the next check
   std::int64_t now_ns_ = 1000000000LL;
   std::optional<std::int64_t> last_check_ns_;
