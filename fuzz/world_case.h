@@ -318,13 +318,14 @@ class Run {
     }
     // Capsules: each part's segment up to 1.6 m long, along an axis of the body's or across
     // them; a segment reaches out of the part's centre as a lever does.
+    static const double length[] = {0.0, 0.3, 0.8, 1.6};
+    static const Vec3 along[] = {Vec3::UnitX(), Vec3::UnitZ(), Vec3(1.0, 1.0, 0.0).normalized(),
+                                 Vec3(0.0, -0.6, 0.8)};
     for (RefPart& part : b.parts) {
-      if (!capsules_) break;
-      static const double length[] = {0.0, 0.3, 0.8, 1.6};
-      static const Vec3 along[] = {Vec3::UnitX(), Vec3::UnitZ(), Vec3(1.0, 1.0, 0.0).normalized(),
-                                   Vec3(0.0, -0.6, 0.8)};
-      const std::uint8_t c = in_.byte();
-      part.half = 0.5 * length[c % 4] * along[(c >> 2) % 4];
+      if (capsules_) {
+        const std::uint8_t c = in_.byte();
+        part.half = 0.5 * length[c % 4] * along[(c >> 2) % 4];
+      }
     }
     b.group = (k & 0x80) && (k & 0x40) ? "g" : "";
     cw::BodySpec spec;
@@ -657,7 +658,7 @@ class Run {
       // Fresh again without a new frame (the clock went back): its pose is where it starts.
       if (frames_ && b.frames.empty()) {
         b.frames.emplace_back(b.stamp, b.pose);
-        revived_.insert(&b - bodies_.data());
+        revived_.insert(static_cast<int>(&b - bodies_.data()));
       }
       if (!b.fresh_prev) b.known_from = firstFreshFrame(b, now);
     }
@@ -1112,8 +1113,8 @@ class Run {
         continue;
       }
       double d = kInf;
-      for (const RefPart& x : bodies_[b].parts) {
-        const RefBody& B = bodies_[b];
+      const RefBody& B = bodies_[b];
+      for (const RefPart& x : B.parts) {
         d = std::min(d, segmentDistance(pointAt(B, B.pose, x.centre - x.half),
                                         pointAt(B, B.pose, x.centre + x.half), p, p) -
                             x.radius - 0.1);
