@@ -4,9 +4,9 @@
 Each seed is the settings byte (every combination of its five low bits in turn; seeds 192 to 255
 with bodies that turn, bit 7; the 32 after them in frames mode with the clock going back, bit 5,
 each with or without rates and turns; the 32 after those of capsules, bit 6, every combination of
-the five low bits, half of them turning), then random bytes: world_case.h decodes any bytes, so random ones
-are a fair sample of its operations (poses, checks, replacements, removals, queries). Lengths from
-40 to 1,200 bytes.
+the five low bits, half of them turning), then random bytes: world_case.h decodes any bytes, so
+random ones are a fair sample of its operations (poses, checks, replacements, removals, queries).
+Lengths from 40 to 1,200 bytes.
 Usage: fuzz/make_world_seeds.py [out_dir]
 """
 import os
