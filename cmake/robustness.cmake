@@ -86,7 +86,8 @@ if(NOT COLLISION_MONITOR_CORE_ONLY)
     SOURCES test/robustness/test_world_fuzz_regressions.cpp
     LIBS collision_monitor_world)
   if(TARGET test_world_fuzz_regressions)
-    target_include_directories(test_world_fuzz_regressions PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/fuzz)
+    target_include_directories(test_world_fuzz_regressions PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/fuzz
+      ${CMAKE_CURRENT_SOURCE_DIR}/test/core)
     target_compile_definitions(test_world_fuzz_regressions PRIVATE
       CM_FUZZ_DIR="${CMAKE_CURRENT_SOURCE_DIR}/fuzz")
   endif()

@@ -40,6 +40,7 @@
 #include <Eigen/Geometry>
 
 #include "collision_monitor/world/world_model.h"
+#include "oracle.h"
 
 namespace cm_fuzz_world {
 
@@ -102,28 +103,11 @@ struct RefPart {
   double radius;
 };
 
-/// The distance between segments [p0, p1] and [q0, q1] in closed form: the least of the squared
-/// distance |p0 + s (p1 - p0) - q0 - t (q1 - q0)|^2 over [0, 1]^2, a convex quadratic, lies at its
-/// stationary point when that is inside the square, else on an edge, where it is a clamped
-/// projection (written apart from the core's GJK, which it checks).
+/// The distance between segments [p0, p1] and [q0, q1]: the core tests' exact oracle (long double,
+/// written apart from the core's GJK, which it checks).
 inline double segmentDistance(const Vec3& p0, const Vec3& p1, const Vec3& q0, const Vec3& q1) {
-  const auto toSegment = [](const Vec3& x, const Vec3& a, const Vec3& b) {
-    const Vec3 ab = b - a;
-    const double len2 = ab.squaredNorm();
-    const double t = len2 > 0.0 ? std::clamp((x - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
-    return (a + t * ab - x).norm();
-  };
-  double best = std::min(
-      {toSegment(p0, q0, q1), toSegment(p1, q0, q1), toSegment(q0, p0, p1), toSegment(q1, p0, p1)});
-  const Vec3 u = p1 - p0, v = q1 - q0, w = p0 - q0;
-  const double a = u.dot(u), b = u.dot(v), c = v.dot(v), d = u.dot(w), e = v.dot(w);
-  const double det = a * c - b * b;
-  if (det > 1e-12 * a * c) {
-    const double sc = (b * e - c * d) / det, tc = (a * e - b * d) / det;
-    if (sc > 0.0 && sc < 1.0 && tc > 0.0 && tc < 1.0)
-      best = std::min(best, (w + sc * u - tc * v).norm());
-  }
-  return best;
+  Vec3 on_p, on_q;
+  return oracle::closestSegmentSegment(p0, p1, q0, q1, &on_p, &on_q);
 }
 
 /// A body as the reference knows it.
