@@ -3,10 +3,11 @@
 /// test_world_fuzz_regressions): the bytes decode into settings, up to six bodies of one or two
 /// spheres or capsules (which, in a case that turns bodies, turn with them, each body about an
 /// axis of its own), and a sequence of operations on a WorldModel (poses with stamps in and out of
-/// order, static poses, poses stamped ahead of the clock (aging from when they came), checks at
-/// times that move on by 0 to 0.7 s, the clock going back by up to 0.4 s (in frames mode too),
-/// bodies replaced, removed and added again, unresolved poses, forgotten poses, new thresholds,
-/// disabled pairs, and the three queries). Every check() is held to the contract:
+/// order, with or without twists, static poses, poses stamped ahead of the clock (aging from when
+/// they came), checks at times that move on by 0 to 0.7 s, the clock going back by up to 0.4 s
+/// (in frames mode too), bodies replaced, removed and added again, unresolved poses, forgotten
+/// poses, new thresholds, disabled pairs, and the three queries). Every check() is held to the
+/// contract:
 /// - always: the events replay as a status machine (END of the status a pair has, BEGIN from
 ///   CLEAR; catch-up may give several transitions of a pair, in stamp order), and the statuses
 ///   they leave are those listed (every pair in WARNING, COLLISION or UNKNOWN, sorted, no
@@ -19,7 +20,10 @@
 ///   distances (segment to segment): every status, every event (type, order, distance, stamp),
 ///   min_distance, distance() and checkHypothetical(), with align_poses off (each body at its
 ///   latest pose) or in frames mode (align_poses on, every body posed at each frame's stamp: each
-///   pair stepped over every frame, as catch-up promises).
+///   pair stepped over every frame, as catch-up promises); with twists (align_poses off), every
+///   time_to_collision given (listed pairs, events, distance(), checkHypothetical()) against
+///   the first time the closed-form distance under the twists comes within 1e-7 m of
+///   contact_distance and the first time it passes it by more (checkTtc()).
 /// A failure is returned as text with the operations so far.
 #pragma once
 
@@ -27,6 +31,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <map>
 #include <optional>
@@ -58,9 +63,18 @@ struct Outcome {
   bool turns = false;       ///< bodies turn as well (each about an axis of its own)
   bool clock_back = false;  ///< frames mode, and the clock went back
   bool capsules = false;    ///< bodies of capsules rather than spheres
+  bool twists = false;      ///< poses with twists: times to collision held to the reference
   int checks = 0;
   int events = 0;
-  int collisions = 0;  ///< COLLISION_BEGIN events
+  int collisions = 0;       ///< COLLISION_BEGIN events
+  int ttc_checked = 0;      ///< times to collision held to the reference
+  int ttc_finite = 0;       ///< of them, finite and not 0 (the bodies approach)
+  int ttc_rotating = 0;     ///< of them, with a body turning
+  int ttc_lower_bound = 0;  ///< of those, a lower bound short of the contact (128 steps ran out)
+  int ttc_skipped = 0;      ///< left unjudged: the reference's search ran out of evaluations
+  /// The least of those lower bounds as a fraction of the time the bodies come within 1e-7 m of
+  /// contact_distance (1 without one; a later contact than the horizon counts as the horizon).
+  double ttc_least_fraction = 1.0;
   double seconds = 0.0;
 };
 
@@ -123,6 +137,11 @@ struct RefBody {
   /// clock), or the time of a check that saw the clock go back before it.
   Stamp fresh_from;
   RefPose pose;
+  /// The twist of its latest pose (a twists case): linear velocity in the fixed frame, and a
+  /// turn about its own axis (RefBody::axis, through its origin) at `rate` rad/s.
+  bool has_twist = false;
+  Vec3 linear = Vec3::Zero();
+  double rate = 0.0;
   /// Frames mode: its poses since the last check that found it stale (or since it came), and
   /// the first of them within pose_timeout of the first check that found it fresh since.
   std::vector<std::pair<Stamp, RefPose>> frames;
@@ -253,16 +272,27 @@ class Run {
     clock_back_ = frames_ && (flags & 0x60) == 0x20;
     // Bit 6 without bit 5: capsules rather than spheres.
     capsules_ = (flags & 0x60) == 0x40;
+    // Bits 5 and 6 with align_poses off, or in frames without rates (the regression input with
+    // both bits is of frames with rates): poses with twists, and a second settings byte
+    // (capsules, the horizon for turning bodies).
+    twists_ = (flags & 0x60) == 0x60 && (!s_.align_poses || (frames_ && !rates_));
+    if (twists_) {
+      static const double horizon[] = {10.0, 1.0, 0.25, 3.0};
+      const std::uint8_t more = in_.byte();
+      capsules_ = (more & 1) != 0;
+      s_.ttc_horizon = horizon[(more >> 1) % 4];
+    }
     out_.exact = exact_ || frames_;
     out_.frames = frames_;
     out_.turns = turns_;
     out_.capsules = capsules_;
+    out_.twists = twists_;
     world_.emplace(s_);
     log_ << "settings: w " << s_.warning_distance << " c " << s_.contact_distance << " h "
          << s_.hysteresis << " timeout " << s_.pose_timeout << " align " << s_.align_poses
          << " exact_min " << s_.exact_min_distance << " frames " << frames_ << " rates " << rates_
          << " turns " << turns_ << " clock back " << clock_back_ << " capsules " << capsules_
-         << " backend "
+         << " twists " << twists_ << " horizon " << s_.ttc_horizon << " backend "
          << (s_.backend == collision_monitor::core::BackendType::Gjk ? "gjk" : "libccd") << "\n";
     const int n = 2 + in_.byte() % 5;
     bodies_.resize(n);
@@ -338,6 +368,7 @@ class Run {
       b.has_pose = false;
       b.unresolved = false;
       b.stamp = Stamp();
+      b.has_twist = false;
       b.frames.clear();
       b.fresh_prev = false;
     }
@@ -399,10 +430,12 @@ class Run {
     const RefPose p{position(b.pose.position), turns_ ? (in_.byte() - 128) * 0.05 : 0.0};
     const int off = in_.pick(offset_ms);
     const Stamp stamp = off == 1000 ? Stamp() : Stamp::fromNanoseconds(now_ns_ + off * 1000000LL);
-    log_ << "setPose " << id(i) << " " << describe(p) << " at " << stamp.nanoseconds() << "\n";
+    const std::optional<cw::Twist> twist = twists_ ? twistFor(b) : std::nullopt;
+    log_ << "setPose " << id(i) << " " << describe(p) << " at " << stamp.nanoseconds()
+         << describe(twist) << "\n";
     // As the node does: with the ROS time it came (a pose stamped ahead ages from then).
     const Stamp came = Stamp::fromNanoseconds(now_ns_);
-    const bool ok = world_->setPose(id(i), transform(b, p), stamp, std::nullopt, came);
+    const bool ok = world_->setPose(id(i), transform(b, p), stamp, twist, came);
     const bool expected =
         b.exists && !(b.has_pose && !stamp.isStatic() && !b.stamp.isStatic() && stamp < b.stamp);
     if (ok != expected) {
@@ -415,6 +448,35 @@ class Run {
     b.stamp = stamp;
     b.fresh_from = std::min(stamp, came);
     b.pose = p;
+    setTwist(&b, twist);
+  }
+
+  /// Body b's twist from its latest pose's (none: at rest).
+  static void setTwist(RefBody* b, const std::optional<cw::Twist>& twist) {
+    b->has_twist = twist.has_value();
+    b->linear = twist ? twist->linear : Vec3::Zero();
+    b->rate = twist ? twist->angular.dot(b->axis) : 0.0;
+  }
+
+  /// A twists case: none, or a linear velocity of up to 3 m/s (0 too) and, when bodies turn, a
+  /// turn about the body's own axis of up to 7 rad/s.
+  std::optional<cw::Twist> twistFor(const RefBody& b) {
+    static const double speed[] = {0.0, 0.05, 0.5, 3.0};
+    static const Vec3 dir[] = {Vec3::UnitX(),
+                               -Vec3::UnitX(),
+                               Vec3::UnitY(),
+                               -Vec3::UnitY(),
+                               Vec3(1.0, 1.0, 0.0).normalized(),
+                               Vec3(-1.0, 0.5, 0.2).normalized(),
+                               -Vec3::UnitZ(),
+                               Vec3(0.3, -0.9, 0.1).normalized()};
+    static const double rate[] = {0.0, 0.4, -2.5, 7.0};
+    const std::uint8_t k = in_.byte();
+    if ((k & 1) == 0) return std::nullopt;
+    cw::Twist t;
+    t.linear = speed[(k >> 1) % 4] * dir[(k >> 3) % 8];
+    if (turns_) t.angular = rate[(k >> 6) % 4] * b.axis;
+    return t;
   }
 
   /// The world's pose for a reference pose of body b.
@@ -428,6 +490,12 @@ class Run {
     std::ostringstream out;
     out << "(" << p.position.transpose() << ")";
     if (p.angle != 0.0) out << " turned " << p.angle;
+    return out.str();
+  }
+  static std::string describe(const std::optional<cw::Twist>& t) {
+    if (!t) return "";
+    std::ostringstream out;
+    out << " twist (" << t->linear.transpose() << ") (" << t->angular.transpose() << ")";
     return out.str();
   }
 
@@ -466,10 +534,12 @@ class Run {
       if (b.has_pose && p.position == b.pose.position) {
         p.position.x() += 1e-6;  // every pose moves (moving() above)
       }
-      log_ << "  " << id(i) << " " << describe(p) << "\n";
-      if (!world_->setPose(id(i), transform(b, p), Stamp::fromNanoseconds(stamp))) {
+      const std::optional<cw::Twist> twist = twists_ ? twistFor(b) : std::nullopt;
+      log_ << "  " << id(i) << " " << describe(p) << describe(twist) << "\n";
+      if (!world_->setPose(id(i), transform(b, p), Stamp::fromNanoseconds(stamp), twist)) {
         return fail("setPose of a frame refused");
       }
+      setTwist(&b, twist);
       b.has_pose = true;
       b.stamp = Stamp::fromNanoseconds(stamp);
       b.fresh_from = b.stamp;
@@ -511,6 +581,7 @@ class Run {
           b.has_pose = false;
           b.unresolved = false;
           b.stamp = Stamp();
+          b.has_twist = false;
         }
         for (auto& kv : pairs_)
           kv.second.last_event = Stamp();
@@ -576,21 +647,138 @@ class Run {
   static Vec3 pointAt(const RefBody& b, const RefPose& p, const Vec3& c) {
     return p.position + Eigen::AngleAxisd(p.angle, b.axis) * c;
   }
-  /// Closed-form signed distance of bodies i and j at poses pi and pj.
-  double distanceAt(int i, const RefPose& pi, int j, const RefPose& pj) const {
+  /// Closed-form signed distance of bodies A and B at poses pa and pb.
+  static double bodyDistance(const RefBody& A, const RefPose& pa, const RefBody& B,
+                             const RefPose& pb) {
     double best = kInf;
-    for (const RefPart& x : bodies_[i].parts) {
-      for (const RefPart& y : bodies_[j].parts) {
-        const double apart = segmentDistance(
-            pointAt(bodies_[i], pi, x.centre - x.half), pointAt(bodies_[i], pi, x.centre + x.half),
-            pointAt(bodies_[j], pj, y.centre - y.half), pointAt(bodies_[j], pj, y.centre + y.half));
+    for (const RefPart& x : A.parts) {
+      for (const RefPart& y : B.parts) {
+        const double apart =
+            segmentDistance(pointAt(A, pa, x.centre - x.half), pointAt(A, pa, x.centre + x.half),
+                            pointAt(B, pb, y.centre - y.half), pointAt(B, pb, y.centre + y.half));
         best = std::min(best, apart - x.radius - y.radius);
       }
     }
     return best;
   }
+  double distanceAt(int i, const RefPose& pi, int j, const RefPose& pj) const {
+    return bodyDistance(bodies_[i], pi, bodies_[j], pj);
+  }
   /// At their latest poses.
   double distance(int i, int j) const { return distanceAt(i, bodies_[i].pose, j, bodies_[j].pose); }
+  /// Times to collision: the reference's search keeps to this precision (s) and gives up after
+  /// so many distances; a world time within kBand (m) of contact_distance counts as contact.
+  static constexpr double kTimeTol = 1e-9;
+  static constexpr int kSearchBudget = 200000;
+  static constexpr double kBand = 1e-7;
+
+  /// The first time in [0, T] at which D <= level, D being L-Lipschitz in time: within kTimeTol
+  /// after a crossing, never before one; +inf when there is none; nullopt when the search takes
+  /// more than kSearchBudget distances. A span whose ends leave D no room to reach the level
+  /// between them is passed over; the others are halved, the earlier half searched first.
+  static std::optional<double> firstBelow(const std::function<double(double)>& D, double L,
+                                          double T, double level) {
+    const double d0 = D(0.0);
+    if (d0 <= level) return 0.0;
+    if (!(L > 0.0)) return kInf;  // D does not change
+    struct Span {
+      double lo, hi, dlo, dhi;
+    };
+    std::vector<Span> todo{{0.0, T, d0, D(T)}};
+    for (int budget = kSearchBudget; !todo.empty();) {
+      const Span s = todo.back();
+      todo.pop_back();
+      // The least D can be between the ends: where the slopes L down from both meet.
+      if (0.5 * (s.dlo + s.dhi) - 0.5 * L * (s.hi - s.lo) > level) continue;
+      if (s.hi - s.lo <= kTimeTol) {
+        if (s.dhi <= level) return s.hi;
+        continue;  // a dip within kTimeTol: at most L * kTimeTol / 2 deep
+      }
+      if (--budget < 0) return std::nullopt;
+      const double mid = 0.5 * (s.lo + s.hi), dm = D(mid);
+      todo.push_back({mid, s.hi, dm, s.dhi});
+      todo.push_back({s.lo, mid, s.dlo, dm});
+    }
+    return kInf;
+  }
+
+  /// The farthest a point of a part's core (segment) reaches from its body's origin.
+  static double coreReach(const RefBody& b) {
+    double r = 0.0;
+    for (const RefPart& x : b.parts)
+      r = std::max(r, x.centre.norm() + x.half.norm());
+    return r;
+  }
+
+  /// A time to collision the world gave (`got`) for bodies A and B at poses pa and pb, held to
+  /// the reference (node.md): under their twists (a body without one at rest; a linear velocity
+  /// and a turn about its own axis through its origin), the first time their distance is within
+  /// kBand of contact_distance (lo) and the first time it is below that by more (hi), searched
+  /// over the distance in closed form, Lipschitz in time at the bodies' relative speed bound
+  /// (the linear velocities' difference plus each turn rate times the body's core reach).
+  /// `got` must be between the two. With a turn, the search ends at ttc_horizon (+inf when hi is
+  /// later), and `got` may also be a lower bound (the world's 128 steps can run out before the
+  /// contact): never after hi, +inf only when hi is, and never after the horizon.
+  void checkTtc(const std::string& what, const RefBody& A, const RefPose& pa, const RefBody& B,
+                const RefPose& pb, double got) {
+    if (!twists_ || !(exact_ || frames_)) return;  // only where the reference is used
+    const Vec3 va = A.has_twist ? A.linear : Vec3::Zero();
+    const Vec3 vb = B.has_twist ? B.linear : Vec3::Zero();
+    const double ra = A.has_twist ? A.rate : 0.0, rb = B.has_twist ? B.rate : 0.0;
+    const bool rotating = ra != 0.0 || rb != 0.0;
+    const double reach_a = coreReach(A), reach_b = coreReach(B);
+    const double L =
+        ((vb - va).norm() + std::abs(ra) * reach_a + std::abs(rb) * reach_b) * (1.0 + 1e-9);
+    const auto D = [&](double t) {
+      return bodyDistance(A, {pa.position + t * va, pa.angle + t * ra}, B,
+                          {pb.position + t * vb, pb.angle + t * rb});
+    };
+    // Translating: after T the relative motion has taken them more than contact_distance + 1 m
+    // apart, however near they started (their distance, cores' reach and radii).
+    double radii = 0.0;
+    for (const RefPart& x : A.parts)
+      for (const RefPart& y : B.parts)
+        radii = std::max(radii, x.radius + y.radius);
+    const double c = s_.contact_distance;
+    const double T =
+        rotating ? s_.ttc_horizon
+                 : ((pb.position - pa.position).norm() + reach_a + reach_b + radii + c + 1.0) /
+                       std::max((vb - va).norm(), 1e-300);
+    const std::optional<double> lo = firstBelow(D, L, T, c + kBand);
+    const std::optional<double> hi = firstBelow(D, L, T, c - kBand);
+    if (!lo || !hi) {
+      ++out_.ttc_skipped;
+      return;
+    }
+    ++out_.ttc_checked;
+    if (got > 0.0 && std::isfinite(got)) ++out_.ttc_finite;
+    if (rotating) ++out_.ttc_rotating;
+    const double tol = 2.0 * kTimeTol + 1e-12 * (std::isfinite(got) ? got : 0.0);
+    const bool early = got < *lo - tol;
+    if (rotating && early) {
+      ++out_.ttc_lower_bound;
+      out_.ttc_least_fraction =
+          std::min(out_.ttc_least_fraction, got / std::min(*lo, s_.ttc_horizon));
+    }
+    const bool beyond = rotating && std::isfinite(got) && got > s_.ttc_horizon + tol;
+    if ((early && !rotating) || !(got <= *hi + tol) || beyond) {
+      std::ostringstream why;
+      why.precision(12);
+      why << what << ": time_to_collision " << got << " s (the bodies "
+          << (std::isfinite(got) ? D(got) : kInf) << " m apart then); the reference: within "
+          << kBand << " m of contact_distance " << c << " after " << *lo << " s, past it after "
+          << *hi << " s";
+      if (rotating) why << " (searched up to the horizon, " << s_.ttc_horizon << " s)";
+      fail(why.str());
+    }
+  }
+  /// Of bodies i and j placed as for an evaluation at `t`: in frames along their frames, else
+  /// at their latest poses.
+  void checkTtc(const std::string& what, int i, int j, Stamp t, double got) {
+    const auto at = [&](int k) { return frames_ ? poseAt(bodies_[k], t) : bodies_[k].pose; };
+    checkTtc(what, bodies_[i], at(i), bodies_[j], at(j), got);
+  }
+
   /// The status machine as node.md states it, written out apart from pair_logic.h's: a status
   /// is entered at its threshold (COLLISION at d <= contact, WARNING at d < warning) and left
   /// only once past it by the hysteresis.
@@ -818,9 +1006,9 @@ class Run {
   /// order): at each evaluation the world's transition must be one the thresholds give within
   /// kTol (so a tie goes either way), with the evaluation's distance, and with its stamp when
   /// `stamped` (else one evaluation takes every event). Returns the status it leaves.
-  std::optional<PairStatus> match(const std::string& pair, PairStatus before,
-                                  const std::vector<Eval>& evals,
+  std::optional<PairStatus> match(int i, int j, PairStatus before, const std::vector<Eval>& evals,
                                   const std::vector<const cw::Event*>& got, bool stamped) {
+    const std::string pair = key(i, j).first + "-" + key(i, j).second;
     std::size_t g = 0;
     PairStatus st = before;
     for (const Eval& ev : evals) {
@@ -840,6 +1028,12 @@ class Run {
              std::to_string(ev.d) + " m apart: the reference gives " + name(next(st, ev.d)));
         return std::nullopt;
       }
+      for (const cw::Event* e : here) {
+        if (std::isfinite(e->pair.distance)) {
+          checkTtc(pair + "'s " + name(e->type), i, j, ev.stamp, e->pair.time_to_collision);
+        }
+      }
+      if (!out_.failure.empty()) return std::nullopt;
       st = to;
     }
     if (g < got.size()) {
@@ -991,8 +1185,10 @@ class Run {
           // node.md: a pair beyond the broad phase's reach all along is not caught up; its
           // UNKNOWN_END carries its time at the check.
           left = PairStatus::Clear;
+          checkTtc(pair + "'s UNKNOWN_END", i, j, evals.back().stamp,
+                   events[0]->pair.time_to_collision);
         } else {
-          left = match(pair, before, evals, events, frames_);
+          left = match(i, j, before, evals, events, frames_);
         }
         if (!left) return;
         if (*left != after) return fail(pair + ": the reference leaves it " + name(*left));
@@ -1004,6 +1200,9 @@ class Run {
           if (std::abs(it->distance - d) > kTol) {
             return fail(pair + " listed at " + std::to_string(it->distance) + " m, the bodies " +
                         std::to_string(d) + " m apart");
+          }
+          if (it->status != PairStatus::Unknown) {
+            checkTtc(pair + " listed", i, j, evals.back().stamp, it->time_to_collision);
           }
         }
         if (frames_) continue;
@@ -1049,6 +1248,7 @@ class Run {
       if (!answerable && d) return fail("distance answered for a stale, unknown or same body");
       if (!exact_ && !frames_) return;
       double want = answerable ? distance(i, j) : kInf;
+      Stamp at;  // the pair's time, in frames
       if (frames_ && answerable) {
         // At the pair's time; none before a body's first pose since it came or came back (as
         // the next check will know it).
@@ -1063,6 +1263,7 @@ class Run {
           return;
         }
         want = evalAt(i, j, to).d;
+        at = to;
       }
       if (answerable != d.has_value()) return fail("distance refused: " + why);
       if (!d) return;
@@ -1073,6 +1274,7 @@ class Run {
       const auto it = pairs_.find(key(i, j));
       const PairStatus tracked = it == pairs_.end() ? PairStatus::Clear : it->second.status;
       if (!statusesNear(tracked, want).count(d->status)) return fail("distance's status");
+      checkTtc("distance " + id(i) + " " + id(j), i, j, at, d->time_to_collision);
       return;
     }
     // A probe sphere at a position: every fresh body within the margin (or colliding), each
@@ -1126,6 +1328,12 @@ class Run {
         }
         if (x.distance < prev) return fail("checkHypothetical not sorted by distance");
         prev = x.distance;
+        // The probe has no twist: the time from the other body's alone.
+        RefBody sphere;
+        sphere.parts.push_back({Vec3::Zero(), Vec3::Zero(), 0.1});
+        const RefBody& B = bodies_[index(other)];
+        checkTtc("checkHypothetical " + other, sphere, RefPose{p, 0.0}, B, B.pose,
+                 x.time_to_collision);
       } else if (w->second.first != PairStatus::Unknown) {
         return fail("checkHypothetical: " + other + " UNKNOWN");
       }
@@ -1152,6 +1360,7 @@ class Run {
   bool turns_ = false;       ///< bodies turn (each about its own axis), not only move
   bool clock_back_ = false;  ///< frames: the clock may go back, a check at once
   bool capsules_ = false;    ///< bodies of capsules (segments swept by a radius), not spheres
+  bool twists_ = false;      ///< align_poses off: poses with twists (times to collision)
   std::int64_t frame_ns_ = 0;
   std::optional<std::int64_t> span_from_;       ///< the first frame's stamp since the last check
   std::optional<std::int64_t> oldest_checked_;  ///< the oldest stamp of a fresh body then

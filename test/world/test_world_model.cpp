@@ -4127,6 +4127,36 @@ TEST(WorldModel, TimeToCollisionIsOfThePairsTimeWhenOnlyTheSecondBodyHasATwist) 
   EXPECT_NEAR(r.pairs[0].time_to_collision, 3.0, 1e-12);
 }
 
+TEST(WorldModel, TheTimeToCollisionOfACaughtUpEventIsFromItsStamp) {
+  // a (twist 1 m/s towards b) is at 0, 1 and 0 at 1.0, 1.1 and 1.2 s; b is at 4 throughout:
+  // gaps 3, 2 and 3 m. The check at 1.2 s catches the pair up over 1.1 s: WARNING_BEGIN there,
+  // a at 1 (2 s to the contact), and WARNING_END at 1.2 s, a at 0 (3 s). A mutant that took an
+  // event of catch-up from the held poses (3 s for both) failed fuzz_world's cases with twists in
+  // frames and no unit test before this one.
+  Settings s = dyadic();
+  s.warning_distance = 2.5;
+  WorldModel w(s);
+  addSpheres(w, {"a", "b"}, 0.5);
+  Twist ta;
+  ta.linear = Vec3(1, 0, 0);
+  for (const auto& [x, t] : {std::pair{0.0, 1.0}, {1.0, 1.1}, {0.0, 1.2}}) {
+    ASSERT_TRUE(w.setPose("a", at(x), t, ta));
+    ASSERT_TRUE(w.setPose("b", at(4), t));
+    if (t == 1.0) {
+      EXPECT_TRUE(w.check(1.0).events.empty());
+    }
+  }
+  const CycleResult r = w.check(1.2);
+  ASSERT_EQ(r.events.size(), 2u);
+  EXPECT_EQ(r.events[0].type, E::WarningBegin);
+  EXPECT_EQ(r.events[0].stamp, Stamp(1.1));
+  EXPECT_EQ(r.events[0].pair.distance, 2.0);
+  EXPECT_NEAR(r.events[0].pair.time_to_collision, 2.0, 1e-12);
+  EXPECT_EQ(r.events[1].type, E::WarningEnd);
+  EXPECT_EQ(r.events[1].stamp, Stamp(1.2));
+  EXPECT_NEAR(r.events[1].pair.time_to_collision, 3.0, 1e-12);
+}
+
 TEST(WorldModel, CheckHypotheticalGivesTheTimeToCollisionOfAMovingBody) {
   // b, of radius 1/2, 3 m from the probe's centre and coming at 1/2 m/s: 2 m apart, 4 s.
   WorldModel w(dyadic());
