@@ -20,10 +20,10 @@
 ///   distances (segment to segment): every status, every event (type, order, distance, stamp),
 ///   min_distance, distance() and checkHypothetical(), with align_poses off (each body at its
 ///   latest pose) or in frames mode (align_poses on, every body posed at each frame's stamp: each
-///   pair stepped over every frame, as catch-up promises); with twists (align_poses off), every
-///   time_to_collision given (listed pairs, events, distance(), checkHypothetical()) against
-///   the first time the closed-form distance under the twists comes within 1e-7 m of
-///   contact_distance and the first time it passes it by more (checkTtc()).
+///   pair stepped over every frame, as catch-up promises); with twists (align_poses off, or in
+///   frames without rates), every time_to_collision given (listed pairs, events, distance(),
+///   checkHypothetical()) against the first time the closed-form distance under the twists comes
+///   within 1e-7 m of contact_distance and the first time it passes it by more (checkTtc()).
 /// A failure is returned as text with the operations so far.
 #pragma once
 
