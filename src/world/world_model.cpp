@@ -981,15 +981,17 @@ struct WorldModel::Impl {
   /// PairResult::time_to_collision of A and B (r: their result): the time until their distance
   /// reaches contact_distance under the bodies' twists, by conservative advancement over their
   /// convex part pairs. For one part pair at distance d with normal n, the separation along n is a
-  /// lower bound of d and falls at most at mu = -(w . n) + |w_a| rho_a + |w_b| rho_b (w the
+  /// lower bound of d and falls at most at mu = -(w . n) + |n x w_a| rho_a + |n x w_b| rho_b (w the
   /// relative linear velocity, w_a and w_b the angular ones, rho the part's bounding radius about
-  /// its body's origin): that pair cannot reach the contact in less than (d - contact) / mu, and
-  /// never when mu <= 0. The bodies advance by the least of these over the part pairs (a part pair
-  /// whose bounding spheres cannot close the gap sooner is skipped) and the part pairs are measured
-  /// again. Without a rotation mu is the exact rate and each part pair's distance is convex in
-  /// time: the time is exact, and bodies that pass each other get +inf. With one the bound is
-  /// loose and the steps shorter: a contact later than settings.ttc_horizon is +inf, and after
-  /// kMaxSteps the time reached is returned (a lower bound: the contact is no earlier).
+  /// its body's origin: a point r from the origin moves along n at (w_a x r) . n = r . (n x w_a),
+  /// so a turn about n itself closes no gap): that pair cannot reach the contact in less than
+  /// (d - contact) / mu, and never when mu <= 0. The bodies advance by the least of these over the
+  /// part pairs (a part pair whose bounding spheres cannot close the gap sooner is skipped) and the
+  /// part pairs are measured again. Without a rotation mu is the exact rate and each part pair's
+  /// distance is convex in time: the time is exact, and bodies that pass each other get +inf. With
+  /// one the bound is loose and the steps shorter: a contact later than settings.ttc_horizon is
+  /// +inf, and after kMaxSteps the time reached is returned (a lower bound: the contact is no
+  /// earlier).
   double timeToCollisionOf(const Placed& A, const Placed& B, const PairResult& r) const {
     const double c = settings.contact_distance;
     if (!std::isfinite(r.distance)) return kInf;
@@ -999,16 +1001,27 @@ struct WorldModel::Impl {
     const Twist tb = B.body.has_twist ? B.body.twist : Twist();
     const Vec3 w = tb.linear - ta.linear;
     const double speed = w.norm();
-    // Per part: its angular speed times its bounding radius about the body's origin.
-    const auto spins = [](const Placed& S, const Twist& tw) {
+    // Per part: its bounding radius about the body's origin, and that times the angular speed.
+    const auto reaches = [](const Placed& S) {
       std::vector<double> out(S.body.spec.parts.size());
-      const double omega = tw.angular.norm();
       for (std::size_t i = 0; i < out.size(); ++i)
-        out[i] = omega * ((S.at.part_centres[i] - S.at.pose.t).norm() + S.at.part_radii[i]);
+        out[i] = (S.at.part_centres[i] - S.at.pose.t).norm() + S.at.part_radii[i];
       return out;
     };
-    const std::vector<double> spin_a = spins(A, ta);
-    const std::vector<double> spin_b = spins(B, tb);
+    const std::vector<double> reach_a = reaches(A), reach_b = reaches(B);
+    const auto spins = [](const std::vector<double>& reach, const Twist& tw) {
+      std::vector<double> out(reach.size());
+      const double omega = tw.angular.norm();
+      for (std::size_t i = 0; i < out.size(); ++i)
+        out[i] = omega * reach[i];
+      return out;
+    };
+    const std::vector<double> spin_a = spins(reach_a, ta);
+    const std::vector<double> spin_b = spins(reach_b, tb);
+    // How fast a turn can close the gap along n: |n x w| times the part's reach (none without one).
+    const auto across = [](const Vec3& n, const Twist& tw, double reach) {
+      return reach > 0.0 ? n.cross(tw.angular).norm() * reach : 0.0;
+    };
     const bool rotating = !ta.angular.isZero() || !tb.angular.isZero();
     constexpr int kMaxSteps = 128;
     constexpr double kTolerance = 1e-9;  // m
@@ -1030,7 +1043,8 @@ struct WorldModel::Impl {
                                      B.body.spec.parts[j].shape, b_at.poses[j], nullptr);
           if (!std::isfinite(x.distance)) return t;  // the bound so far
           if (x.distance - c <= kTolerance) return t;
-          const double mu = -w.dot(x.normal) + spin_a[i] + spin_b[j];
+          const double mu = -w.dot(x.normal) + across(x.normal, ta, reach_a[i]) +
+                            across(x.normal, tb, reach_b[j]);
           if (mu > 0.0) step = std::min(step, (x.distance - c) / mu);
         }
       }
