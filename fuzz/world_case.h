@@ -1233,6 +1233,8 @@ class Run {
   }
 
   // --- queries --------------------------------------------------------------------------------
+  static constexpr double kProbeRadius = 0.1;  ///< checkHypothetical()'s probe sphere
+
   void query(int i) {
     const std::uint8_t k = in_.byte();
     const Stamp now = Stamp::fromNanoseconds(now_ns_);
@@ -1284,7 +1286,7 @@ class Run {
     cw::BodySpec probe;
     probe.id = "probe";
     probe.frame = "map";
-    probe.parts.push_back({ConvexShape::sphere(0.1), cw::Transform3::Identity()});
+    probe.parts.push_back({ConvexShape::sphere(kProbeRadius), cw::Transform3::Identity()});
     cw::Transform3 pose = cw::Transform3::Identity();
     pose.t = p;
     log_ << "checkHypothetical at (" << p.transpose() << ") margin " << margin << "\n";
@@ -1303,7 +1305,7 @@ class Run {
       for (const RefPart& x : B.parts) {
         d = std::min(d, segmentDistance(pointAt(B, B.pose, x.centre - x.half),
                                         pointAt(B, B.pose, x.centre + x.half), p, p) -
-                            x.radius - 0.1);
+                            x.radius - kProbeRadius);
       }
       if (d <= margin + kTol || d <= s_.contact_distance + kTol) {
         want[id(b)] = {next(PairStatus::Clear, d), d};
@@ -1330,7 +1332,7 @@ class Run {
         prev = x.distance;
         // The probe has no twist: the time from the other body's alone.
         RefBody sphere;
-        sphere.parts.push_back({Vec3::Zero(), Vec3::Zero(), 0.1});
+        sphere.parts.push_back({Vec3::Zero(), Vec3::Zero(), kProbeRadius});
         const RefBody& B = bodies_[index(other)];
         checkTtc("checkHypothetical " + other, sphere, RefPose{p, 0.0}, B, B.pose,
                  x.time_to_collision);

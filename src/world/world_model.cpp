@@ -1001,7 +1001,7 @@ struct WorldModel::Impl {
     const Twist tb = B.body.has_twist ? B.body.twist : Twist();
     const Vec3 w = tb.linear - ta.linear;
     const double speed = w.norm();
-    // Per part: its bounding radius about the body's origin, and that times the angular speed.
+    // Per part: its bounding radius about the body's origin.
     const auto reaches = [](const Placed& S) {
       std::vector<double> out(S.body.spec.parts.size());
       for (std::size_t i = 0; i < out.size(); ++i)
@@ -1009,15 +1009,7 @@ struct WorldModel::Impl {
       return out;
     };
     const std::vector<double> reach_a = reaches(A), reach_b = reaches(B);
-    const auto spins = [](const std::vector<double>& reach, const Twist& tw) {
-      std::vector<double> out(reach.size());
-      const double omega = tw.angular.norm();
-      for (std::size_t i = 0; i < out.size(); ++i)
-        out[i] = omega * reach[i];
-      return out;
-    };
-    const std::vector<double> spin_a = spins(reach_a, ta);
-    const std::vector<double> spin_b = spins(reach_b, tb);
+    const double omega_a = ta.angular.norm(), omega_b = tb.angular.norm();
     // How fast a turn can close the gap along n: |n x w| times the part's reach (none without one).
     const auto across = [](const Vec3& n, const Twist& tw, double reach) {
       return reach > 0.0 ? n.cross(tw.angular).norm() * reach : 0.0;
@@ -1033,7 +1025,8 @@ struct WorldModel::Impl {
       double step = kInf;
       for (std::size_t i = 0; i < A.body.spec.parts.size(); ++i) {
         for (std::size_t j = 0; j < B.body.spec.parts.size(); ++j) {
-          const double bound = speed + spin_a[i] + spin_b[j];  // any point pair's closing speed
+          // Any point pair's closing speed.
+          const double bound = speed + omega_a * reach_a[i] + omega_b * reach_b[j];
           const double gap =
               ballGap(a_at.centres[i], A.at.part_radii[i], b_at.centres[j], B.at.part_radii[j]);
           if (!(bound > 0.0) || (gap - c) / bound >= step) continue;
