@@ -1,13 +1,13 @@
 /// \file
 /// One case of the world model's fuzzer (fuzz_world.cpp; replayed by the gtest
 /// test_world_fuzz_regressions): the bytes decode into settings, up to six bodies of one or two
-/// spheres or capsules (which, in a case that turns bodies, turn with them, each body about an
-/// axis of its own), and a sequence of operations on a WorldModel (poses with stamps in and out of
-/// order, with or without twists, static poses, poses stamped ahead of the clock (aging from when
-/// they came), checks at times that move on by 0 to 0.7 s, the clock going back by up to 0.4 s
-/// (in frames mode too), bodies replaced, removed and added again, unresolved poses, forgotten
-/// poses, new thresholds, disabled pairs, and the three queries). Every check() is held to the
-/// contract:
+/// spheres or capsules (in a quarter of the cases with twists, boxes among them; in a case that
+/// turns bodies, every part turns with its body, each body about an axis of its own), and a
+/// sequence of operations on a WorldModel (poses with stamps in and out of order, with or without
+/// twists, static poses, poses stamped ahead of the clock (aging from when they came), checks at
+/// times that move on by 0 to 0.7 s, the clock going back by up to 0.4 s (in frames mode too),
+/// bodies replaced, removed and added again, unresolved poses, forgotten poses, new thresholds,
+/// disabled pairs, and the three queries). Every check() is held to the contract:
 /// - always: the events replay as a status machine (END of the status a pair has, BEGIN from
 ///   CLEAR; catch-up may give several transitions of a pair, in stamp order), and the statuses
 ///   they leave are those listed (every pair in WARNING, COLLISION or UNKNOWN, sorted, no
@@ -16,13 +16,14 @@
 ///   the status machine at its distance; a transition's distance gives it from the status before;
 ///   min_distance is at most each listed distance; a pair's verdict events never go back in
 ///   stamp.
-/// - against a reference model that knows only the documented rules and the parts' closed-form
-///   distances (segment to segment): every status, every event (type, order, distance, stamp),
-///   min_distance, distance() and checkHypothetical(), with align_poses off (each body at its
-///   latest pose) or in frames mode (align_poses on, every body posed at each frame's stamp: each
-///   pair stepped over every frame, as catch-up promises); with twists (align_poses off, or in
+/// - against a reference model that knows only the documented rules and the parts' exact
+///   distances (segment to segment in closed form; with a box, the core tests' oracle:
+///   separating axes and closest features): every status, every event (type, order, distance,
+///   stamp), min_distance, distance() and checkHypothetical(), with align_poses off (each body at
+///   its latest pose) or in frames mode (align_poses on, every body posed at each frame's stamp:
+///   each pair stepped over every frame, as catch-up promises); with twists (align_poses off, or in
 ///   frames without rates), every time_to_collision given (listed pairs, events, distance(),
-///   checkHypothetical()) against the first time the closed-form distance under the twists comes
+///   checkHypothetical()) against the first time the exact distance under the twists comes
 ///   within 1e-7 m of contact_distance and the first time it passes it by more (checkTtc()).
 /// A failure is returned as text with the operations so far.
 #pragma once
@@ -34,6 +35,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -63,6 +65,7 @@ struct Outcome {
   bool turns = false;       ///< bodies turn as well (each about an axis of its own)
   bool clock_back = false;  ///< frames mode, and the clock went back
   bool capsules = false;    ///< bodies of capsules rather than spheres
+  bool boxes = false;       ///< some parts boxes (a twists case)
   bool twists = false;      ///< poses with twists: times to collision held to the reference
   int checks = 0;
   int events = 0;
@@ -95,8 +98,9 @@ class Reader {
 };
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-/// Closed-form distances against GJK's on spheres and capsules of up to 5 m apart, and the band
-/// around a threshold within which either status is accepted.
+/// Exact distances (closed form, or the oracle with a box) against GJK's on spheres, capsules and
+/// boxes of up to 5 m apart, and the band around a threshold within which either status is
+/// accepted.
 constexpr double kTol = 1e-8;
 /// world_model.cpp: a pair unseen for so many checks is forgotten, once its last event is more
 /// than pose_timeout old.
@@ -110,12 +114,46 @@ struct RefPose {
 };
 
 /// A part of a body as the reference knows it: a sphere, or in a case of capsules a capsule (a
-/// segment swept by the radius; a sphere when the segment is a point).
+/// segment swept by the radius; a sphere when the segment is a point), or in a case of boxes a
+/// box rounded by the radius (0 or more).
 struct RefPart {
+  RefPart(const Vec3& c, const Vec3& h, double r) : centre(c), half(h), radius(r) {}
   Vec3 centre;  ///< in the body frame
   Vec3 half;    ///< half the segment, in the body frame: from the centre to one end
   double radius;
+  /// A box: its corners' hull in the body frame (boxHull(), once), and its half sides
+  /// (the farthest a corner is from the centre is their norm). Null: a sphere or capsule.
+  std::shared_ptr<const oracle::Hull> box;
+  Vec3 box_half = Vec3::Zero();
+  Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();  ///< the box's axes in the body frame
 };
+
+/// The hull of the box of half sides `half` centred at `centre`, its axes the columns of R, as
+/// the oracle takes it (oracle::Hull): its 8 corners (corner c on the positive side of axis k
+/// when bit k of c is set), each face as two triangles, its 6 face planes and its 12 edges. Made
+/// here rather than by qhull, whose triangulation adds a diagonal to each face: those edges
+/// change no answer of oracle::solve(), but more than double its edge pairs.
+inline oracle::Hull boxHull(const Vec3& centre, const Eigen::Matrix3d& R, const Vec3& half) {
+  oracle::Hull h;
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 sign(c & 1 ? 1.0 : -1.0, c & 2 ? 1.0 : -1.0, c & 4 ? 1.0 : -1.0);
+    h.points.push_back(centre + R * sign.cwiseProduct(half));
+    h.vertices.push_back(c);
+  }
+  for (int k = 0; k < 3; ++k) {
+    const int i = 1 << ((k + 1) % 3), j = 1 << ((k + 2) % 3);
+    for (const int side : {0, 1 << k}) {
+      const Vec3 n = (side ? 1.0 : -1.0) * R.col(k);
+      h.normals.push_back(n);
+      h.offsets.push_back(-n.dot(h.points[side]));
+      h.triangles.push_back({side, side | i, side | i | j});
+      h.triangles.push_back({side, side | i | j, side | j});
+    }
+    for (int c = 0; c < 8; ++c)
+      if (!(c & (1 << k))) h.edges.emplace_back(c, c | (1 << k));
+  }
+  return h;
+}
 
 /// The distance between segments [p0, p1] and [q0, q1]: the core tests' exact oracle (long double,
 /// written apart from the core's GJK, which it checks).
@@ -281,18 +319,21 @@ class Run {
       const std::uint8_t more = in_.byte();
       capsules_ = (more & 1) != 0;
       s_.ttc_horizon = horizon[(more >> 1) % 4];
+      boxes_ = (more >> 3) % 4 == 3;
     }
     out_.exact = exact_ || frames_;
     out_.frames = frames_;
     out_.turns = turns_;
     out_.capsules = capsules_;
+    out_.boxes = boxes_;
     out_.twists = twists_;
     world_.emplace(s_);
     log_ << "settings: w " << s_.warning_distance << " c " << s_.contact_distance << " h "
          << s_.hysteresis << " timeout " << s_.pose_timeout << " align " << s_.align_poses
          << " exact_min " << s_.exact_min_distance << " frames " << frames_ << " rates " << rates_
          << " turns " << turns_ << " clock back " << clock_back_ << " capsules " << capsules_
-         << " twists " << twists_ << " horizon " << s_.ttc_horizon << " backend "
+         << " boxes " << boxes_ << " twists " << twists_ << " horizon " << s_.ttc_horizon
+         << " backend "
          << (s_.backend == collision_monitor::core::BackendType::Gjk ? "gjk" : "libccd") << "\n";
     const int n = 2 + in_.byte() % 5;
     bodies_.resize(n);
@@ -335,10 +376,29 @@ class Run {
     static const double length[] = {0.0, 0.3, 0.8, 1.6};
     static const Vec3 along[] = {Vec3::UnitX(), Vec3::UnitZ(), Vec3(1.0, 1.0, 0.0).normalized(),
                                  Vec3(0.0, -0.6, 0.8)};
+    // Boxes: a part of a case of boxes is one with odd x, its half sides from 1 cm (a plate) to
+    // 0.45 m, turned in the body by one of four rotations, and rounded by half its radius or not
+    // at all (the radius of a sphere otherwise).
+    static const double side[] = {0.01, 0.08, 0.2, 0.45};
+    static const Eigen::Quaterniond turn[] = {
+        Eigen::Quaterniond::Identity(), Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Vec3::UnitZ())),
+        Eigen::Quaterniond(Eigen::AngleAxisd(2.1, Vec3(1.0, -1.0, 0.5).normalized())),
+        Eigen::Quaterniond(Eigen::AngleAxisd(-0.4, Vec3(0.2, 1.0, 0.0).normalized()))};
     for (RefPart& part : b.parts) {
       if (capsules_) {
         const std::uint8_t c = in_.byte();
         part.half = 0.5 * length[c % 4] * along[(c >> 2) % 4];
+      }
+      if (boxes_) {
+        const std::uint8_t x = in_.byte();
+        if (x & 1) {
+          part.half = Vec3::Zero();
+          part.box_half = Vec3(side[(x >> 1) % 4], side[(x >> 3) % 4], side[(x >> 5) % 4]);
+          part.radius = x & 0x80 ? 0.5 * part.radius : 0.0;
+          part.turn = turn[in_.byte() % 4].toRotationMatrix();
+          part.box =
+              std::make_shared<const oracle::Hull>(boxHull(part.centre, part.turn, part.box_half));
+        }
       }
     }
     b.group = (k & 0x80) && (k & 0x40) ? "g" : "";
@@ -352,15 +412,22 @@ class Run {
                               : ConvexShape::sphere(x.radius),
                     cw::Transform3::Identity()};
       part.pose.t = x.centre;
-      if (x.half != Vec3::Zero()) {
+      if (x.box) {
+        part.shape = ConvexShape::box(2.0 * x.box_half);
+        if (x.radius > 0.0) part.shape = part.shape.padded(x.radius);
+        part.pose.R = x.turn;
+      } else if (x.half != Vec3::Zero()) {
         part.pose.R = Eigen::Quaterniond::FromTwoVectors(Vec3::UnitZ(), x.half).toRotationMatrix();
       }
       spec.parts.push_back(part);
     }
-    log_ << "add " << spec.id << " (" << (capsules_ ? "capsules" : "spheres");
-    for (const RefPart& x : b.parts)
+    log_ << "add " << spec.id << " (" << (capsules_ ? "capsules" : "spheres")
+         << (boxes_ ? ", boxes" : "");
+    for (const RefPart& x : b.parts) {
       log_ << " r " << x.radius << " at (" << x.centre.transpose() << ") half ("
            << x.half.transpose() << ")";
+      if (x.box) log_ << " box (" << x.box_half.transpose() << ") turned " << x.turn.row(0);
+    }
     log_ << ", group '" << b.group << "')\n";
     const std::string why = world_->addBody(spec);
     if (!why.empty()) return fail("addBody refused: " + why);
@@ -647,12 +714,35 @@ class Run {
   static Vec3 pointAt(const RefBody& b, const RefPose& p, const Vec3& c) {
     return p.position + Eigen::AngleAxisd(p.angle, b.axis) * c;
   }
-  /// Closed-form signed distance of bodies A and B at poses pa and pb.
+  /// Part x of body b at pose p as the oracle's shape: a box's hull moved there (a polytope), or
+  /// the point or segment of a sphere or capsule; with the part's radius.
+  static oracle::Shape oracleShape(const RefBody& b, const RefPose& p, const RefPart& x) {
+    oracle::Shape s;
+    s.radius = x.radius;
+    if (x.box) {
+      s.kind = oracle::Shape::Poly;
+      s.hull =
+          x.box->transformed(Eigen::AngleAxisd(p.angle, b.axis).toRotationMatrix(), p.position);
+      s.core = s.hull.points;
+    } else {
+      s.kind = x.half == Vec3::Zero() ? oracle::Shape::Point : oracle::Shape::Segment;
+      s.core = {pointAt(b, p, x.centre - x.half), pointAt(b, p, x.centre + x.half)};
+    }
+    return s;
+  }
+  /// Exact signed distance of bodies A and B at poses pa and pb: closed form between segments
+  /// (spheres and capsules), the oracle's separating axes and closest features with a box
+  /// (oracle::solve(), the core tests' exact oracle).
   static double bodyDistance(const RefBody& A, const RefPose& pa, const RefBody& B,
                              const RefPose& pb) {
     double best = kInf;
     for (const RefPart& x : A.parts) {
       for (const RefPart& y : B.parts) {
+        if (x.box || y.box) {
+          best =
+              std::min(best, oracle::solve(oracleShape(A, pa, x), oracleShape(B, pb, y)).distance);
+          continue;
+        }
         const double apart =
             segmentDistance(pointAt(A, pa, x.centre - x.half), pointAt(A, pa, x.centre + x.half),
                             pointAt(B, pb, y.centre - y.half), pointAt(B, pb, y.centre + y.half));
@@ -702,11 +792,11 @@ class Run {
     return kInf;
   }
 
-  /// The farthest a point of a part's core (segment) reaches from its body's origin.
+  /// The farthest a point of a part's core (segment or box) reaches from its body's origin.
   static double coreReach(const RefBody& b) {
     double r = 0.0;
     for (const RefPart& x : b.parts)
-      r = std::max(r, x.centre.norm() + x.half.norm());
+      r = std::max(r, x.centre.norm() + x.half.norm() + x.box_half.norm());
     return r;
   }
 
@@ -714,8 +804,8 @@ class Run {
   /// the reference (node.md): under their twists (a body without one at rest; a linear velocity
   /// and a turn about its own axis through its origin), the first time their distance is within
   /// kBand of contact_distance (lo) and the first time it is below that by more (hi), searched
-  /// over the distance in closed form, Lipschitz in time at the bodies' relative speed bound
-  /// (the linear velocities' difference plus each turn rate times the body's core reach).
+  /// over the exact distance (bodyDistance()), Lipschitz in time at the bodies' relative speed
+  /// bound (the linear velocities' difference plus each turn rate times the body's core reach).
   /// `got` must be between the two. With a turn, the search ends at ttc_horizon (+inf when hi is
   /// later), and `got` may also be a lower bound (the world's 128 steps can run out before the
   /// contact): never after hi, +inf only when hi is, and never after the horizon.
@@ -1234,6 +1324,15 @@ class Run {
 
   // --- queries --------------------------------------------------------------------------------
   static constexpr double kProbeRadius = 0.1;  ///< checkHypothetical()'s probe sphere
+  /// The probe as the reference knows it: a sphere at its body's origin.
+  static const RefBody& probeBody() {
+    static const RefBody probe = [] {
+      RefBody b;
+      b.parts.push_back({Vec3::Zero(), Vec3::Zero(), kProbeRadius});
+      return b;
+    }();
+    return probe;
+  }
 
   void query(int i) {
     const std::uint8_t k = in_.byte();
@@ -1300,13 +1399,7 @@ class Run {
         want[id(b)] = {PairStatus::Unknown, kInf};
         continue;
       }
-      double d = kInf;
-      const RefBody& B = bodies_[b];
-      for (const RefPart& x : B.parts) {
-        d = std::min(d, segmentDistance(pointAt(B, B.pose, x.centre - x.half),
-                                        pointAt(B, B.pose, x.centre + x.half), p, p) -
-                            x.radius - kProbeRadius);
-      }
+      const double d = bodyDistance(probeBody(), RefPose{p, 0.0}, bodies_[b], bodies_[b].pose);
       if (d <= margin + kTol || d <= s_.contact_distance + kTol) {
         want[id(b)] = {next(PairStatus::Clear, d), d};
       }
@@ -1331,10 +1424,8 @@ class Run {
         if (x.distance < prev) return fail("checkHypothetical not sorted by distance");
         prev = x.distance;
         // The probe has no twist: the time from the other body's alone.
-        RefBody sphere;
-        sphere.parts.push_back({Vec3::Zero(), Vec3::Zero(), kProbeRadius});
         const RefBody& B = bodies_[index(other)];
-        checkTtc("checkHypothetical " + other, sphere, RefPose{p, 0.0}, B, B.pose,
+        checkTtc("checkHypothetical " + other, probeBody(), RefPose{p, 0.0}, B, B.pose,
                  x.time_to_collision);
       } else if (w->second.first != PairStatus::Unknown) {
         return fail("checkHypothetical: " + other + " UNKNOWN");
@@ -1362,6 +1453,7 @@ class Run {
   bool turns_ = false;       ///< bodies turn (each about its own axis), not only move
   bool clock_back_ = false;  ///< frames: the clock may go back, a check at once
   bool capsules_ = false;    ///< bodies of capsules (segments swept by a radius), not spheres
+  bool boxes_ = false;       ///< some parts boxes (rounded or not), the others as they would be
   bool twists_ = false;      ///< align_poses off: poses with twists (times to collision)
   std::int64_t frame_ns_ = 0;
   std::optional<std::int64_t> span_from_;       ///< the first frame's stamp since the last check
