@@ -28,8 +28,13 @@
 ///                                 (a precomputed table; MoveIt looks them up by name), skips AABBs
 ///                                 that far apart and runs fcl::distance (libccd GJK/EPA, signed,
 ///                                 nearest points) on the rest, keeping the per-body-pair minimum
+///   BM_Markers/locked/<robot>     the node's marker build after each check of the ours row
+///                                 (rviz listening; timed alone, manual time): links frame-locked
+///                                 to their TF frames, the node's default
+///   BM_Markers/unlocked/<robot>   the same with marker_frame_locked false (every moved link sent
+///                                 at its new pose)
 /// Counters per cycle: bodies, enabled (checked) body pairs, broad-phase pairs, narrow-phase pair
-/// checks, pairs listed (WARNING or COLLISION).
+/// checks, pairs listed (WARNING or COLLISION); markers sent (BM_Markers).
 ///
 /// Correctness (outside the timed loops, every run unless --cm_no_check), of the ours row (the
 /// node's defaults; the other rows are timed only): 800 cycles of each robot (the first 400 in a
@@ -50,6 +55,7 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -69,6 +75,7 @@
 
 #include "collision_monitor/core/convex_hull.h"
 #include "collision_monitor/core/query.h"
+#include "collision_monitor/ros/markers.h"
 #include "collision_monitor/ros/mesh_loader.h"
 #include "collision_monitor/ros/robot_model.h"
 #include "collision_monitor/world/world_model.h"
@@ -306,6 +313,7 @@ class Monitor {
   }
 
   const std::vector<Transform3>& poses() const { return poses_; }
+  const world::WorldModel& world() const { return world_; }
   std::int64_t next = 0;
   bool wrap = false;  ///< see Robot::posesAt
 
@@ -551,6 +559,34 @@ void robotCycle(benchmark::State& state, const Robot* robot, const world::Settin
   state.counters["listed_pairs"] = benchmark::Counter(listed, benchmark::Counter::kAvgIterations);
 }
 
+/// The node's marker build after a check (MarkerBuilder::build() with the node's options but no
+/// rate limit, the cycles 4 ms apart in its clock as in the trajectory): what a cycle holds the
+/// world lock for beyond the check while rviz listens (Monitor::runCycle() builds them there).
+/// Only the build is timed, not the check. `frame_locked`: the node's default, links drawn in
+/// their TF frames and sent again only to refresh them; false: every moved link at its new pose
+/// each cycle.
+void markerBuild(benchmark::State& state, const Robot* robot, bool frame_locked) {
+  Monitor m(*robot, world::Settings());
+  m.wrap = true;
+  rl::MarkerOptions options;
+  options.max_rate = 0.0;
+  options.frame_locked = frame_locked;
+  rl::MarkerBuilder builder(options);
+  double now = 0.0;
+  benchmark::DoNotOptimize(builder.build(m.world(), m.cycle(m.next++), "base", now));  // every one
+  double markers = 0;
+  for (auto _ : state) {
+    const world::CycleResult& r = m.cycle(m.next++);
+    now += kDt;
+    const auto start = std::chrono::steady_clock::now();
+    const visualization_msgs::MarkerArray array = builder.build(m.world(), r, "base", now);
+    state.SetIterationTime(
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    markers += static_cast<double>(array.markers.size());
+  }
+  state.counters["markers"] = benchmark::Counter(markers, benchmark::Counter::kAvgIterations);
+}
+
 }  // namespace
 }  // namespace cm_bench_robot
 
@@ -625,6 +661,16 @@ int main(int argc, char** argv) {
       const world::Settings st = settings;
       benchmark::RegisterBenchmark(("BM_Robot/" + std::string(lib) + "/" + rp->name).c_str(),
                                    [rp, st](benchmark::State& state) { robotCycle(state, rp, st); })
+          ->Unit(benchmark::kMicrosecond);
+    }
+  }
+  for (const auto& r : robots) {
+    const Robot* rp = r.get();
+    for (const bool locked : {true, false}) {
+      benchmark::RegisterBenchmark(
+          ("BM_Markers/" + std::string(locked ? "locked" : "unlocked") + "/" + rp->name).c_str(),
+          [rp, locked](benchmark::State& st) { markerBuild(st, rp, locked); })
+          ->UseManualTime()
           ->Unit(benchmark::kMicrosecond);
     }
   }

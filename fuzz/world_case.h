@@ -22,9 +22,9 @@
 ///   stamp), min_distance, distance() and checkHypothetical(), with align_poses off (each body at
 ///   its latest pose) or in frames mode (align_poses on, every body posed at each frame's stamp:
 ///   each pair stepped over every frame, as catch-up promises); with twists (align_poses off, or in
-///   frames without rates), every time_to_collision given (listed pairs, events, distance(),
-///   checkHypothetical()) against the first time the exact distance under the twists comes
-///   within 1e-7 m of contact_distance and the first time it passes it by more (checkTtc()).
+///   frames, with or without rates), every time_to_collision given (listed pairs, events,
+///   distance(), checkHypothetical()) against the first time the exact distance under the twists
+///   comes within 1e-7 m of contact_distance and the first time it passes it by more (checkTtc()).
 /// A failure is returned as text with the operations so far.
 #pragma once
 
@@ -62,6 +62,7 @@ struct Outcome {
   std::string failure;      ///< empty: every check passed
   bool exact = false;       ///< the reference model was used (align_poses off, or frames)
   bool frames = false;      ///< frames mode (align_poses, every body posed at each frame's stamp)
+  bool rates = false;       ///< frames mode with rates (only some bodies posed at a frame)
   bool turns = false;       ///< bodies turn as well (each about an axis of its own)
   bool clock_back = false;  ///< frames mode, and the clock went back
   bool capsules = false;    ///< bodies of capsules rather than spheres
@@ -312,7 +313,7 @@ class Run {
     capsules_ = (flags & 0x60) == 0x40;
     // Bits 5 and 6 with align_poses off, or in frames without rates (the regression input with
     // both bits is of frames with rates): poses with twists, and a second settings byte
-    // (capsules, the horizon for turning bodies).
+    // (capsules, the horizon for turning bodies, boxes, and in frames rates after all).
     twists_ = (flags & 0x60) == 0x60 && (!s_.align_poses || (frames_ && !rates_));
     if (twists_) {
       static const double horizon[] = {10.0, 1.0, 0.25, 3.0};
@@ -320,9 +321,11 @@ class Run {
       capsules_ = (more & 1) != 0;
       s_.ttc_horizon = horizon[(more >> 1) % 4];
       boxes_ = (more >> 3) % 4 == 3;
+      rates_ = frames_ && (more & 0x20) != 0;
     }
     out_.exact = exact_ || frames_;
     out_.frames = frames_;
+    out_.rates = rates_;
     out_.turns = turns_;
     out_.capsules = capsules_;
     out_.boxes = boxes_;

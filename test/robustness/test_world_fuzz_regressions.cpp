@@ -22,8 +22,8 @@ using cm_fuzz_inputs::inputs;
 
 struct Tally {
   int files = 0, exact = 0, frames = 0, turns = 0, clock_back = 0, capsules = 0, boxes = 0,
-      twists = 0, checks = 0, events = 0, collisions = 0, ttc_checked = 0, ttc_finite = 0,
-      ttc_rotating = 0, ttc_lower_bound = 0, ttc_skipped = 0;
+      twists = 0, rates_twists = 0, checks = 0, events = 0, collisions = 0, ttc_checked = 0,
+      ttc_finite = 0, ttc_rotating = 0, ttc_lower_bound = 0, ttc_skipped = 0;
   double ttc_least_fraction = 1.0, slowest = 0.0;
 };
 
@@ -41,6 +41,7 @@ Tally replay(const std::string& dir) {
     t.capsules += out.capsules && out.exact;
     t.boxes += out.boxes && out.exact;
     t.twists += out.twists && out.exact;
+    t.rates_twists += out.twists && out.rates;
     t.ttc_checked += out.ttc_checked;
     t.ttc_finite += out.ttc_finite;
     t.ttc_rotating += out.ttc_rotating;
@@ -54,12 +55,13 @@ Tally replay(const std::string& dir) {
   }
   std::printf(
       "%s: %d inputs (%d against the reference model, %d of them in frames, %d of those with the "
-      "clock going back, %d with bodies that turn, %d of capsules, %d with boxes, %d with twists), "
-      "%d checks, %d events (%d COLLISION_BEGIN), %d times to collision held to the reference (%d "
-      "finite and not 0; %d of a turning body, %d of those a lower bound, the least %.4f of the "
-      "time to the contact; %d left unjudged), slowest %.1f ms\n",
+      "clock going back, %d with bodies that turn, %d of capsules, %d with boxes, %d with twists, "
+      "%d of those in frames with rates), %d checks, %d events (%d COLLISION_BEGIN), %d times to "
+      "collision held to the reference (%d finite and not 0; %d of a turning body, %d of those a "
+      "lower bound, the least %.4f of the time to the contact; %d left unjudged), slowest %.1f "
+      "ms\n",
       dir.c_str(), t.files, t.exact, t.frames, t.clock_back, t.turns, t.capsules, t.boxes, t.twists,
-      t.checks, t.events, t.collisions, t.ttc_checked, t.ttc_finite, t.ttc_rotating,
+      t.rates_twists, t.checks, t.events, t.collisions, t.ttc_checked, t.ttc_finite, t.ttc_rotating,
       t.ttc_lower_bound, t.ttc_least_fraction, t.ttc_skipped, 1e3 * t.slowest);
   return t;
 }
@@ -78,8 +80,8 @@ TEST(WorldFuzzRegressions, SeedCorpusPassesAndIsMeaningful) {
   const Tally t = replay(CM_FUZZ_DIR "/corpus/world");
   ASSERT_GE(t.files, 100);
   // The seeds reach the reference model (catch-up too: frames, in some with the clock going
-  // back; bodies that turn; capsules; boxes; twists, their times to collision finite and of
-  // turning bodies among them) and the events, collisions among them.
+  // back; bodies that turn; capsules; boxes; twists, in frames with rates too, their times to
+  // collision finite and of turning bodies among them) and the events, collisions among them.
   EXPECT_GE(t.exact, t.files / 4);
   EXPECT_GE(t.frames, t.files / 8);
   EXPECT_GE(t.clock_back, t.files / 40);
@@ -87,6 +89,7 @@ TEST(WorldFuzzRegressions, SeedCorpusPassesAndIsMeaningful) {
   EXPECT_GE(t.capsules, t.files / 40);
   EXPECT_GE(t.twists, t.files / 40);
   EXPECT_GE(t.boxes, t.files / 40);
+  EXPECT_GE(t.rates_twists, t.files / 40);
   EXPECT_GE(t.ttc_checked, 4 * t.files);
   EXPECT_GE(t.ttc_finite, t.files / 4);
   EXPECT_GE(t.ttc_rotating, t.files / 2);
