@@ -81,10 +81,11 @@ if(NOT COLLISION_MONITOR_CORE_ONLY)
   endif()
 
   # The same for fuzz/regressions/world and fuzz/corpus/world with the world model's fuzzer
-  # checks (fuzz/world_case.h; the libFuzzer target is fuzz/fuzz_world.cpp).
+  # checks (fuzz/world_case.h; the libFuzzer target is fuzz/fuzz_world.cpp), and the check of
+  # the reference's box distances against test/core/oracle.h's qhull (called directly).
   cm_add_gtest(test_world_fuzz_regressions
     SOURCES test/robustness/test_world_fuzz_regressions.cpp
-    LIBS collision_monitor_world)
+    LIBS collision_monitor_world Qhull::qhull_r)
   if(TARGET test_world_fuzz_regressions)
     target_include_directories(test_world_fuzz_regressions PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/fuzz
       ${CMAKE_CURRENT_SOURCE_DIR}/test/core)

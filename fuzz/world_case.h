@@ -16,15 +16,15 @@
 ///   the status machine at its distance; a transition's distance gives it from the status before;
 ///   min_distance is at most each listed distance; a pair's verdict events never go back in
 ///   stamp.
-/// - against a reference model that knows only the documented rules and the parts' exact
-///   distances (segment to segment in closed form; with a box, the core tests' oracle:
-///   separating axes and closest features): every status, every event (type, order, distance,
-///   stamp), min_distance, distance() and checkHypothetical(), with align_poses off (each body at
-///   its latest pose) or in frames mode (align_poses on, every body posed at each frame's stamp:
-///   each pair stepped over every frame, as catch-up promises); with twists (align_poses off, or in
-///   frames, with or without rates), every time_to_collision given (listed pairs, events,
-///   distance(), checkHypothetical()) against the first time the exact distance under the twists
-///   comes within 1e-7 m of contact_distance and the first time it passes it by more (checkTtc()).
+/// - against a reference model that knows only the documented rules and the parts' exact distances
+///   (segment to segment in closed form; with a box, separating axes and closest features,
+///   coreDistance()): every status, every event (type, order, distance, stamp), min_distance,
+///   distance() and checkHypothetical(), with align_poses off (each body at its latest pose) or in
+///   frames mode (align_poses on, every body posed at each frame's stamp: each pair stepped over
+///   every frame, as catch-up promises); with twists (align_poses off, or in frames, with or
+///   without rates), every time_to_collision given (listed pairs, events, distance(),
+///   checkHypothetical()) against the first time the exact distance under the twists comes within
+///   1e-7 m of contact_distance and the first time it passes it by more (checkTtc()).
 /// A failure is returned as text with the operations so far.
 #pragma once
 
@@ -35,7 +35,6 @@
 #include <functional>
 #include <limits>
 #include <map>
-#include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -99,8 +98,8 @@ class Reader {
 };
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-/// Exact distances (closed form, or the oracle with a box) against GJK's on spheres, capsules and
-/// boxes of up to 5 m apart, and the band around a threshold within which either status is
+/// Exact distances (closed form, or coreDistance() with a box) against GJK's on spheres, capsules
+/// and boxes of up to 5 m apart, and the band around a threshold within which either status is
 /// accepted.
 constexpr double kTol = 1e-8;
 /// world_model.cpp: a pair unseen for so many checks is forgotten, once its last event is more
@@ -122,38 +121,111 @@ struct RefPart {
   Vec3 centre;  ///< in the body frame
   Vec3 half;    ///< half the segment, in the body frame: from the centre to one end
   double radius;
-  /// A box: its corners' hull in the body frame (boxHull(), once), and its half sides
-  /// (the farthest a corner is from the centre is their norm). Null: a sphere or capsule.
-  std::shared_ptr<const oracle::Hull> box;
+  /// A box: its half sides, and its axes in the body frame (the farthest a corner is from the
+  /// centre is the half sides' norm).
+  bool box = false;
   Vec3 box_half = Vec3::Zero();
   Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();  ///< the box's axes in the body frame
 };
 
-/// The hull of the box of half sides `half` centred at `centre`, its axes the columns of R, as
-/// the oracle takes it (oracle::Hull): its 8 corners (corner c on the positive side of axis k
-/// when bit k of c is set), each face as two triangles, its 6 face planes and its 12 edges. Made
-/// here rather than by qhull, whose triangulation adds a diagonal to each face: those edges
-/// change no answer of oracle::solve(), but more than double its edge pairs.
-inline oracle::Hull boxHull(const Vec3& centre, const Eigen::Matrix3d& R, const Vec3& half) {
-  oracle::Hull h;
-  for (int c = 0; c < 8; ++c) {
-    const Vec3 sign(c & 1 ? 1.0 : -1.0, c & 2 ? 1.0 : -1.0, c & 4 ? 1.0 : -1.0);
-    h.points.push_back(centre + R * sign.cwiseProduct(half));
-    h.vertices.push_back(c);
-  }
-  for (int k = 0; k < 3; ++k) {
-    const int i = 1 << ((k + 1) % 3), j = 1 << ((k + 2) % 3);
-    for (const int side : {0, 1 << k}) {
-      const Vec3 n = (side ? 1.0 : -1.0) * R.col(k);
-      h.normals.push_back(n);
-      h.offsets.push_back(-n.dot(h.points[side]));
-      h.triangles.push_back({side, side | i, side | i | j});
-      h.triangles.push_back({side, side | i | j, side | j});
+/// A part's core in the fixed frame as coreDistance() takes it: a box (its centre, axes and half
+/// sides), or a segment from a to b (a point when they are equal).
+struct PlacedCore {
+  bool box = false;
+  Vec3 centre = Vec3::Zero();
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  ///< a box's, as columns
+  Vec3 half = Vec3::Zero();
+  Vec3 a = Vec3::Zero(), b = Vec3::Zero();
+
+  /// Its vertices: a box's 8 corners (corner c on the positive side of axis k when bit k of c is
+  /// set), a segment's two ends, a point.
+  std::vector<Vec3> vertices() const {
+    if (!box) return a == b ? std::vector<Vec3>{a} : std::vector<Vec3>{a, b};
+    std::vector<Vec3> v;
+    for (int c = 0; c < 8; ++c) {
+      const Vec3 sign(c & 1 ? 1.0 : -1.0, c & 2 ? 1.0 : -1.0, c & 4 ? 1.0 : -1.0);
+      v.push_back(centre + axes * sign.cwiseProduct(half));
     }
-    for (int c = 0; c < 8; ++c)
-      if (!(c & (1 << k))) h.edges.emplace_back(c, c | (1 << k));
+    return v;
   }
-  return h;
+  /// Its edges as pairs of vertices() indices: a box's 12, a segment's one.
+  std::vector<std::pair<int, int>> edges() const {
+    if (!box)
+      return a == b ? std::vector<std::pair<int, int>>{} : std::vector<std::pair<int, int>>{{0, 1}};
+    std::vector<std::pair<int, int>> e;
+    for (int k = 0; k < 3; ++k)
+      for (int c = 0; c < 8; ++c)
+        if (!(c & (1 << k))) e.emplace_back(c, c | (1 << k));
+    return e;
+  }
+  /// The directions of its edges: a box's axes, a segment's direction.
+  std::vector<Vec3> directions() const {
+    if (!box) return a == b ? std::vector<Vec3>{} : std::vector<Vec3>{b - a};
+    return {axes.col(0), axes.col(1), axes.col(2)};
+  }
+  /// The distance of x to it, solid (0 inside a box).
+  double distanceTo(const Vec3& x) const {
+    if (!box) return (x - oracle::closestPointSegment(x, a, b)).norm();
+    const Vec3 local = axes.transpose() * (x - centre);
+    return (local.cwiseAbs() - half).cwiseMax(0.0).norm();
+  }
+};
+
+/// The exact signed distance of two part cores, at least one a box. Written apart from the
+/// core's GJK and EPA; test_world_fuzz_regressions checks it against qhull's hull of the
+/// Minkowski difference (oracle::solveMinkowski(); the closest points of a segment, of two
+/// segments in long double, are test/core/oracle.h's). Overlapping: the
+/// least overlap over the candidate separating axes, which include every facet normal of the
+/// cores' Minkowski difference (the boxes' axes, and the cross products of the two cores' edge
+/// directions). Apart: the least of each vertex's distance to the other core and of each edge
+/// pair's (a closest pair of points of two convex polytopes is always a vertex and a point of
+/// the other, or a point of each of two edges), an edge pair passed over where the balls about
+/// the two edges are already farther apart than the best so far.
+inline double coreDistance(const PlacedCore& p, const PlacedCore& q) {
+  const std::vector<Vec3> vp = p.vertices(), vq = q.vertices();
+  double depth = kInf;  // the least overlap so far; <= 0: a separating axis
+  const auto axis = [&](const Vec3& n) {
+    double p_hi = -kInf, p_lo = kInf, q_hi = -kInf, q_lo = kInf;
+    for (const Vec3& v : vp) {
+      p_hi = std::max(p_hi, n.dot(v));
+      p_lo = std::min(p_lo, n.dot(v));
+    }
+    for (const Vec3& v : vq) {
+      q_hi = std::max(q_hi, n.dot(v));
+      q_lo = std::min(q_lo, n.dot(v));
+    }
+    depth = std::min({depth, p_hi - q_lo, q_hi - p_lo});
+  };
+  for (const PlacedCore* x : {&p, &q})
+    if (x->box)
+      for (int k = 0; k < 3; ++k)
+        axis(x->axes.col(k));
+  for (const Vec3& dp : p.directions()) {
+    for (const Vec3& dq : q.directions()) {
+      const Vec3 c = dp.cross(dq);
+      const double len = c.norm();
+      if (len > 1e-13 * dp.norm() * dq.norm()) axis(c / len);  // parallel edges: no facet
+    }
+  }
+  if (depth > 0.0) return -depth;
+  double best = kInf;
+  for (const Vec3& v : vp)
+    best = std::min(best, q.distanceTo(v));
+  for (const Vec3& v : vq)
+    best = std::min(best, p.distanceTo(v));
+  for (const auto& [i, j] : p.edges()) {
+    const Vec3 mid_p = 0.5 * (vp[i] + vp[j]);
+    const double half_p = 0.5 * (vp[j] - vp[i]).norm();
+    for (const auto& [k, l] : q.edges()) {
+      const double apart =
+          (0.5 * (vq[k] + vq[l]) - mid_p).norm() - half_p - 0.5 * (vq[l] - vq[k]).norm();
+      if (apart >= best) continue;
+      Vec3 on_p, on_q;
+      best =
+          std::min(best, oracle::closestSegmentSegment(vp[i], vp[j], vq[k], vq[l], &on_p, &on_q));
+    }
+  }
+  return best;
 }
 
 /// The distance between segments [p0, p1] and [q0, q1]: the core tests' exact oracle (long double,
@@ -399,8 +471,7 @@ class Run {
           part.box_half = Vec3(side[(x >> 1) % 4], side[(x >> 3) % 4], side[(x >> 5) % 4]);
           part.radius = x & 0x80 ? 0.5 * part.radius : 0.0;
           part.turn = turn[in_.byte() % 4].toRotationMatrix();
-          part.box =
-              std::make_shared<const oracle::Hull>(boxHull(part.centre, part.turn, part.box_half));
+          part.box = true;
         }
       }
     }
@@ -717,33 +788,30 @@ class Run {
   static Vec3 pointAt(const RefBody& b, const RefPose& p, const Vec3& c) {
     return p.position + Eigen::AngleAxisd(p.angle, b.axis) * c;
   }
-  /// Part x of body b at pose p as the oracle's shape: a box's hull moved there (a polytope), or
-  /// the point or segment of a sphere or capsule; with the part's radius.
-  static oracle::Shape oracleShape(const RefBody& b, const RefPose& p, const RefPart& x) {
-    oracle::Shape s;
-    s.radius = x.radius;
+  /// The core of part x of body b at pose p, in the fixed frame.
+  static PlacedCore placedCore(const RefBody& b, const RefPose& p, const RefPart& x) {
+    PlacedCore core;
+    core.box = x.box;
     if (x.box) {
-      s.kind = oracle::Shape::Poly;
-      s.hull =
-          x.box->transformed(Eigen::AngleAxisd(p.angle, b.axis).toRotationMatrix(), p.position);
-      s.core = s.hull.points;
+      core.centre = pointAt(b, p, x.centre);
+      core.axes = Eigen::AngleAxisd(p.angle, b.axis).toRotationMatrix() * x.turn;
+      core.half = x.box_half;
     } else {
-      s.kind = x.half == Vec3::Zero() ? oracle::Shape::Point : oracle::Shape::Segment;
-      s.core = {pointAt(b, p, x.centre - x.half), pointAt(b, p, x.centre + x.half)};
+      core.a = pointAt(b, p, x.centre - x.half);
+      core.b = pointAt(b, p, x.centre + x.half);
     }
-    return s;
+    return core;
   }
   /// Exact signed distance of bodies A and B at poses pa and pb: closed form between segments
-  /// (spheres and capsules), the oracle's separating axes and closest features with a box
-  /// (oracle::solve(), the core tests' exact oracle).
+  /// (spheres and capsules), separating axes and closest features with a box (coreDistance()).
   static double bodyDistance(const RefBody& A, const RefPose& pa, const RefBody& B,
                              const RefPose& pb) {
     double best = kInf;
     for (const RefPart& x : A.parts) {
       for (const RefPart& y : B.parts) {
         if (x.box || y.box) {
-          best =
-              std::min(best, oracle::solve(oracleShape(A, pa, x), oracleShape(B, pb, y)).distance);
+          const double apart = coreDistance(placedCore(A, pa, x), placedCore(B, pb, y));
+          best = std::min(best, apart - x.radius - y.radius);
           continue;
         }
         const double apart =
@@ -759,18 +827,33 @@ class Run {
   }
   /// At their latest poses.
   double distance(int i, int j) const { return distanceAt(i, bodies_[i].pose, j, bodies_[j].pose); }
-  /// Times to collision: the reference's search keeps to this precision (s) and gives up after
-  /// so many distances; a world time within kBand (m) of contact_distance counts as contact.
+  /// Times to collision: the reference's search keeps to this precision (s); a world time
+  /// within kBand (m) of contact_distance counts as contact.
   static constexpr double kTimeTol = 1e-9;
-  static constexpr int kSearchBudget = 200000;
   static constexpr double kBand = 1e-7;
+  /// The searches' work, in distances of a pair of spheres or capsules (about 0.3 us each
+  /// without sanitizers): a search gives up after kSearchBudget of it, and a case's searches
+  /// after kCaseBudget in all, so that no input runs for long (libFuzzer's -timeout, 10 s in CI,
+  /// under ASan and UBSan, which make the long double distances about 40 times slower).
+  static constexpr double kSearchBudget = 200000;
+  static constexpr double kCaseBudget = 300000;
+  /// The work of one distance of bodies A and B in those units: per part pair, 1 of two spheres
+  /// or capsules (closed form, 0.3 us), 4 of a box and a capsule or sphere, 25 of two boxes
+  /// (coreDistance(): 1.3 and 6.9 us).
+  static double distanceWork(const RefBody& A, const RefBody& B) {
+    double work = 0.0;
+    for (const RefPart& x : A.parts)
+      for (const RefPart& y : B.parts)
+        work += x.box && y.box ? 25.0 : x.box || y.box ? 4.0 : 1.0;
+    return work;
+  }
 
   /// The first time in [0, T] at which D <= level, D being L-Lipschitz in time: within kTimeTol
   /// after a crossing, never before one; +inf when there is none; nullopt when the search takes
-  /// more than kSearchBudget distances. A span whose ends leave D no room to reach the level
-  /// between them is passed over; the others are halved, the earlier half searched first.
+  /// more than `budget` distances. A span whose ends leave D no room to reach the level between
+  /// them is passed over; the others are halved, the earlier half searched first.
   static std::optional<double> firstBelow(const std::function<double(double)>& D, double L,
-                                          double T, double level) {
+                                          double T, double level, int budget) {
     const double d0 = D(0.0);
     if (d0 <= level) return 0.0;
     if (!(L > 0.0)) return kInf;  // D does not change
@@ -778,7 +861,7 @@ class Run {
       double lo, hi, dlo, dhi;
     };
     std::vector<Span> todo{{0.0, T, d0, D(T)}};
-    for (int budget = kSearchBudget; !todo.empty();) {
+    while (!todo.empty()) {
       const Span s = todo.back();
       todo.pop_back();
       // The least D can be between the ends: where the slopes L down from both meet.
@@ -822,7 +905,9 @@ class Run {
     const double reach_a = coreReach(A), reach_b = coreReach(B);
     const double L =
         ((vb - va).norm() + std::abs(ra) * reach_a + std::abs(rb) * reach_b) * (1.0 + 1e-9);
+    int distances = 0;
     const auto D = [&](double t) {
+      ++distances;
       return bodyDistance(A, {pa.position + t * va, pa.angle + t * ra}, B,
                           {pb.position + t * vb, pb.angle + t * rb});
     };
@@ -837,8 +922,18 @@ class Run {
         rotating ? s_.ttc_horizon
                  : ((pb.position - pa.position).norm() + reach_a + reach_b + radii + c + 1.0) /
                        std::max((vb - va).norm(), 1e-300);
-    const std::optional<double> lo = firstBelow(D, L, T, c + kBand);
-    const std::optional<double> hi = firstBelow(D, L, T, c - kBand);
+    // As many distances as the search's budget and what the case's has left allow.
+    const double work = distanceWork(A, B);
+    const auto search = [&](double level) -> std::optional<double> {
+      const double left = std::min(kSearchBudget, kCaseBudget - ttc_work_);
+      distances = 0;
+      const std::optional<double> at =
+          left >= work ? firstBelow(D, L, T, level, static_cast<int>(left / work)) : std::nullopt;
+      ttc_work_ += distances * work;
+      return at;
+    };
+    const std::optional<double> lo = search(c + kBand);
+    const std::optional<double> hi = lo ? search(c - kBand) : std::nullopt;
     if (!lo || !hi) {
       ++out_.ttc_skipped;
       return;
@@ -1457,6 +1552,7 @@ class Run {
   bool clock_back_ = false;  ///< frames: the clock may go back, a check at once
   bool capsules_ = false;    ///< bodies of capsules (segments swept by a radius), not spheres
   bool boxes_ = false;       ///< some parts boxes (rounded or not), the others as they would be
+  double ttc_work_ = 0.0;    ///< the time-to-collision searches' work so far (kCaseBudget)
   bool twists_ = false;      ///< align_poses off: poses with twists (times to collision)
   std::int64_t frame_ns_ = 0;
   std::optional<std::int64_t> span_from_;       ///< the first frame's stamp since the last check

@@ -1,12 +1,15 @@
 // Replays every input of fuzz/regressions/world (inputs that once failed the world model's fuzzer)
 // and the seed corpus fuzz/corpus/world through the fuzzer's own checks (fuzz/world_case.h),
 // built with g++ in the normal suite. Each regression file has a line in
-// fuzz/regressions/world/README.md on the bug it pins.
+// fuzz/regressions/world/README.md on the bug it pins. Also checks the fuzzer's reference where it
+// has a method of its own: its distances of boxes (coreDistance()) against qhull's Minkowski
+// difference (oracle::solveMinkowski()).
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -96,4 +99,50 @@ TEST(WorldFuzzRegressions, SeedCorpusPassesAndIsMeaningful) {
   EXPECT_LE(100 * t.ttc_skipped, t.ttc_checked);  // the reference's search seldom gives up
   EXPECT_GE(t.checks, 10 * t.files);
   EXPECT_GE(t.collisions, t.files);
+}
+
+// coreDistance() against oracle::solveMinkowski() (qhull on the Minkowski difference, nothing in
+// common): boxes (half sides 1 mm to 0.5 m, any rotation) against boxes,
+// segments and points (all within a 1 m cube), to 1e-9 m.
+TEST(WorldFuzzReference, BoxDistancesMatchTheMinkowskiDifferencesHull) {
+  std::mt19937_64 rng(46);
+  std::uniform_real_distribution<double> u(-0.5, 0.5), side(0.001, 0.5);
+  std::normal_distribution<double> g;
+  const auto box = [&](cm_fuzz_world::PlacedCore* core, oracle::Shape* shape) {
+    core->box = true;
+    core->centre = cm_fuzz_world::Vec3(u(rng), u(rng), u(rng));
+    core->axes = Eigen::Quaterniond(g(rng), g(rng), g(rng), g(rng)).normalized().toRotationMatrix();
+    core->half = cm_fuzz_world::Vec3(side(rng), side(rng), side(rng));
+    shape->kind = oracle::Shape::Poly;
+    shape->core = core->vertices();
+    shape->finish();
+  };
+  int overlapping = 0, worst_at = -1;
+  double worst = 0.0;
+  constexpr int kPairs = 6000;
+  for (int k = 0; k < kPairs; ++k) {
+    cm_fuzz_world::PlacedCore p, q;
+    oracle::Shape sp, sq;
+    box(&p, &sp);
+    if (k % 3 == 0) {
+      box(&q, &sq);
+    } else {
+      q.a = cm_fuzz_world::Vec3(u(rng), u(rng), u(rng));
+      q.b = k % 3 == 1 ? cm_fuzz_world::Vec3(u(rng), u(rng), u(rng)) : q.a;
+      sq.kind = q.a == q.b ? oracle::Shape::Point : oracle::Shape::Segment;
+      sq.core = q.vertices();
+    }
+    const double got = cm_fuzz_world::coreDistance(p, q);
+    const double want = oracle::solveMinkowski(sp, sq).distance;
+    // Both ways round.
+    const double back = cm_fuzz_world::coreDistance(q, p);
+    overlapping += want < 0.0;
+    const double error = std::max(std::abs(got - want), std::abs(back - want));
+    if (error > worst) worst = error, worst_at = k;
+  }
+  std::printf("%d pairs, %d overlapping; largest difference %.3g m (pair %d)\n", kPairs,
+              overlapping, worst, worst_at);
+  EXPECT_LE(worst, 1e-9) << "pair " << worst_at;
+  EXPECT_GE(overlapping, kPairs / 10);
+  EXPECT_LE(overlapping, kPairs * 9 / 10);
 }
