@@ -171,16 +171,16 @@ struct PlacedCore {
   }
 };
 
-/// The exact signed distance of two part cores, at least one a box. Written apart from the
-/// core's GJK and EPA; test_world_fuzz_regressions checks it against qhull's hull of the
-/// Minkowski difference (oracle::solveMinkowski(); the closest points of a segment, of two
-/// segments in long double, are test/core/oracle.h's). Overlapping: the
-/// least overlap over the candidate separating axes, which include every facet normal of the
-/// cores' Minkowski difference (the boxes' axes, and the cross products of the two cores' edge
-/// directions). Apart: the least of each vertex's distance to the other core and of each edge
-/// pair's (a closest pair of points of two convex polytopes is always a vertex and a point of
-/// the other, or a point of each of two edges), an edge pair passed over where the balls about
-/// the two edges are already farther apart than the best so far.
+/// The exact signed distance of two part cores, at least one a box. Written apart from the core's
+/// GJK and EPA; test_world_fuzz_regressions checks it against qhull's hull of the Minkowski
+/// difference (oracle::solveMinkowski(); the closest points of a segment, of two segments in long
+/// double, are test/core/oracle.h's). Overlapping: the least overlap over the candidate separating
+/// axes, which include every facet normal of the cores' Minkowski difference (the boxes' axes, and
+/// the cross products of the two cores' edge directions). Apart: the least of each vertex's
+/// distance to the other core and of each edge pair's (a closest pair of points of two convex
+/// polytopes is always a vertex and a point of the other, or a point of each of two edges), an edge
+/// pair passed over where the balls about the two edges are already farther apart than the best so
+/// far.
 inline double coreDistance(const PlacedCore& p, const PlacedCore& q) {
   const std::vector<Vec3> vp = p.vertices(), vq = q.vertices();
   double depth = kInf;  // the least overlap so far; <= 0: a separating axis
@@ -451,9 +451,9 @@ class Run {
     static const double length[] = {0.0, 0.3, 0.8, 1.6};
     static const Vec3 along[] = {Vec3::UnitX(), Vec3::UnitZ(), Vec3(1.0, 1.0, 0.0).normalized(),
                                  Vec3(0.0, -0.6, 0.8)};
-    // Boxes: a part of a case of boxes is one with odd x, its half sides from 1 cm (a plate) to
-    // 0.45 m, turned in the body by one of four rotations, and rounded by half its radius or not
-    // at all (the radius of a sphere otherwise).
+    // Boxes: in a case of boxes, a part whose next byte is odd is a box, its half sides from 1 cm
+    // (a plate) to 0.45 m, turned in the body by one of four rotations, and rounded by half the
+    // part's radius or not at all.
     static const double side[] = {0.01, 0.08, 0.2, 0.45};
     static const Eigen::Quaterniond turn[] = {
         Eigen::Quaterniond::Identity(), Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Vec3::UnitZ())),
