@@ -308,6 +308,11 @@ void Monitor::readParameters() {
   checkNumber(
       "robot_padding", &robot_padding_, 0.0, [](double v) { return v >= 0.0; }, ">= 0",
       &param_errors_);
+  if (XmlRpc::XmlRpcValue v; pnh_.getParam("robot_link_padding", v)) {
+    LinkPadding links = linkPaddingFromXmlRpc(v);
+    robot_link_padding_ = std::move(links.padding);
+    param_errors_.insert(param_errors_.end(), links.errors.begin(), links.errors.end());
+  }
   robot_description_param_ =
       typedParam<std::string>("robot_description_param", "robot_description", "a string");
   if (std::string why; !ros::names::validate(robot_description_param_, why) ||
@@ -414,13 +419,19 @@ void Monitor::loadRobot() {
   if (!nh_.getParam(key, urdf) || urdf.empty()) {
     ROS_INFO_STREAM(name_ << ": no URDF on parameter '" << robot_description_param_
                           << "': no robot bodies");
+    if (!robot_link_padding_.empty()) {
+      param_errors_.push_back("robot_link_padding: no URDF on parameter '" +
+                              robot_description_param_ + "': no link to pad");
+    }
   } else {
-    auto robot = bodiesFromUrdf(urdf, robot_padding_, limits_, mesh_loader_);
+    auto robot = bodiesFromUrdf(urdf, robot_padding_, limits_, mesh_loader_, robot_link_padding_);
     if (!robot) {
       robot_errors_.push_back("URDF '" + key + "': " + robot.error());
       rejectAtStartup(robot_errors_.back());
     } else {
       root_link = robot->root_link;
+      param_errors_.insert(param_errors_.end(), robot->padding_errors.begin(),
+                           robot->padding_errors.end());
       for (const auto& e : robot->errors) {
         robot_errors_.push_back("URDF link " + e);
         rejectAtStartup(robot_errors_.back());

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <set>
+#include <sstream>
 #include <utility>
 
 #include <XmlRpcException.h>
@@ -235,6 +236,30 @@ Expected<std::vector<std::string>> stringsFromXmlRpc(const XmlRpcValue& v) {
   } catch (const XmlRpc::XmlRpcException& e) {
     return Error{e.getMessage()};
   }
+}
+
+LinkPadding linkPaddingFromXmlRpc(const XmlRpcValue& v) {
+  LinkPadding out;
+  if (v.getType() != XmlRpcValue::TypeStruct) {
+    out.errors.emplace_back(
+        "robot_link_padding: expected a map of link names to metres, e.g. {panda_hand: 0.02}");
+    return out;
+  }
+  for (auto it = v.begin(); it != v.end(); ++it) {
+    const std::string field = "robot_link_padding[" + quoteInput(it->first) + "]";
+    try {
+      const double pad = number(it->second, field);
+      if (!std::isfinite(pad) || pad < 0.0) {
+        std::ostringstream got;
+        got << pad;
+        fail(field, "must be finite and >= 0, got " + got.str());
+      }
+      out.padding.emplace(it->first, pad);
+    } catch (const FieldError& e) {
+      out.errors.push_back(e.what + "; robot_padding used");
+    }
+  }
+  return out;
 }
 
 }  // namespace ros_layer

@@ -181,7 +181,8 @@ std::string checkUrdfStructure(const std::string& urdf_xml,
 }
 
 Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding,
-                                     const Limits& limits, const MeshLoader& load_mesh) {
+                                     const Limits& limits, const MeshLoader& load_mesh,
+                                     const std::map<std::string, double>& link_padding) {
   std::unordered_map<std::string, std::size_t> xml_collisions;  // link -> <collision> elements
   const std::string refused = checkUrdfStructure(urdf_xml, &xml_collisions);
   if (!refused.empty()) return Error{refused};
@@ -196,6 +197,18 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
   RobotBodies out;
   out.robot_name = model->getName();
   if (auto root = model->getRoot()) out.root_link = root->name;
+  for (const auto& entry : link_padding) {
+    const std::string& name = entry.first;
+    const auto link = model->links_.find(name);
+    if (link == model->links_.end() || !link->second) {
+      out.padding_errors.push_back("robot_link_padding: " + quoteInput(name) +
+                                   " is not a link of robot " + quoteInput(out.robot_name));
+    } else if (link->second->collision_array.empty() && !link->second->collision &&
+               xml_collisions.count(name) == 0) {
+      out.padding_errors.push_back("robot_link_padding: link " + quoteInput(name) +
+                                   " has no <collision> geometry");
+    }
+  }
 
   for (const auto& [name, link] : model->links_) {
     if (!link) continue;
@@ -213,11 +226,13 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
           (after == 0 ? std::string() : " and the " + std::to_string(after) + " after it") + ")");
     }
     if (elements.empty()) continue;
+    const auto own = link_padding.find(name);
+    const double pad = own == link_padding.end() ? padding : own->second;
     collision_monitor::Body msg;
     msg.id = name;
     msg.header.frame_id = name;
     msg.operation = collision_monitor::Body::ADD;
-    msg.padding = padding;
+    msg.padding = pad;
     // Each element is a part. A refused one is reported and left out; the link keeps the others
     // (it was left out whole: one missing mesh left its boxes unchecked too). Each is converted
     // alone first (a mesh is loaded once: bodyFromMsg takes it from the cache).
@@ -228,7 +243,7 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
         out.errors.push_back(name + ": collision " + std::to_string(i) + ": " + shape.error());
         continue;
       }
-      auto parts = partsFromMsg(*shape, padding, limits, load_mesh);
+      auto parts = partsFromMsg(*shape, pad, limits, load_mesh);
       if (!parts) {
         out.errors.push_back(name + ": collision " + std::to_string(i) + " (" +
                              shapeTypeName(shape->type) + "): " + parts.error());

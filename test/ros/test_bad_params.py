@@ -210,8 +210,8 @@ class BadParams(unittest.TestCase):
                 'no check by /slow_checks %.1f s after start-up: %s' % (
                     time.monotonic() - STARTED, slow.diag_value('checks (total)')))
             # Its robot: link l keeps its box; the mesh left out is an ERROR in every report, as
-            # are its diagnostic_period "abc" (reset to 1 on the parameter server) and the body
-            # of its ~bodies parameter refused for a typo (one report's WARN, then "ok", before
+            # are its diagnostic_period "abc" (reset to 1 on the parameter server), two entries
+            # of its robot_link_padding and the body of its ~bodies parameter refused for a typo (one report's WARN, then "ok", before
             # the thirty-ninth session): the report after the first one.
             first = slow.diagnostics
             self.assertTrue(wait_for(lambda: slow.diagnostics is not first, 5.0))
@@ -220,10 +220,14 @@ class BadParams(unittest.TestCase):
         st = slow.diagnostics
         self.assertEqual(st.level, DiagnosticStatus.ERROR, st.message)
         # Both in the message (then "; no check for ... s": its min_check_interval is 20 s).
+        invalid = ["robot_link_padding['bad']: must be finite and >= 0, got -1; robot_padding "
+                   "used", "robot_link_padding: 'hand' is not a link of robot 'r'",
+                   'diagnostic_period: not a number; using 1']
         self.assertTrue(st.message.startswith(
-            "invalid parameters: diagnostic_period: not a number; using 1; robot geometry not "
-            "monitored: URDF link l: collision 1 (mesh): mesh 'file:///nowhere/m.stl': cannot "
-            "resolve '/nowhere/m.stl'"), st.message)
+            'invalid parameters: ' + ', '.join(invalid) + "; robot geometry not monitored: URDF "
+            "link l: collision 1 (mesh): mesh 'file:///nowhere/m.stl': cannot resolve "
+            "'/nowhere/m.stl'"), st.message)
+        self.assertEqual([kv.value for kv in st.values if kv.key == 'invalid parameter'], invalid)
         self.assertIn("; bodies of ~bodies not monitored: parameter ~bodies[1]: parts[0]: "
                       "unknown field 'dimension'", st.message)
         self.assertEqual(rospy.get_param('/slow_checks/diagnostic_period'), 1.0)

@@ -6,13 +6,14 @@ distances of sphere-swept polytopes via qhull).
 Each round adds 7-10 random bodies (spheres, boxes, capsules, convex point sets, 1-3 parts with
 random part poses, random padding and groups) attached to random static TF frames, posed by
 ~body_poses in random TF frames, or by a pose_topic; the robot of /robot_description (links on
-static TF, robot_padding, adjacent links, SRDF) stays. Every monitor listed in ~monitors (each
-with its own fixed_frame) is then asked: ~state, ~list_bodies, ~get_distance (random pairs and
-frame_ids, nearest body), ~check_collision (random probes in random frames, margins, groups,
-tracked ids). Every answer is compared with the oracle; all discrepancies are collected, written
-to ~report (JSON lines) and asserted empty at the end of each round. Round kinds cycle: dense,
-sparse (2.5 m: min_distance beyond the broad phase), far (bodies ~900 m from the origin), dense
-with BodyPoses twists (time_to_collision of translating bodies, exact).
+static TF, robot_padding and robot_link_padding, adjacent links, SRDF) stays. Every monitor
+listed in ~monitors (each with its own fixed_frame) is then asked: ~state, ~list_bodies,
+~get_distance (random pairs and frame_ids, nearest body), ~check_collision (random probes in
+random frames, margins, groups, tracked ids). Every answer is compared with the oracle; all
+discrepancies are collected, written to ~report (JSON lines) and asserted empty at the end of
+each round. Round kinds cycle: dense, sparse (2.5 m: min_distance beyond the broad phase), far
+(bodies ~900 m from the origin), dense with BodyPoses twists (time_to_collision of translating
+bodies, exact).
 Also: test_zx_rotation (time_to_collision of a lever spinning about its body origin),
 test_zy_edges (nearest-body ties, a timed pose going stale: UNKNOWN everywhere),
 test_zz_dynamic (statuses with hysteresis step by step, the events and their distances, body
@@ -235,6 +236,8 @@ class ContractSweep(unittest.TestCase):
                 'C': float(rospy.get_param(ns + 'contact_distance', 0.0)),
                 'H': float(rospy.get_param(ns + 'hysteresis', 0.005)),
                 'robot_padding': float(rospy.get_param(ns + 'robot_padding', 0.0)),
+                'link_padding': {k: float(v) for k, v in
+                                 rospy.get_param(ns + 'robot_link_padding', {}).items()},
                 'disabled': {frozenset(p) for p in rospy.get_param(ns + 'disabled_pairs', [])},
                 'state': None, 'state_t': 0.0,
             }
@@ -525,7 +528,8 @@ class ContractSweep(unittest.TestCase):
             self.groups[bid] = group
             self.expect_frames[bid] = frame
         for lid, parts in self.robot_links.items():
-            ob[lid] = make_obody(lid, self.scene.T[lid], parts, m['robot_padding'], '')
+            pad = m['link_padding'].get(lid, m['robot_padding'])
+            ob[lid] = make_obody(lid, self.scene.T[lid], parts, pad, '')
         return ob
 
     def run_round(self, r):

@@ -8,7 +8,9 @@
 #include <cstdlib>
 #include <fstream>
 #include <limits>
+#include <map>
 #include <string>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -609,6 +611,41 @@ TEST(Params, PairsAndStrings) {
   auto s = stringsFromXmlRpc(one);
   ASSERT_TRUE(s);
   EXPECT_EQ(s->at(0), "/meshes");
+}
+
+// robot_link_padding: each valid entry is kept (an int is metres too); each bad one is named and
+// left out, the others hold; a value that is no map is refused whole.
+TEST(Params, LinkPaddingEntriesCheckedOneByOne) {
+  XmlRpc::XmlRpcValue v;
+  v["panda_hand"] = 0.02;
+  v["panda_link0"] = 0;
+  v["neg"] = -0.01;
+  v["nan"] = std::nan("");
+  v["text"] = "5e-2";
+  v["list"][0] = 0.1;
+  const LinkPadding p = linkPaddingFromXmlRpc(v);
+  EXPECT_EQ(p.padding, (std::map<std::string, double>{{"panda_hand", 0.02}, {"panda_link0", 0.0}}));
+  // In the map's (name) order.
+  const std::vector<std::string> want = {
+      "robot_link_padding['list']: expected a number; robot_padding used",
+      "robot_link_padding['nan']: must be finite and >= 0, got nan; robot_padding used",
+      "robot_link_padding['neg']: must be finite and >= 0, got -0.01; robot_padding used",
+      "robot_link_padding['text']: expected a number" + numberWrittenAsText(v["text"]) +
+          "; robot_padding used"};
+  EXPECT_EQ(p.errors, want);
+  EXPECT_NE(numberWrittenAsText(v["text"]), "");  // the hint is there
+
+  for (XmlRpc::XmlRpcValue whole : {XmlRpc::XmlRpcValue(0.02), XmlRpc::XmlRpcValue("hand")}) {
+    const LinkPadding q = linkPaddingFromXmlRpc(whole);
+    EXPECT_TRUE(q.padding.empty());
+    EXPECT_EQ(q.errors, std::vector<std::string>{"robot_link_padding: expected a map of link "
+                                                 "names to metres, e.g. {panda_hand: 0.02}"});
+  }
+  XmlRpc::XmlRpcValue empty;
+  empty.begin();  // an empty struct, as the parameter server gives {}
+  EXPECT_EQ(empty.getType(), XmlRpc::XmlRpcValue::TypeStruct);
+  EXPECT_TRUE(linkPaddingFromXmlRpc(empty).padding.empty());
+  EXPECT_TRUE(linkPaddingFromXmlRpc(empty).errors.empty());
 }
 
 // A part's orientation as a list is [x, y, z, w]; as a map, a missing component is 0. A pair of

@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """rostest: launch/collision_monitor.launch run by roslaunch (a real process) against a master
 that still holds the parameters of an earlier launch, with boolean arguments given as 0 and
-False."""
+False; and with the shipped config/example_bodies.yaml."""
+import contextlib
 import os
 import signal
 import subprocess
@@ -15,14 +16,42 @@ from visualization_msgs.msg import MarkerArray
 
 from cm_test_util import Monitor, wait_for
 
-LAUNCH = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'launch',
-                      'collision_monitor.launch')
+PKG = os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..')
+LAUNCH = os.path.join(PKG, 'launch', 'collision_monitor.launch')
+EXAMPLE = os.path.join(PKG, 'config', 'example_bodies.yaml')
 NAME = '/cm_launched/'
 
 
+@contextlib.contextmanager
+def roslaunch(*args):
+    """collision_monitor.launch with `args`, run by roslaunch until the block ends; it must exit
+    0 on SIGINT. Its output is printed at the end."""
+    name = [a for a in args if a.startswith('node_name:=')][0].split(':=')[1]
+    log = open(os.path.join(os.environ.get('ROS_HOME', '/tmp'), name + '_roslaunch.log'), 'w+')
+    launch = subprocess.Popen(['roslaunch', LAUNCH] + list(args), stdout=log,
+                              stderr=subprocess.STDOUT, start_new_session=True)
+    try:
+        yield launch
+    finally:
+        os.killpg(launch.pid, signal.SIGINT)
+        try:
+            launch.wait(timeout=30.0)
+        except subprocess.TimeoutExpired:
+            os.killpg(launch.pid, signal.SIGKILL)
+            launch.wait()
+        log.seek(0)
+        print(log.read()[-3000:], flush=True)
+        log.close()
+    if launch.returncode != 0:
+        raise AssertionError('roslaunch exited %d' % launch.returncode)
+
+
 class LaunchFile(unittest.TestCase):
-    def test_relaunch_with_defaults_and_boolean_arguments(self):
+    @classmethod
+    def setUpClass(cls):
         rospy.init_node('test_launch_file')
+
+    def test_relaunch_with_defaults_and_boolean_arguments(self):
         # Left by an earlier launch with fixed_frame:=old_frame and a bodies_file. Bug: the
         # launch file sets neither when left at their defaults, so they stayed in force: the
         # monitor ran in old_frame (every robot link UNKNOWN) with the old bodies.
@@ -31,13 +60,8 @@ class LaunchFile(unittest.TestCase):
                                            'parts': [{'type': 'box', 'dimensions': [1, 1, 1]}]}])
         # Bug: roslaunch passed 0 on as the integer 0 (the <param>s had no type="bool"); the
         # node refused it and kept its default (true). False was converted already.
-        log = open(os.path.join(os.environ.get('ROS_HOME', '/tmp'), 'launch_file_roslaunch.log'),
-                   'w+')
-        launch = subprocess.Popen(
-            ['roslaunch', LAUNCH, 'node_name:=cm_launched', 'publish_markers:=0',
-             'check_on_tf:=False', 'exact_min_distance:=0', 'rate:=20'],
-            stdout=log, stderr=subprocess.STDOUT, start_new_session=True)
-        try:
+        with roslaunch('node_name:=cm_launched', 'publish_markers:=0', 'check_on_tf:=False',
+                       'exact_min_distance:=0', 'rate:=20'):
             m = Monitor(NAME)
             self.assertEqual(m.state.header.frame_id, 'world')  # no URDF here: world
             self.assertEqual(m.ids(), [])
@@ -58,17 +82,20 @@ class LaunchFile(unittest.TestCase):
                 self.assertEqual(got, [])
             finally:
                 sub.unregister()
-        finally:
-            os.killpg(launch.pid, signal.SIGINT)
-            try:
-                launch.wait(timeout=30.0)
-            except subprocess.TimeoutExpired:
-                os.killpg(launch.pid, signal.SIGKILL)
-                launch.wait()
-            log.seek(0)
-            print(log.read()[-3000:], flush=True)
-            log.close()
-        self.assertEqual(launch.returncode, 0)
+
+    def test_shipped_example_bodies_file(self):
+        # config/example_bodies.yaml, as README and the launch file point users to it: every
+        # body, pair and parameter in it is valid.
+        with roslaunch('node_name:=cm_example', 'bodies_file:=' + EXAMPLE):
+            m = Monitor('/cm_example/')
+            self.assertTrue(wait_for(lambda: m.diagnostics is not None, 10.0))
+            d = m.diagnostics
+            self.assertEqual([kv.value for kv in d.values if kv.key in (
+                'invalid parameter', 'parameter body left out')], [])
+            self.assertEqual(m.ids(), ['crate', 'table', 'table_leg', 'wand'])
+            r = m.get_distance('table', 'table_leg', '')
+            self.assertFalse(r.success)
+            self.assertIn('the pair is disabled (disabled_pairs parameter)', r.message)
 
 
 if __name__ == '__main__':

@@ -1,8 +1,9 @@
 #!/usr/bin/python3
 """rostest: Franka Panda from the URDF (one body per link with collision geometry, attached to
 the link frames published by robot_state_publisher), adjacent-link and SRDF exclusion, a
-topic-posed obstacle against the hand, robot links going stale when joint states stop, and the
-manager's ~get_loggers (replaced by the nodelet: roscpp's crashes the process on Debian 12)."""
+topic-posed obstacle against the hand, robot links going stale when joint states stop, a link's
+own padding (robot_link_padding), and the manager's ~get_loggers (replaced by the nodelet:
+roscpp's crashes the process on Debian 12)."""
 import sys
 import threading
 import time
@@ -245,6 +246,17 @@ class Panda(unittest.TestCase):
         adj = other('panda_link3', 'panda_link4', '')
         self.assertFalse(adj.success)
         self.assertIn('adjacent links', adj.message)
+        # Its robot_link_padding pads the hand by 2 cm, and only the hand: at the same joint
+        # states its distances from the hand are 2 cm shorter than the main monitor's, the others
+        # equal.
+        for a, b, pad in (('panda_link0', 'panda_hand', 0.02), ('panda_link0', 'panda_link5', 0.0)):
+            mine = self.wait_fresh(a, b)
+            theirs = wait_for(lambda: (lambda r: r if r.success else None)(other(a, b, '')), 5.0,
+                              0.05)
+            self.assertIsNotNone(mine, self.m.get_distance(a, b, '').message)
+            self.assertIsNotNone(theirs, other(a, b, '').message)
+            self.assertGreater(mine.result.distance, 0.05)
+            self.assertAlmostEqual(theirs.result.distance, mine.result.distance - pad, places=9)
 
     def test_10_each_monitor_logs_its_own_tf_refusal(self):
         # Bug: the refusal's log line was throttled by ROS_WARN_STREAM_THROTTLE, whose last time

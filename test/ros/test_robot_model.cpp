@@ -9,6 +9,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <random>
 #include <set>
 #include <sstream>
 #include <string>
@@ -126,6 +127,85 @@ TEST(Urdf, PaddingAndOrigins) {
   EXPECT_NEAR(arm.parts[0].shape.support(core::Vec3::UnitY()).y(), 1.1, 1e-12);
   EXPECT_NEAR(arm.parts[0].shape.support(-core::Vec3::UnitZ()).z(), -1.6, 1e-12);
   EXPECT_TRUE(hasPair(robot->adjacent, "base", "arm"));
+}
+
+// robot_link_padding: a named link takes its own padding (more, or none) in place of
+// robot_padding; a name that pads nothing is reported, and the links load as they would.
+TEST(Urdf, LinkPaddingReplacesTheRobotPaddingOfTheLinksItNames) {
+  const std::string xml = R"(<robot name="r">
+    <link name="base"><collision><origin xyz="1 0 0" rpy="0 0 0"/>
+      <geometry><sphere radius="0.5"/></geometry></collision></link>
+    <link name="arm"><collision><geometry><box size="1 2 3"/></geometry></collision></link>
+    <link name="hand"><collision><geometry><sphere radius="0.25"/></geometry></collision></link>
+    <link name="tool"/>
+    <joint name="j" type="fixed"><parent link="base"/><child link="arm"/></joint>
+    <joint name="k" type="fixed"><parent link="arm"/><child link="hand"/></joint>
+    <joint name="l" type="fixed"><parent link="hand"/><child link="tool"/></joint>
+  </robot>)";
+  const std::map<std::string, double> own = {
+      {"base", 0.0}, {"arm", 0.25}, {"tool", 0.3}, {"nosuch", 0.2}};
+  auto robot = bodiesFromUrdf(xml, 0.1, Limits(), MeshLoader(), own);
+  ASSERT_TRUE(robot) << robot.error();
+  EXPECT_TRUE(robot->errors.empty());
+  std::map<std::string, const world::BodySpec*> by_id;
+  for (const auto& b : robot->bodies)
+    by_id[b.id] = &b;
+  ASSERT_EQ(by_id.size(), 3u);
+  const world::BodySpec& base = *by_id.at("base");
+  EXPECT_EQ(base.padding, 0.0);
+  EXPECT_EQ(base.parts[0].shape.support(core::Vec3::UnitX()).x(), 0.5);
+  const world::BodySpec& arm = *by_id.at("arm");
+  EXPECT_EQ(arm.padding, 0.25);
+  EXPECT_NEAR(arm.parts[0].shape.support(core::Vec3::UnitX()).x(), 0.75, 1e-12);
+  EXPECT_NEAR(arm.parts[0].shape.support(core::Vec3::UnitY()).y(), 1.25, 1e-12);
+  EXPECT_NEAR(arm.parts[0].shape.support(-core::Vec3::UnitZ()).z(), -1.75, 1e-12);
+  const world::BodySpec& hand = *by_id.at("hand");  // not named: robot_padding
+  EXPECT_EQ(hand.padding, 0.1);
+  EXPECT_NEAR(hand.parts[0].shape.support(core::Vec3::UnitZ()).z(), 0.35, 1e-12);
+  EXPECT_EQ(
+      robot->padding_errors,
+      (std::vector<std::string>{"robot_link_padding: 'nosuch' is not a link of robot 'r'",
+                                "robot_link_padding: link 'tool' has no <collision> geometry"}));
+  // Without link padding every link takes robot_padding and nothing is reported.
+  auto plain = bodiesFromUrdf(xml, 0.1, Limits(), MeshLoader());
+  ASSERT_TRUE(plain) << plain.error();
+  EXPECT_TRUE(plain->padding_errors.empty());
+  for (const auto& b : plain->bodies)
+    EXPECT_EQ(b.padding, 0.1) << b.id;
+}
+
+// The Panda's hand padded by 2 cm of its own: every part's support moves out by exactly 2 cm
+// along every direction; the other links stay as without.
+TEST(Urdf, PandaHandPaddedOnItsOwn) {
+  const std::string xml =
+      readFile(robotData() + "/robots/panda_description/urdf/panda_collision.urdf");
+  ASSERT_FALSE(xml.empty()) << "no Panda URDF under " << robotData();
+  auto plain = bodiesFromUrdf(xml, 0.0, Limits(), MeshLoader());
+  auto padded = bodiesFromUrdf(xml, 0.0, Limits(), MeshLoader(), {{"panda_hand", 0.02}});
+  ASSERT_TRUE(plain) << plain.error();
+  ASSERT_TRUE(padded) << padded.error();
+  EXPECT_TRUE(padded->padding_errors.empty());
+  ASSERT_EQ(plain->bodies.size(), padded->bodies.size());
+  std::mt19937 g(3);
+  std::normal_distribution<double> n;
+  std::size_t hand_parts = 0;
+  for (std::size_t i = 0; i < plain->bodies.size(); ++i) {
+    const world::BodySpec& a = plain->bodies[i];
+    const world::BodySpec& b = padded->bodies[i];
+    ASSERT_EQ(a.id, b.id);
+    ASSERT_EQ(a.parts.size(), b.parts.size());
+    const double pad = a.id == "panda_hand" ? 0.02 : 0.0;
+    EXPECT_EQ(b.padding, pad) << b.id;
+    for (std::size_t k = 0; k < a.parts.size(); ++k) {
+      hand_parts += pad > 0.0 ? 1 : 0;
+      for (int trial = 0; trial < 20; ++trial) {
+        const core::Vec3 d(n(g), n(g), n(g));
+        const core::Vec3 want = a.parts[k].shape.support(d) + pad * d.normalized();
+        EXPECT_LE((b.parts[k].shape.support(d) - want).norm(), 1e-15) << b.id << " part " << k;
+      }
+    }
+  }
+  EXPECT_EQ(hand_parts, 3u) << "the Panda's hand: 3 <collision> elements";
 }
 
 TEST(Urdf, BadLinkIsLeftOutOthersLoad) {

@@ -234,6 +234,7 @@ class Monitor {
   std::atomic<bool> publish_markers_{true};
   bool markers_published_ = false;  ///< loop thread: arrays went out since the last clear
   double robot_padding_ = 0.0;
+  std::map<std::string, double> robot_link_padding_;  ///< link -> padding, in place of the above
   std::string robot_description_param_ = "robot_description";
   MeshDecomposition mesh_decomposition_ = MeshDecomposition::Hull;  ///< start-up only
   std::vector<std::string> param_errors_;  ///< invalid parameters (fell back to defaults)

@@ -21,6 +21,7 @@
 /// ```
 #pragma once
 
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -48,6 +49,16 @@ Expected<std::vector<std::pair<std::string, std::string>>> pairsFromXmlRpc(
 
 /// A list of strings (`~mesh_roots`); a single string is a one-element list.
 Expected<std::vector<std::string>> stringsFromXmlRpc(const XmlRpc::XmlRpcValue& value);
+
+/// `~robot_link_padding`: link name -> that link's padding in metres (finite, >= 0), in place of
+/// `robot_padding`: `{panda_hand: 0.02, panda_link0: 0}`.
+struct LinkPadding {
+  std::map<std::string, double> padding;  ///< the valid entries
+  /// One per entry left out (its link keeps robot_padding), or the whole value when it is not
+  /// a map; each names the entry ("robot_link_padding['panda_hand']: ...").
+  std::vector<std::string> errors;
+};
+LinkPadding linkPaddingFromXmlRpc(const XmlRpc::XmlRpcValue& value);
 
 }  // namespace ros_layer
 }  // namespace collision_monitor
