@@ -46,9 +46,11 @@ class BadParams(unittest.TestCase):
                     'check_on_pose', 'exact_min_distance', 'align_poses', 'backend',
                     'max_bodies', 'max_vertices_per_part', 'max_parts_per_body',
                     'robot_description_param', 'mesh_decomposition', 'diagnostic_period',
-                    'min_check_interval'):
+                    'min_check_interval', 'robot_link_padding'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
-        self.assertEqual(len(errors), 20, errors)  # max_unknown_pairs = 1.0 is valid
+        self.assertEqual(len(errors), 21, errors)  # max_unknown_pairs = 1.0 is valid
+        self.assertIn("robot_link_padding: no URDF on parameter 'robot_description': no link to "
+                      "pad", errors)
         self.assertIn("min_check_interval: not a number (the text '2e-3': YAML reads a number with "
                       "an exponent as text unless it has a '.' and a signed exponent, roslaunch "
                       "unless it has a '.'; write 2.0e-3); default used", errors)
