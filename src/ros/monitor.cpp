@@ -308,11 +308,15 @@ void Monitor::readParameters() {
   checkNumber(
       "robot_padding", &robot_padding_, 0.0, [](double v) { return v >= 0.0; }, ">= 0",
       &param_errors_);
-  if (XmlRpc::XmlRpcValue v; pnh_.getParam("robot_link_padding", v)) {
-    LinkPadding links = linkPaddingFromXmlRpc(v);
-    robot_link_padding_ = std::move(links.padding);
-    param_errors_.insert(param_errors_.end(), links.errors.begin(), links.errors.end());
-  }
+  const auto readLinkMap = [this](const char* param, auto parse, auto* values) {
+    if (XmlRpc::XmlRpcValue v; pnh_.getParam(param, v)) {
+      auto read = parse(v);
+      *values = std::move(read.values);
+      param_errors_.insert(param_errors_.end(), read.errors.begin(), read.errors.end());
+    }
+  };
+  readLinkMap("robot_link_padding", linkPaddingFromXmlRpc, &robot_links_.padding);
+  readLinkMap("robot_link_groups", linkGroupsFromXmlRpc, &robot_links_.group);
   robot_description_param_ =
       typedParam<std::string>("robot_description_param", "robot_description", "a string");
   if (std::string why; !ros::names::validate(robot_description_param_, why) ||
@@ -419,19 +423,23 @@ void Monitor::loadRobot() {
   if (!nh_.getParam(key, urdf) || urdf.empty()) {
     ROS_INFO_STREAM(name_ << ": no URDF on parameter '" << robot_description_param_
                           << "': no robot bodies");
-    if (!robot_link_padding_.empty()) {
-      param_errors_.push_back("robot_link_padding: no URDF on parameter '" +
-                              robot_description_param_ + "': no link to pad");
-    }
+    const auto unused = [this](const char* param, bool given) {
+      if (given) {
+        param_errors_.push_back(std::string(param) + ": no URDF on parameter '" +
+                                robot_description_param_ + "': no robot links");
+      }
+    };
+    unused("robot_link_padding", !robot_links_.padding.empty());
+    unused("robot_link_groups", !robot_links_.group.empty());
   } else {
-    auto robot = bodiesFromUrdf(urdf, robot_padding_, limits_, mesh_loader_, robot_link_padding_);
+    auto robot = bodiesFromUrdf(urdf, robot_padding_, limits_, mesh_loader_, robot_links_);
     if (!robot) {
       robot_errors_.push_back("URDF '" + key + "': " + robot.error());
       rejectAtStartup(robot_errors_.back());
     } else {
       root_link = robot->root_link;
-      param_errors_.insert(param_errors_.end(), robot->padding_errors.begin(),
-                           robot->padding_errors.end());
+      param_errors_.insert(param_errors_.end(), robot->link_errors.begin(),
+                           robot->link_errors.end());
       for (const auto& e : robot->errors) {
         robot_errors_.push_back("URDF link " + e);
         rejectAtStartup(robot_errors_.back());

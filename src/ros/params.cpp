@@ -238,28 +238,53 @@ Expected<std::vector<std::string>> stringsFromXmlRpc(const XmlRpcValue& v) {
   }
 }
 
-LinkPadding linkPaddingFromXmlRpc(const XmlRpcValue& v) {
-  LinkPadding out;
+namespace {
+
+/// `param`, a map of link name -> T, each value read by `read` (which fails on a bad one).
+template <typename T, typename Read>
+LinkMap<T> linkMap(const XmlRpcValue& v, const std::string& param, const std::string& example,
+                   const std::string& otherwise, Read read) {
+  LinkMap<T> out;
   if (v.getType() != XmlRpcValue::TypeStruct) {
-    out.errors.emplace_back(
-        "robot_link_padding: expected a map of link names to metres, e.g. {panda_hand: 0.02}");
+    out.errors.push_back(param + ": expected a map of link names to " + example);
     return out;
   }
   for (auto it = v.begin(); it != v.end(); ++it) {
-    const std::string field = "robot_link_padding[" + quoteInput(it->first) + "]";
+    const std::string field = param + "[" + quoteInput(it->first) + "]";
     try {
-      const double pad = number(it->second, field);
-      if (!std::isfinite(pad) || pad < 0.0) {
-        std::ostringstream got;
-        got << pad;
-        fail(field, "must be finite and >= 0, got " + got.str());
-      }
-      out.padding.emplace(it->first, pad);
+      out.values.emplace(it->first, read(it->second, field));
     } catch (const FieldError& e) {
-      out.errors.push_back(e.what + "; robot_padding used");
+      out.errors.push_back(e.what + "; " + otherwise);
     }
   }
   return out;
+}
+
+}  // namespace
+
+LinkMap<double> linkPaddingFromXmlRpc(const XmlRpcValue& v) {
+  return linkMap<double>(v, "robot_link_padding", "metres, e.g. {panda_hand: 0.02}",
+                         "robot_padding used", [](const XmlRpcValue& x, const std::string& f) {
+                           const double pad = number(x, f);
+                           if (!std::isfinite(pad) || pad < 0.0) {
+                             std::ostringstream got;
+                             got << pad;
+                             fail(f, "must be finite and >= 0, got " + got.str());
+                           }
+                           return pad;
+                         });
+}
+
+LinkMap<std::string> linkGroupsFromXmlRpc(const XmlRpcValue& v) {
+  return linkMap<std::string>(
+      v, "robot_link_groups", "groups, e.g. {panda_hand: gripper}", "the link is in no group",
+      [](const XmlRpcValue& x, const std::string& f) {
+        std::string group = string(x, f);
+        if (group.empty()) fail(f, "the group name is empty");
+        const std::string too_long = checkLength(group, kMaxNameLength, "the group name");
+        if (!too_long.empty()) fail(f, too_long);
+        return group;
+      });
 }
 
 }  // namespace ros_layer

@@ -182,7 +182,7 @@ std::string checkUrdfStructure(const std::string& urdf_xml,
 
 Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding,
                                      const Limits& limits, const MeshLoader& load_mesh,
-                                     const std::map<std::string, double>& link_padding) {
+                                     const LinkSettings& links) {
   std::unordered_map<std::string, std::size_t> xml_collisions;  // link -> <collision> elements
   const std::string refused = checkUrdfStructure(urdf_xml, &xml_collisions);
   if (!refused.empty()) return Error{refused};
@@ -197,18 +197,22 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
   RobotBodies out;
   out.robot_name = model->getName();
   if (auto root = model->getRoot()) out.root_link = root->name;
-  for (const auto& entry : link_padding) {
-    const std::string& name = entry.first;
-    const auto link = model->links_.find(name);
-    if (link == model->links_.end() || !link->second) {
-      out.padding_errors.push_back("robot_link_padding: " + quoteInput(name) +
-                                   " is not a link of robot " + quoteInput(out.robot_name));
-    } else if (link->second->collision_array.empty() && !link->second->collision &&
-               xml_collisions.count(name) == 0) {
-      out.padding_errors.push_back("robot_link_padding: link " + quoteInput(name) +
-                                   " has no <collision> geometry");
+  const auto checkNames = [&](const auto& settings, const std::string& param) {
+    for (const auto& entry : settings) {
+      const std::string& name = entry.first;
+      const auto link = model->links_.find(name);
+      if (link == model->links_.end() || !link->second) {
+        out.link_errors.push_back(param + ": " + quoteInput(name) + " is not a link of robot " +
+                                  quoteInput(out.robot_name));
+      } else if (link->second->collision_array.empty() && !link->second->collision &&
+                 xml_collisions.count(name) == 0) {
+        out.link_errors.push_back(param + ": link " + quoteInput(name) +
+                                  " has no <collision> geometry");
+      }
     }
-  }
+  };
+  checkNames(links.padding, "robot_link_padding");
+  checkNames(links.group, "robot_link_groups");
 
   for (const auto& [name, link] : model->links_) {
     if (!link) continue;
@@ -226,13 +230,16 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
           (after == 0 ? std::string() : " and the " + std::to_string(after) + " after it") + ")");
     }
     if (elements.empty()) continue;
-    const auto own = link_padding.find(name);
-    const double pad = own == link_padding.end() ? padding : own->second;
+    const auto own = links.padding.find(name);
+    const double pad = own == links.padding.end() ? padding : own->second;
     collision_monitor::Body msg;
     msg.id = name;
     msg.header.frame_id = name;
     msg.operation = collision_monitor::Body::ADD;
     msg.padding = pad;
+    if (const auto group = links.group.find(name); group != links.group.end()) {
+      msg.group = group->second;
+    }
     // Each element is a part. A refused one is reported and left out; the link keeps the others
     // (it was left out whole: one missing mesh left its boxes unchecked too). Each is converted
     // alone first (a mesh is loaded once: bodyFromMsg takes it from the cache).

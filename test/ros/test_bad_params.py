@@ -49,8 +49,8 @@ class BadParams(unittest.TestCase):
                     'min_check_interval', 'robot_link_padding'):
             self.assertEqual(sum(e.startswith(key) for e in errors), 1, (key, errors))
         self.assertEqual(len(errors), 21, errors)  # max_unknown_pairs = 1.0 is valid
-        self.assertIn("robot_link_padding: no URDF on parameter 'robot_description': no link to "
-                      "pad", errors)
+        self.assertIn("robot_link_padding: no URDF on parameter 'robot_description': no robot "
+                      "links", errors)
         self.assertIn("min_check_interval: not a number (the text '2e-3': YAML reads a number with "
                       "an exponent as text unless it has a '.' and a signed exponent, roslaunch "
                       "unless it has a '.'; write 2.0e-3); default used", errors)
@@ -212,8 +212,8 @@ class BadParams(unittest.TestCase):
                 'no check by /slow_checks %.1f s after start-up: %s' % (
                     time.monotonic() - STARTED, slow.diag_value('checks (total)')))
             # Its robot: link l keeps its box; the mesh left out is an ERROR in every report, as
-            # are its diagnostic_period "abc" (reset to 1 on the parameter server), two entries
-            # of its robot_link_padding and the body of its ~bodies parameter refused for a typo (one report's WARN, then "ok", before
+            # are its diagnostic_period "abc" (reset to 1 on the parameter server), three entries
+            # of its link settings and the body of its ~bodies parameter refused for a typo (one report's WARN, then "ok", before
             # the thirty-ninth session): the report after the first one.
             first = slow.diagnostics
             self.assertTrue(wait_for(lambda: slow.diagnostics is not first, 5.0))
@@ -223,7 +223,8 @@ class BadParams(unittest.TestCase):
         self.assertEqual(st.level, DiagnosticStatus.ERROR, st.message)
         # Both in the message (then "; no check for ... s": its min_check_interval is 20 s).
         invalid = ["robot_link_padding['bad']: must be finite and >= 0, got -1; robot_padding "
-                   "used", "robot_link_padding: 'hand' is not a link of robot 'r'",
+                   "used", "robot_link_groups['l']: expected a string; the link is in no group",
+                   "robot_link_padding: 'hand' is not a link of robot 'r'",
                    'diagnostic_period: not a number; using 1']
         self.assertTrue(st.message.startswith(
             'invalid parameters: ' + ', '.join(invalid) + "; robot geometry not monitored: URDF "

@@ -623,8 +623,8 @@ TEST(Params, LinkPaddingEntriesCheckedOneByOne) {
   v["nan"] = std::nan("");
   v["text"] = "5e-2";
   v["list"][0] = 0.1;
-  const LinkPadding p = linkPaddingFromXmlRpc(v);
-  EXPECT_EQ(p.padding, (std::map<std::string, double>{{"panda_hand", 0.02}, {"panda_link0", 0.0}}));
+  const LinkMap<double> p = linkPaddingFromXmlRpc(v);
+  EXPECT_EQ(p.values, (std::map<std::string, double>{{"panda_hand", 0.02}, {"panda_link0", 0.0}}));
   // In the map's (name) order.
   const std::vector<std::string> want = {
       "robot_link_padding['list']: expected a number; robot_padding used",
@@ -636,16 +636,40 @@ TEST(Params, LinkPaddingEntriesCheckedOneByOne) {
   EXPECT_NE(numberWrittenAsText(v["text"]), "");  // the hint is there
 
   for (XmlRpc::XmlRpcValue whole : {XmlRpc::XmlRpcValue(0.02), XmlRpc::XmlRpcValue("hand")}) {
-    const LinkPadding q = linkPaddingFromXmlRpc(whole);
-    EXPECT_TRUE(q.padding.empty());
+    const LinkMap<double> q = linkPaddingFromXmlRpc(whole);
+    EXPECT_TRUE(q.values.empty());
     EXPECT_EQ(q.errors, std::vector<std::string>{"robot_link_padding: expected a map of link "
                                                  "names to metres, e.g. {panda_hand: 0.02}"});
   }
   XmlRpc::XmlRpcValue empty;
   empty.begin();  // an empty struct, as the parameter server gives {}
   EXPECT_EQ(empty.getType(), XmlRpc::XmlRpcValue::TypeStruct);
-  EXPECT_TRUE(linkPaddingFromXmlRpc(empty).padding.empty());
+  EXPECT_TRUE(linkPaddingFromXmlRpc(empty).values.empty());
   EXPECT_TRUE(linkPaddingFromXmlRpc(empty).errors.empty());
+}
+
+// robot_link_groups: a group is a non-empty name of at most kMaxNameLength bytes, as Body.group.
+TEST(Params, LinkGroupsEntriesCheckedOneByOne) {
+  XmlRpc::XmlRpcValue v;
+  v["panda_hand"] = "gripper";
+  v["panda_leftfinger"] = "gripper";
+  v["number"] = 3;
+  v["empty"] = "";
+  v["long"] = std::string(kMaxNameLength + 1, 'g');
+  const LinkMap<std::string> g = linkGroupsFromXmlRpc(v);
+  EXPECT_EQ(g.values, (std::map<std::string, std::string>{{"panda_hand", "gripper"},
+                                                          {"panda_leftfinger", "gripper"}}));
+  const std::vector<std::string> want = {
+      "robot_link_groups['empty']: the group name is empty; the link is in no group",
+      "robot_link_groups['long']: " +
+          checkLength(std::string(kMaxNameLength + 1, 'g'), kMaxNameLength, "the group name") +
+          "; the link is in no group",
+      "robot_link_groups['number']: expected a string; the link is in no group"};
+  EXPECT_EQ(g.errors, want);
+  EXPECT_EQ(linkGroupsFromXmlRpc(XmlRpc::XmlRpcValue("gripper")).errors,
+            std::vector<std::string>{
+                "robot_link_groups: expected a map of link names to groups, e.g. {panda_hand: "
+                "gripper}"});
 }
 
 // A part's orientation as a list is [x, y, z, w]; as a map, a missing component is 0. A pair of

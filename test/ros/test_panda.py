@@ -1,9 +1,9 @@
 #!/usr/bin/python3
 """rostest: Franka Panda from the URDF (one body per link with collision geometry, attached to
 the link frames published by robot_state_publisher), adjacent-link and SRDF exclusion, a
-topic-posed obstacle against the hand, robot links going stale when joint states stop, a link's
-own padding (robot_link_padding), and the manager's ~get_loggers (replaced by the nodelet:
-roscpp's crashes the process on Debian 12)."""
+topic-posed obstacle against the hand, robot links going stale when joint states stop, links'
+own padding and groups (robot_link_padding, robot_link_groups), and the manager's ~get_loggers
+(replaced by the nodelet: roscpp's crashes the process on Debian 12)."""
 import sys
 import threading
 import time
@@ -17,7 +17,7 @@ import rospy
 import rostest
 import tf2_ros
 from collision_monitor.msg import CollisionEvent
-from collision_monitor.srv import GetDistance, ListBodies
+from collision_monitor.srv import CheckCollision, GetDistance, ListBodies
 from rosgraph_msgs.msg import Log
 from roscpp.srv import GetLoggers
 from sensor_msgs.msg import JointState
@@ -257,6 +257,35 @@ class Panda(unittest.TestCase):
             self.assertIsNotNone(theirs, other(a, b, '').message)
             self.assertGreater(mine.result.distance, 0.05)
             self.assertAlmostEqual(theirs.result.distance, mine.result.distance - pad, places=9)
+
+    def test_09b_robot_link_groups(self):
+        # /robot2/arm/arm_monitor has the hand and fingers in group 'gripper': listed so, and an
+        # object of that group held in the hand (a grasp) is checked against the arm but not
+        # against them; without the group it collides with the fingers.
+        ns = '/robot2/arm/arm_monitor/'
+        rospy.wait_for_service(ns + 'check_collision', timeout=20.0)
+        listed = rospy.ServiceProxy(ns + 'list_bodies', ListBodies)()
+        self.assertEqual(dict(zip(listed.ids, listed.groups)),
+                         {i: ('gripper' if i in ('panda_hand', 'panda_leftfinger',
+                                                 'panda_rightfinger') else '') for i in LINKS})
+        check = rospy.ServiceProxy(ns + 'check_collision', CheckCollision)
+        held = sphere_body('held', 0.03, frame='panda_hand', pose_from_topic=False,
+                           group='gripper')
+        loose = sphere_body('held', 0.03, frame='panda_hand', pose_from_topic=False)
+        at = pose(0, 0, 0.11)  # between the fingers (their joints at 2 cm)
+        answers = [wait_for(lambda: (lambda r: r if r.success else None)(check(b, at, 0.5)),
+                            5.0, 0.05) for b in (held, loose)]
+        self.assertNotIn(None, answers)
+        near = [{p.body_b if p.body_a == 'held' else p.body_a: p.distance for p in r.pairs}
+                for r in answers]
+        self.assertFalse(answers[0].in_collision, near[0])
+        self.assertEqual(set(near[0]) & {'panda_hand', 'panda_leftfinger', 'panda_rightfinger'},
+                         set(), near[0])
+        self.assertIn('panda_link7', near[0])
+        self.assertTrue(answers[1].in_collision, near[1])
+        self.assertLess(near[1]['panda_leftfinger'], 0.0)
+        self.assertLess(near[1]['panda_rightfinger'], 0.0)
+        self.assertEqual(near[1]['panda_link7'], near[0]['panda_link7'])
 
     def test_10_each_monitor_logs_its_own_tf_refusal(self):
         # Bug: the refusal's log line was throttled by ROS_WARN_STREAM_THROTTLE, whose last time

@@ -130,8 +130,9 @@ TEST(Urdf, PaddingAndOrigins) {
 }
 
 // robot_link_padding: a named link takes its own padding (more, or none) in place of
-// robot_padding; a name that pads nothing is reported, and the links load as they would.
-TEST(Urdf, LinkPaddingReplacesTheRobotPaddingOfTheLinksItNames) {
+// robot_padding; robot_link_groups puts links in groups; a name that applies to nothing is
+// reported, and the links load as they would.
+TEST(Urdf, LinkSettingsApplyToTheLinksTheyName) {
   const std::string xml = R"(<robot name="r">
     <link name="base"><collision><origin xyz="1 0 0" rpy="0 0 0"/>
       <geometry><sphere radius="0.5"/></geometry></collision></link>
@@ -142,8 +143,9 @@ TEST(Urdf, LinkPaddingReplacesTheRobotPaddingOfTheLinksItNames) {
     <joint name="k" type="fixed"><parent link="arm"/><child link="hand"/></joint>
     <joint name="l" type="fixed"><parent link="hand"/><child link="tool"/></joint>
   </robot>)";
-  const std::map<std::string, double> own = {
-      {"base", 0.0}, {"arm", 0.25}, {"tool", 0.3}, {"nosuch", 0.2}};
+  LinkSettings own;
+  own.padding = {{"base", 0.0}, {"arm", 0.25}, {"tool", 0.3}, {"nosuch", 0.2}};
+  own.group = {{"arm", "g"}, {"hand", "g"}, {"tool", "g"}, {"ghost", "h"}};
   auto robot = bodiesFromUrdf(xml, 0.1, Limits(), MeshLoader(), own);
   ASSERT_TRUE(robot) << robot.error();
   EXPECT_TRUE(robot->errors.empty());
@@ -162,16 +164,22 @@ TEST(Urdf, LinkPaddingReplacesTheRobotPaddingOfTheLinksItNames) {
   const world::BodySpec& hand = *by_id.at("hand");  // not named: robot_padding
   EXPECT_EQ(hand.padding, 0.1);
   EXPECT_NEAR(hand.parts[0].shape.support(core::Vec3::UnitZ()).z(), 0.35, 1e-12);
-  EXPECT_EQ(
-      robot->padding_errors,
-      (std::vector<std::string>{"robot_link_padding: 'nosuch' is not a link of robot 'r'",
-                                "robot_link_padding: link 'tool' has no <collision> geometry"}));
-  // Without link padding every link takes robot_padding and nothing is reported.
+  EXPECT_EQ(base.group, "");
+  EXPECT_EQ(arm.group, "g");
+  EXPECT_EQ(hand.group, "g");
+  EXPECT_EQ(robot->link_errors, (std::vector<std::string>{
+                                    "robot_link_padding: 'nosuch' is not a link of robot 'r'",
+                                    "robot_link_padding: link 'tool' has no <collision> geometry",
+                                    "robot_link_groups: 'ghost' is not a link of robot 'r'",
+                                    "robot_link_groups: link 'tool' has no <collision> geometry"}));
+  // Without link settings every link takes robot_padding, no group, and nothing is reported.
   auto plain = bodiesFromUrdf(xml, 0.1, Limits(), MeshLoader());
   ASSERT_TRUE(plain) << plain.error();
-  EXPECT_TRUE(plain->padding_errors.empty());
-  for (const auto& b : plain->bodies)
+  EXPECT_TRUE(plain->link_errors.empty());
+  for (const auto& b : plain->bodies) {
     EXPECT_EQ(b.padding, 0.1) << b.id;
+    EXPECT_EQ(b.group, "") << b.id;
+  }
 }
 
 // The Panda's hand padded by 2 cm of its own: every part's support moves out by exactly 2 cm
@@ -181,10 +189,12 @@ TEST(Urdf, PandaHandPaddedOnItsOwn) {
       readFile(robotData() + "/robots/panda_description/urdf/panda_collision.urdf");
   ASSERT_FALSE(xml.empty()) << "no Panda URDF under " << robotData();
   auto plain = bodiesFromUrdf(xml, 0.0, Limits(), MeshLoader());
-  auto padded = bodiesFromUrdf(xml, 0.0, Limits(), MeshLoader(), {{"panda_hand", 0.02}});
+  LinkSettings hand;
+  hand.padding = {{"panda_hand", 0.02}};
+  auto padded = bodiesFromUrdf(xml, 0.0, Limits(), MeshLoader(), hand);
   ASSERT_TRUE(plain) << plain.error();
   ASSERT_TRUE(padded) << padded.error();
-  EXPECT_TRUE(padded->padding_errors.empty());
+  EXPECT_TRUE(padded->link_errors.empty());
   ASSERT_EQ(plain->bodies.size(), padded->bodies.size());
   std::mt19937 g(3);
   std::normal_distribution<double> n;

@@ -46,6 +46,7 @@
 #include "collision_monitor/ros/conversions.h"
 #include "collision_monitor/ros/markers.h"
 #include "collision_monitor/ros/mesh_loader.h"
+#include "collision_monitor/ros/robot_model.h"
 #include "collision_monitor/ros/tf_receiver.h"
 #include "collision_monitor/ros/tunables.h"
 #include "collision_monitor/ros/wire_check.h"
@@ -234,7 +235,7 @@ class Monitor {
   std::atomic<bool> publish_markers_{true};
   bool markers_published_ = false;  ///< loop thread: arrays went out since the last clear
   double robot_padding_ = 0.0;
-  std::map<std::string, double> robot_link_padding_;  ///< link -> padding, in place of the above
+  LinkSettings robot_links_;  ///< robot_link_padding, robot_link_groups
   std::string robot_description_param_ = "robot_description";
   MeshDecomposition mesh_decomposition_ = MeshDecomposition::Hull;  ///< start-up only
   std::vector<std::string> param_errors_;  ///< invalid parameters (fell back to defaults)

@@ -50,15 +50,22 @@ Expected<std::vector<std::pair<std::string, std::string>>> pairsFromXmlRpc(
 /// A list of strings (`~mesh_roots`); a single string is a one-element list.
 Expected<std::vector<std::string>> stringsFromXmlRpc(const XmlRpc::XmlRpcValue& value);
 
-/// `~robot_link_padding`: link name -> that link's padding in metres (finite, >= 0), in place of
-/// `robot_padding`: `{panda_hand: 0.02, panda_link0: 0}`.
-struct LinkPadding {
-  std::map<std::string, double> padding;  ///< the valid entries
-  /// One per entry left out (its link keeps robot_padding), or the whole value when it is not
-  /// a map; each names the entry ("robot_link_padding['panda_hand']: ...").
+/// A map parameter from URDF link names to a setting of each link, read entry by entry.
+template <typename T>
+struct LinkMap {
+  std::map<std::string, T> values;  ///< the valid entries
+  /// One per entry left out (its link keeps the robot's setting), or the whole value when it is
+  /// not a map; each names the entry ("robot_link_padding['panda_hand']: ...").
   std::vector<std::string> errors;
 };
-LinkPadding linkPaddingFromXmlRpc(const XmlRpc::XmlRpcValue& value);
+
+/// `~robot_link_padding`: a link's padding in metres (finite, >= 0), in place of
+/// `robot_padding`: `{panda_hand: 0.02, panda_link0: 0}`.
+LinkMap<double> linkPaddingFromXmlRpc(const XmlRpc::XmlRpcValue& value);
+
+/// `~robot_link_groups`: a link's group (a non-empty string of at most kMaxNameLength bytes, as
+/// Body.group; robot links are in none by default): `{panda_hand: gripper}`.
+LinkMap<std::string> linkGroupsFromXmlRpc(const XmlRpc::XmlRpcValue& value);
 
 }  // namespace ros_layer
 }  // namespace collision_monitor

@@ -32,9 +32,15 @@ struct RobotBodies {
   /// Elements and links left out, each with the reason ("panda_hand: collision 1 (mesh): ...";
   /// collision elements are counted as urdfdom keeps them). Other links load.
   std::vector<std::string> errors;
-  /// Entries of `link_padding` that pad nothing: no such link, or a link without <collision>
-  /// elements ("robot_link_padding: 'panda_hnd' is not a link of robot 'panda'").
-  std::vector<std::string> padding_errors;
+  /// Entries of the LinkSettings that apply to nothing: no such link, or a link without
+  /// <collision> elements ("robot_link_padding: 'panda_hnd' is not a link of robot 'panda'").
+  std::vector<std::string> link_errors;
+};
+
+/// Settings of single links, by link name (`~robot_link_padding`, `~robot_link_groups`).
+struct LinkSettings {
+  std::map<std::string, double> padding;     ///< m, >= 0, in place of the robot's padding
+  std::map<std::string, std::string> group;  ///< the link's group (as Body.group); else none
 };
 
 /// Links a URDF may declare (any link, with or without geometry): urdfdom's memory and parse time
@@ -58,10 +64,11 @@ std::string checkUrdfStructure(const std::string& urdf_xml,
 /// URDF or its structure is refused. A refused <collision> element (and one urdfdom dropped for
 /// want of geometry) is listed in `errors` and left out of its link, which keeps the others; a
 /// link whose every element is refused is left out. `padding` (m, >= 0) inflates every part of
-/// a link that `link_padding` (link name -> m, >= 0) does not name; a named link takes its own.
+/// a link that `links.padding` does not name; a named link takes its own. Links are in no group
+/// unless `links.group` names them.
 Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding,
                                      const Limits& limits, const MeshLoader& load_mesh,
-                                     const std::map<std::string, double>& link_padding = {});
+                                     const LinkSettings& links = {});
 
 /// The collision rules of an SRDF (srdfdom 0.6, as MoveIt's allowed collision matrix reads
 /// them): a pair is never checked when <disable_collisions> names it; else it is checked when
