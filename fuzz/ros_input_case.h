@@ -13,7 +13,8 @@
 ///   3 a `robot_description` URDF: bodiesFromUrdf() (checkUrdfStructure(), urdfdom), the bodies
 ///     added to a world;
 ///   4 a `robot_description_semantic` SRDF: collisionsFromSrdf();
-///   5 an entry of the `~bodies` parameter (an XML-RPC value): bodyFromXmlRpc(), bodyFromMsg().
+///   5 an entry of the `~bodies` parameter (an XML-RPC value): bodyFromXmlRpc(), bodyFromMsg();
+///     the same value as `~robot_link_padding` and `~robot_link_groups`.
 /// What must hold (the fuzz target aborts on a failure, so that libFuzzer saves the input; copy it
 /// to fuzz/regressions/ros/, which test_ros_fuzz_regressions and scripts/fuzz.sh replay): a message
 /// the layout walk passes deserializes without an exception (roscpp would otherwise drop it
@@ -193,10 +194,31 @@ inline void fuzzSrdf(const std::string& xml) {
        std::to_string(rules->num_skipped) + " skipped");
 }
 
+/// The same value as `~robot_link_padding` and `~robot_link_groups`: every entry kept is valid,
+/// every one left out has a reason.
+inline void fuzzLinkMaps(const XmlRpc::XmlRpcValue& value) {
+  const auto padding = rl::linkPaddingFromXmlRpc(value);
+  for (const auto& [link, pad] : padding.values) {
+    if (!std::isfinite(pad) || pad < 0.0) fail("robot_link_padding kept a bad padding of " + link);
+  }
+  const auto groups = rl::linkGroupsFromXmlRpc(value);
+  for (const auto& [link, group] : groups.values) {
+    if (group.empty() || group.size() > rl::kMaxNameLength) {
+      fail("robot_link_groups kept a bad group of " + link);
+    }
+  }
+  for (const auto* errors : {&padding.errors, &groups.errors}) {
+    for (const auto& e : *errors) {
+      if (e.empty()) fail("a link map entry left out without a reason");
+    }
+  }
+}
+
 inline void fuzzXmlRpc(const std::string& xml) {
   int offset = 0;
   XmlRpc::XmlRpcValue value(xml, &offset);
   if (!value.valid()) return note("no XML-RPC value");
+  fuzzLinkMaps(value);
   const auto msg = rl::bodyFromXmlRpc(value);
   if (!msg) return refusedWithReason(msg.error(), "bodyFromXmlRpc");
   auto spec = rl::bodyFromMsg(*msg, world::BodyOrigin::Parameter, rl::Limits(), kNoMeshes);
