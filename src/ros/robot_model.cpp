@@ -197,6 +197,10 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
   RobotBodies out;
   out.robot_name = model->getName();
   if (auto root = model->getRoot()) out.root_link = root->name;
+  // A link with <collision> elements, whether or not they load (urdfdom may drop them).
+  auto has_geometry = [&xml_collisions](const urdf::Link* l) {
+    return !l->collision_array.empty() || l->collision || xml_collisions.count(l->name) != 0;
+  };
   const auto checkNames = [&](const auto& settings, const std::string& param) {
     for (const auto& entry : settings) {
       const std::string& name = entry.first;
@@ -204,8 +208,7 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
       if (link == model->links_.end() || !link->second) {
         out.link_errors.push_back(param + ": " + quoteInput(name) + " is not a link of robot " +
                                   quoteInput(out.robot_name));
-      } else if (link->second->collision_array.empty() && !link->second->collision &&
-                 xml_collisions.count(name) == 0) {
+      } else if (!has_geometry(link->second.get())) {
         out.link_errors.push_back(param + ": link " + quoteInput(name) +
                                   " has no <collision> geometry");
       }
@@ -271,9 +274,6 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
   // it loaded: a refused link still counts as the physical neighbour). Memoised, so that many
   // bodies below one long geometry-less stretch walk it once; at most one step per link (no
   // cycles: checkUrdfStructure).
-  auto has_geometry = [&xml_collisions](const urdf::Link* l) {
-    return !l->collision_array.empty() || l->collision || xml_collisions.count(l->name) != 0;
-  };
   std::unordered_map<const urdf::Link*, const urdf::Link*> nearest;  // link -> ancestor or null
   std::vector<const urdf::Link*> walk;
   auto nearestAncestor = [&](const urdf::Link* link) -> const urdf::Link* {
