@@ -16,7 +16,7 @@ import rosnode
 import rospy
 import rostest
 import tf2_ros
-from collision_monitor.msg import CollisionEvent
+from collision_monitor.msg import Body, CollisionEvent
 from collision_monitor.srv import CheckCollision, GetDistance, ListBodies
 from rosgraph_msgs.msg import Log
 from roscpp.srv import GetLoggers
@@ -286,6 +286,30 @@ class Panda(unittest.TestCase):
         self.assertLess(near[1]['panda_leftfinger'], 0.0)
         self.assertLess(near[1]['panda_rightfinger'], 0.0)
         self.assertEqual(near[1]['panda_link7'], near[0]['panda_link7'])
+        # The same object tracked (node.md, "Holding an object"): sent on ~bodies in the hand's
+        # frame, it has its distance to panda_link7 and none to the hand or fingers.
+        arm = Monitor(ns)
+        held.parts[0].pose = at
+        arm.add(held)
+        try:
+            self.assertTrue(arm.wait_listed('held'))
+            r = wait_for(lambda: (lambda r: r if r.success else None)(
+                arm.get_distance('held', 'panda_link7', '')), 5.0, 0.05)
+            self.assertIsNotNone(r, arm.get_distance('held', 'panda_link7', '').message)
+            self.assertAlmostEqual(r.result.distance, near[0]['panda_link7'], places=9)
+            for link in ('panda_hand', 'panda_leftfinger', 'panda_rightfinger'):
+                r = arm.get_distance('held', link, '')
+                self.assertFalse(r.success)
+                self.assertIn("both bodies are in group 'gripper'", r.message)
+            # In ~state: WARNING with panda_link7 (3.7 cm), nothing with the gripper.
+            def partners():
+                return {p.body_b if p.body_a == 'held' else p.body_a for p in arm.state.pairs
+                        if 'held' in (p.body_a, p.body_b)}
+            self.assertTrue(wait_for(lambda: partners() == {'panda_link7'}, 5.0),
+                            [(p.body_a, p.body_b, p.distance) for p in arm.state.pairs])
+        finally:
+            arm.add(Body(id='held', operation=Body.REMOVE))
+            self.assertTrue(arm.wait_listed('held', present=False))
 
     def test_10_each_monitor_logs_its_own_tf_refusal(self):
         # Bug: the refusal's log line was throttled by ROS_WARN_STREAM_THROTTLE, whose last time
