@@ -213,8 +213,9 @@ class BadParams(unittest.TestCase):
                     time.monotonic() - STARTED, slow.diag_value('checks (total)')))
             # Its robot: link l keeps its box; the mesh left out is an ERROR in every report, as
             # are its diagnostic_period "abc" (reset to 1 on the parameter server), three entries
-            # of its link settings and the body of its ~bodies parameter refused for a typo (one report's WARN, then "ok", before
-            # the thirty-ninth session): the report after the first one.
+            # of its link settings and the body of its ~bodies parameter refused for a typo (one
+            # report's WARN, then "ok", before the thirty-ninth session): the report after the
+            # first one.
             first = slow.diagnostics
             self.assertTrue(wait_for(lambda: slow.diagnostics is not first, 5.0))
         finally:
