@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Every test: install dependencies, build with -Werror, run the whole CTest suite (core gtests,
-# world gtests, rostests over a real roscore), then the geometry core again under ASan+UBSan,
-# a bounded libFuzzer run on the core, then a build inside a catkin workspace, then the core alone
-# installed and used by a plain CMake program. Exits non-zero on any failure.
+# world gtests, rostests over a real roscore), clang-tidy over the sources (.clang-tidy), then the
+# geometry core again under ASan+UBSan, a bounded libFuzzer run on the core, then a build inside a
+# catkin workspace, then the core alone installed and used by a plain CMake program. Exits
+# non-zero on any failure.
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
 JOBS="$(nproc)"
@@ -32,7 +33,7 @@ run_ctest() {
 }
 bash "$CM_ROOT/scripts/install_deps.sh"
 
-echo "=== 1/5 standalone build (-Werror) and full test suite"
+echo "=== 1/6 standalone build (-Werror) and full test suite"
 bash "$CM_ROOT/scripts/build.sh" -DCOLLISION_MONITOR_WERROR=ON
 cm_source_devel
 if [ ! -d "$CM_ROBOT_DATA/example-robot-data" ]; then
@@ -41,7 +42,14 @@ if [ ! -d "$CM_ROBOT_DATA/example-robot-data" ]; then
 fi
 run_ctest "$CM_BUILD" CM_ARTIFACTS="$CM_BUILD/test_results"
 
-echo "=== 2/5 geometry core under AddressSanitizer + UndefinedBehaviorSanitizer"
+echo "=== 2/6 clang-tidy over src/ and examples/ (the checks of .clang-tidy, every finding an error)"
+if bash "$CM_ROOT/scripts/tidy.sh" "$CM_BUILD"; then
+  PASSED=$((PASSED + 1))
+else
+  FAILED=$((FAILED + 1))
+fi
+
+echo "=== 3/6 geometry core under AddressSanitizer + UndefinedBehaviorSanitizer"
 SAN_BUILD="$CM_BUILD-asan"
 cmake -S "$CM_ROOT" -B "$SAN_BUILD" -DCOLLISION_MONITOR_CORE_ONLY=ON -DCOLLISION_MONITOR_SANITIZE=ON \
   -DCOLLISION_MONITOR_WERROR=ON -DCOLLISION_MONITOR_BENCHMARKS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
@@ -49,7 +57,7 @@ cmake --build "$SAN_BUILD" -j"$JOBS"
 run_ctest "$SAN_BUILD" ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   CM_SWEEP_SCALE="${CM_SWEEP_SCALE_SANITIZER:-0.1}"
 
-echo "=== 3/5 libFuzzer (clang, ASan + UBSan) on the geometry core, the world model and the ROS layer's input: replay the corpora, fuzz ${CM_FUZZ_RUNS:-1200}, ${CM_FUZZ_WORLD_RUNS:-3000} and ${CM_FUZZ_ROS_RUNS:-20000} inputs (seed ${CM_FUZZ_SEED:-1}, at most ${CM_FUZZ_SECONDS:-120} s each)"
+echo "=== 4/6 libFuzzer (clang, ASan + UBSan) on the geometry core, the world model and the ROS layer's input: replay the corpora, fuzz ${CM_FUZZ_RUNS:-1200}, ${CM_FUZZ_WORLD_RUNS:-3000} and ${CM_FUZZ_ROS_RUNS:-20000} inputs (seed ${CM_FUZZ_SEED:-1}, at most ${CM_FUZZ_SECONDS:-120} s each)"
 # Fixed seed and input count: the same inputs on every machine (open findings of longer runs are
 # in fuzz/open/core, docs/reliability.md). The ROS target uses the messages built in step 1.
 if CM_FUZZ_SEED="${CM_FUZZ_SEED:-1}" CM_FUZZ_RUNS="${CM_FUZZ_RUNS:-1200}" \
@@ -60,7 +68,7 @@ else
   FAILED=$((FAILED + 1))
 fi
 
-echo "=== 4/5 build and install inside a catkin workspace (catkin_make install), the demo from the install space, a downstream package and a plain CMake program against it"
+echo "=== 5/6 build and install inside a catkin workspace (catkin_make install), the demo from the install space, a downstream package and a plain CMake program against it"
 # The workspace links back to this package (src/collision_monitor) and holds an install space with
 # its launch files. roslaunch finds a package's files by walking its whole folder, following links
 # and skipping only folders whose names start with a dot: a workspace named build-ws in the package
@@ -83,7 +91,7 @@ if ! out="$(roslaunch --files collision_monitor demo.launch 2>&1)"; then
 fi
 echo "roslaunch collision_monitor demo.launch resolves to $out: ok"
 
-echo "=== 5/5 the geometry core alone: core-only build of the library (no tests), cmake --install, a plain CMake program against it"
+echo "=== 6/6 the geometry core alone: core-only build of the library (no tests), cmake --install, a plain CMake program against it"
 CORE_BUILD="$CM_BUILD-core"
 rm -rf "$CORE_BUILD/install"
 cmake -S "$CM_ROOT" -B "$CORE_BUILD" -DCOLLISION_MONITOR_CORE_ONLY=ON -DBUILD_TESTING=OFF \

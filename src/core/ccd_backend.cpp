@@ -247,7 +247,7 @@ class LibccdNarrowPhase final : public NarrowPhase {
       // And along our normal: for any axis the cores' overlap along it bounds the depth from
       // above, so a separating axis of ours, or an overlap along our EPA normal smaller than
       // libccd's depth, refutes libccd's answer.
-      const ContactResult ours = core::signedDistance(a, pose_a, b, pose_b, cache, query_);
+      ContactResult ours = core::signedDistance(a, pose_a, b, pose_b, cache, query_);
       if (contradicts(a, pose_a, b, pose_b, ours.normal, -r.distance, tolerance)) return ours;
       r.distance -= a.radius() + b.radius();
       r.point_a += a.radius() * r.normal;

@@ -146,7 +146,7 @@ struct Rounding {
     M.row(2) = f.n.transpose() / f.h2;
     mapped_points.reserve(pts.size());
     for (const Vec3& p : pts)
-      mapped_points.push_back(M * (p - origin));
+      mapped_points.emplace_back(M * (p - origin));
   }
   /// The points as qhull gets them: the input itself, or mapped.
   const std::vector<Vec3>& points() const { return mapped ? mapped_points : *input; }

@@ -512,7 +512,7 @@ CM_ALWAYS_INLINE ContactResult distanceIn(const ConvexShape& a, const Transform3
   };
   if constexpr (!kWantDepth) return run();
   const bool warm = cache != nullptr && cache->size > 0;
-  const ContactResult r = run();
+  ContactResult r = run();
   if (!warm || r.status != Status::FailedToConverge) return r;
   // A warm seed that holds the origin only to rounding can start EPA on a polytope the origin is
   // outside of: a capsule crossing a flat 4750 m box (vertices 2400 m out) cycled through the

@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
   std::signal(SIGTERM, onSigterm);
   ros::NodeHandle nh;             // starts roscpp
   nodelet::Loader loader(false);  // no manager services: this process hosts one nodelet
-  const nodelet::M_string remappings(ros::names::getRemappings());
+  const nodelet::M_string& remappings = ros::names::getRemappings();
   const nodelet::V_string my_argv(argv + 1, argv + argc);
   if (!loader.load(ros::this_node::getName(), "collision_monitor/CollisionMonitorNodelet",
                    remappings, my_argv)) {

@@ -64,11 +64,11 @@ struct Reply {
 
 /// `method` of the ROS API at host:port, the node's name (the caller id) first, then `args`.
 Reply callApi(const std::string& host, int port, const std::string& method,
-              std::vector<XmlRpc::XmlRpcValue> args) {
+              const std::vector<XmlRpc::XmlRpcValue>& args) {
   XmlRpc::XmlRpcValue request, response;
   request[0] = ros::this_node::getName();
   for (std::size_t i = 0; i < args.size(); ++i)
-    request[static_cast<int>(i + 1)] = std::move(args[i]);
+    request[static_cast<int>(i + 1)] = args[i];
   Reply r;
   TimedClient client(host, port);
   if (!client.call(method, request, &response) || !isArray(response) || response.size() != 3 ||
@@ -80,19 +80,18 @@ Reply callApi(const std::string& host, int port, const std::string& method,
   return r;
 }
 
-Reply callMaster(const std::string& method, std::vector<XmlRpc::XmlRpcValue> args) {
-  return callApi(ros::master::getHost(), static_cast<int>(ros::master::getPort()), method,
-                 std::move(args));
+Reply callMaster(const std::string& method, const std::vector<XmlRpc::XmlRpcValue>& args) {
+  return callApi(ros::master::getHost(), static_cast<int>(ros::master::getPort()), method, args);
 }
 
 /// The node's own slave API (the topics roscpp holds: no public C++ call lists them with their
 /// types, nor hands a subscription its publishers).
-Reply callSelf(const std::string& method, std::vector<XmlRpc::XmlRpcValue> args) {
+Reply callSelf(const std::string& method, const std::vector<XmlRpc::XmlRpcValue>& args) {
   std::string host;
   std::uint32_t port = 0;
   if (!ros::network::splitURI(ros::XMLRPCManager::instance()->getServerURI(), host, port))
     return Reply();
-  return callApi(host, static_cast<int>(port), method, std::move(args));
+  return callApi(host, static_cast<int>(port), method, args);
 }
 
 /// [[name, type], ...] of the node's own publications or subscriptions.
@@ -236,10 +235,10 @@ MasterWatch::Outcome MasterWatch::registerAgain(std::string* why) {
     return stop == Outcome::Done;
   };
   // One registration, `what` naming it; its reply in `reply` when given.
-  const auto registered = [&](const char* method, std::vector<XmlRpc::XmlRpcValue> args,
+  const auto registered = [&](const char* method, const std::vector<XmlRpc::XmlRpcValue>& args,
                               const std::string& what, Reply* reply = nullptr) {
     if (!mayGoOn(what)) return false;
-    Reply r = callMaster(method, std::move(args));
+    Reply r = callMaster(method, args);
     if (r.code != 1) {
       stop = Outcome::Failed;
       *why = what;

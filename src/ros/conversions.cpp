@@ -248,7 +248,7 @@ Expected<std::vector<ConvexShape>> shapesFromMsg(const collision_monitor::Shape&
         if (!finite(msg.vertices[i])) {
           return Error{"vertex " + std::to_string(i) + " is not finite"};
         }
-        points.push_back(toVec3(msg.vertices[i]).cwiseProduct(*scale));
+        points.emplace_back(toVec3(msg.vertices[i]).cwiseProduct(*scale));
       }
       if (allCoincide(points)) return Error{"degenerate convex part: every vertex coincides"};
       return Shapes{ConvexShape::convexHull(points)};

@@ -145,7 +145,7 @@ void tessellate(const ConvexShape& shape, double radius, int n, Marker* m) {
   const int segments = 2 * n;  // azimuth steps over [0, 2 pi)
   std::vector<Vec3> dirs;
   std::vector<Vec3> pts;
-  dirs.reserve(static_cast<std::size_t>((rings + 1) * segments));
+  dirs.reserve(static_cast<std::size_t>(rings + 1) * static_cast<std::size_t>(segments));
   pts.reserve(dirs.capacity());
   for (int i = 0; i <= rings; ++i) {
     // The poles exactly: sin(pi) is 1.2e-16, enough to pick rim points of a face whose normal
@@ -157,7 +157,7 @@ void tessellate(const ConvexShape& shape, double radius, int n, Marker* m) {
       const double phi = 2.0 * M_PI * j / segments;
       const Vec3 d(st * std::cos(phi), st * std::sin(phi), ct);
       dirs.push_back(d);
-      pts.push_back(shape.coreSupport(d) + radius * d);
+      pts.emplace_back(shape.coreSupport(d) + radius * d);
     }
   }
   const double scale = std::max(shape.localRadius(), radius) + kMinSize;

@@ -64,11 +64,18 @@ Expected<std::string> uriPath(const std::string& encoded) {
   return out;
 }
 
+/// strerror(3)'s text of `err`, thread-safe (GNU strerror_r): meshes load on the ~bodies thread
+/// while others run, and strerror's static buffer is shared with them.
+std::string errnoText(int err) {
+  char buf[256];
+  return ::strerror_r(err, buf, sizeof(buf));
+}
+
 /// realpath(3) as a string; empty with `why` set on failure.
 std::string canonical(const std::string& path, std::string* why) {
   char buf[PATH_MAX];
   if (::realpath(path.c_str(), buf) == nullptr) {
-    if (why) *why = std::strerror(errno);
+    if (why) *why = errnoText(errno);
     return {};
   }
   return buf;
@@ -307,7 +314,7 @@ Expected<MeshParts> loadMeshParts(const std::string& path, const core::Vec3& sca
     // Read here, from the path that was checked: resource_retriever (libcurl) decoded %XX and
     // cut at '#' and '?' again, and loaded another file than the one checked.
     std::ifstream in(path, std::ios::binary | std::ios::ate);
-    if (!in) return Error{"cannot open " + path + ": " + std::strerror(errno)};
+    if (!in) return Error{"cannot open " + path + ": " + errnoText(errno)};
     const std::streamoff size = in.tellg();
     if (size <= 0) return Error{path + " is empty"};
     if (static_cast<std::uint64_t>(size) > kMaxMeshFileBytes) {

@@ -406,7 +406,7 @@ void Monitor::onReconfigure(collision_monitor::MonitorConfig& config, std::uint3
 std::string Monitor::robotParamKey(const std::string& name, const std::string& fallback) const {
   // A remapped name as remapped: roscpp's searchParam honours only the command line's remappings,
   // not a nodelet's (which come resolved), so a nodelet would search past the remap.
-  const std::string remapped = nh_.resolveName(name, true);
+  std::string remapped = nh_.resolveName(name, true);
   if (remapped != nh_.resolveName(name, false)) return remapped;
   if (!fallback.empty()) return fallback;
   std::string key;

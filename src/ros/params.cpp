@@ -228,6 +228,7 @@ Expected<std::vector<std::string>> stringsFromXmlRpc(const XmlRpcValue& v) {
     }
     std::vector<std::string> out;
     array(v, "list");
+    out.reserve(static_cast<std::size_t>(v.size()));
     for (int i = 0; i < v.size(); ++i)
       out.push_back(string(v[i], "[" + std::to_string(i) + "]"));
     return out;

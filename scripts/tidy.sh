@@ -1,0 +1,47 @@
+#!/usr/bin/env bash
+# clang-tidy over the package's own sources (src/ and examples/, and the headers of include/ and
+# src/ they include) with the checks of .clang-tidy, every finding an error. Needs a configured
+# and built standalone tree ($CM_BUILD, or the first argument): its compile_commands.json, and the
+# message and dynamic_reconfigure headers generated into its devel space. Exits non-zero on any
+# finding, printing them.
+set -euo pipefail
+source "$(dirname "$0")/env.sh"
+BUILD="${1:-$CM_BUILD}"
+DB="$BUILD/compile_commands.json"
+if [ ! -f "$DB" ]; then
+  echo "tidy.sh: no $DB (configure and build the tree first: scripts/build.sh)" >&2
+  exit 1
+fi
+TIDY="$(command -v clang-tidy || command -v clang-tidy-14 || true)"
+if [ -z "$TIDY" ]; then
+  echo "tidy.sh: clang-tidy not found (apt-get install clang-tidy)" >&2
+  exit 1
+fi
+# The translation units of the database under src/ and examples/, each once.
+mapfile -t FILES < <("$CM_PYTHON" - "$DB" "$CM_ROOT" <<'PY'
+import json, os, sys
+root = os.path.realpath(sys.argv[2])
+seen = set()
+for entry in json.load(open(sys.argv[1])):
+    f = os.path.realpath(os.path.join(entry["directory"], entry["file"]))
+    rel = os.path.relpath(f, root)
+    if rel.split(os.sep)[0] in ("src", "examples") and f not in seen:
+        seen.add(f)
+        print(f)
+PY
+)
+if [ "${#FILES[@]}" -eq 0 ]; then
+  echo "tidy.sh: no sources of src/ or examples/ in $DB" >&2
+  exit 1
+fi
+LOG="$BUILD/tidy.log"
+rc=0
+printf '%s\n' "${FILES[@]}" | xargs -P"$(nproc)" -n1 "$TIDY" -p "$BUILD" --quiet \
+  --header-filter="^$CM_ROOT/(include|src)/" >"$LOG" 2>&1 || rc=1
+findings="$(grep -cE '^/.*: (error|warning): ' "$LOG" || true)"
+if [ "$rc" -ne 0 ] || [ "$findings" -ne 0 ]; then
+  grep -E -A3 '^/.*: (error|warning): ' "$LOG" >&2 || tail -50 "$LOG" >&2
+  echo "tidy.sh: $findings finding(s) in ${#FILES[@]} files (full log: $LOG)" >&2
+  exit 1
+fi
+echo "clang-tidy: ${#FILES[@]} files, no finding"
