@@ -6,14 +6,14 @@ distances of sphere-swept polytopes via qhull).
 Each round adds 7-10 random bodies (spheres, boxes, capsules, convex point sets, 1-3 parts with
 random part poses, random padding and groups) attached to random static TF frames, posed by
 ~body_poses in random TF frames, or by a pose_topic; the robot of /robot_description (links on
-static TF, robot_padding and robot_link_padding, adjacent links, SRDF) stays. Every monitor
-listed in ~monitors (each with its own fixed_frame) is then asked: ~state, ~list_bodies,
-~get_distance (random pairs and frame_ids, nearest body), ~check_collision (random probes in
-random frames, margins, groups, tracked ids). Every answer is compared with the oracle; all
-discrepancies are collected, written to ~report (JSON lines) and asserted empty at the end of
-each round. Round kinds cycle: dense, sparse (2.5 m: min_distance beyond the broad phase), far
-(bodies ~900 m from the origin), dense with BodyPoses twists (time_to_collision of translating
-bodies, exact).
+static TF, robot_padding and robot_link_padding, robot_link_groups, adjacent links, SRDF) stays.
+Every monitor listed in ~monitors (each with its own fixed_frame) is then asked: ~state,
+~list_bodies, ~get_distance (random pairs and frame_ids, nearest body), ~check_collision (random
+probes in random frames, margins, groups, tracked ids). Every answer is compared with the
+oracle; all discrepancies are collected, written to ~report (JSON lines) and asserted empty at
+the end of each round. Round kinds cycle: dense, sparse (2.5 m: min_distance beyond the broad
+phase), far (bodies ~900 m from the origin), dense with BodyPoses twists (time_to_collision of
+translating bodies, exact).
 Also: test_zx_rotation (time_to_collision of a lever spinning about its body origin),
 test_zy_edges (nearest-body ties, a timed pose going stale: UNKNOWN everywhere),
 test_zz_dynamic (statuses with hysteresis step by step, the events and their distances, body
@@ -238,6 +238,8 @@ class ContractSweep(unittest.TestCase):
                 'robot_padding': float(rospy.get_param(ns + 'robot_padding', 0.0)),
                 'link_padding': {k: float(v) for k, v in
                                  rospy.get_param(ns + 'robot_link_padding', {}).items()},
+                'link_groups': {k: str(v) for k, v in
+                                rospy.get_param(ns + 'robot_link_groups', {}).items()},
                 'disabled': {frozenset(p) for p in rospy.get_param(ns + 'disabled_pairs', [])},
                 'state': None, 'state_t': 0.0,
             }
@@ -334,10 +336,16 @@ class ContractSweep(unittest.TestCase):
     def count(self, key, n=1):
         self.counts[key] = self.counts.get(key, 0) + n
 
-    def permitted(self, m, a, b, extra_groups=()):
+    def group_of(self, m, x):
+        """x's group in monitor m: a robot link's from m's robot_link_groups, else the body's."""
+        if x in self.robot_links:
+            return m['link_groups'].get(x, '')
+        return self.groups[x]
+
+    def permitted(self, m, a, b):
         if a == b:
             return False
-        ga, gb = self.groups[a], self.groups[b]
+        ga, gb = self.group_of(m, a), self.group_of(m, b)
         if ga and ga == gb:
             return False
         if frozenset((a, b)) in m['disabled'] or frozenset((a, b)) in self.robot_never:
@@ -613,9 +621,9 @@ class ContractSweep(unittest.TestCase):
                 ef = self.expect_frames.get(bid, bid)  # robot link: its own frame
                 if lb.frames[i] != ef:
                     self.problem('list_bodies frame', m, id=bid, node=lb.frames[i], oracle=ef)
-                if lb.groups[i] != self.groups[bid]:
+                if lb.groups[i] != self.group_of(m, bid):
                     self.problem('list_bodies group', m, id=bid, node=lb.groups[i],
-                                 oracle=self.groups[bid])
+                                 oracle=self.group_of(m, bid))
                 if lb.stale[i]:
                     self.problem('list_bodies stale', m, id=bid)
         # ---- ~state
@@ -692,7 +700,7 @@ class ContractSweep(unittest.TestCase):
         ctx = {'query': 'get_distance', 'request': {'body_a': a, 'body_b': b, 'frame_id': f}}
         if res.success != ok:
             self.problem('get_distance success', m, node=res.success, oracle=ok,
-                         message=res.message, groups=[self.groups[a], self.groups[b]], **ctx)
+                         message=res.message, groups=[self.group_of(m, a), self.group_of(m, b)], **ctx)
             return
         if not ok:
             r = res.result
@@ -780,7 +788,7 @@ class ContractSweep(unittest.TestCase):
         for b, ob in self.ob.items():
             if tracked and b == body.id:
                 continue
-            if body.group and body.group == self.groups[b]:
+            if body.group and body.group == self.group_of(m, b):
                 continue
             if tracked:
                 if not self.permitted(m, body.id, b):
