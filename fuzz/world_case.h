@@ -1,8 +1,9 @@
 /// \file
 /// One case of the world model's fuzzer (fuzz_world.cpp; replayed by the gtest
 /// test_world_fuzz_regressions): the bytes decode into settings, up to six bodies of one or two
-/// spheres or capsules (in a quarter of the cases with twists, boxes among them; in a case that
-/// turns bodies, every part turns with its body, each body about an axis of its own), and a
+/// spheres or capsules (in a quarter of the cases with twists, boxes among them, and in half of
+/// those convex hulls of 4 to 8 points too; in a case that turns bodies, every part turns with
+/// its body, each body about an axis of its own), and a
 /// sequence of operations on a WorldModel (poses with stamps in and out of order, with or without
 /// twists, static poses, poses stamped ahead of the clock (aging from when they came), checks at
 /// times that move on by 0 to 0.7 s, the clock going back by up to 0.4 s (in frames mode too),
@@ -16,15 +17,16 @@
 ///   the status machine at its distance; a transition's distance gives it from the status before;
 ///   min_distance is at most each listed distance; a pair's verdict events never go back in
 ///   stamp.
-/// - against a reference model that knows only the documented rules and the parts' exact distances
-///   (segment to segment in closed form; with a box, separating axes and closest features,
-///   coreDistance()): every status, every event (type, order, distance, stamp), min_distance,
-///   distance() and checkHypothetical(), with align_poses off (each body at its latest pose) or in
-///   frames mode (align_poses on, every body posed at each frame's stamp: each pair stepped over
-///   every frame, as catch-up promises); with twists (align_poses off, or in frames, with or
-///   without rates), every time_to_collision given (listed pairs, events, distance(),
-///   checkHypothetical()) against the first time the exact distance under the twists comes within
-///   1e-7 m of contact_distance and the first time it passes it by more (checkTtc()).
+/// - against a reference model that knows only the documented rules and the parts' exact
+///   distances (segment to segment in closed form; with a box or a hull, separating axes and
+///   closest features, coreDistance()): every status, every event (type, order, distance,
+///   stamp), min_distance, distance() and checkHypothetical(), with align_poses off (each body
+///   at its latest pose) or in frames mode (align_poses on, every body posed at each frame's
+///   stamp: each pair stepped over every frame, as catch-up promises); with twists (align_poses
+///   off, or in frames, with or without rates), every time_to_collision given (listed pairs,
+///   events, distance(), checkHypothetical()) against the first time the exact distance under
+///   the twists comes within 1e-7 m of contact_distance and the first time it passes it by more
+///   (checkTtc()).
 /// A failure is returned as text with the operations so far.
 #pragma once
 
@@ -35,6 +37,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -66,6 +69,7 @@ struct Outcome {
   bool clock_back = false;  ///< frames mode, and the clock went back
   bool capsules = false;    ///< bodies of capsules rather than spheres
   bool boxes = false;       ///< some parts boxes (a twists case)
+  bool hulls = false;       ///< some parts convex hulls (a case of boxes)
   bool twists = false;      ///< poses with twists: times to collision held to the reference
   int checks = 0;
   int events = 0;
@@ -125,21 +129,31 @@ struct RefPart {
   /// centre is the half sides' norm).
   bool box = false;
   Vec3 box_half = Vec3::Zero();
-  Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();  ///< the box's axes in the body frame
+  Eigen::Matrix3d turn =
+      Eigen::Matrix3d::Identity();  ///< the box's (or hull's) axes in the body frame
+  /// A convex hull (rounded by the radius, 0 or more): the points it is given as, about the
+  /// centre before `turn`, and qhull's hull of them (oracle::makeHull(): its faces, edges and
+  /// facet planes, moved to each pose as they are).
+  std::vector<Vec3> hull_points;
+  std::shared_ptr<const oracle::Hull> hull;
 };
 
 /// A part's core in the fixed frame as coreDistance() takes it: a box (its centre, axes and half
-/// sides), or a segment from a to b (a point when they are equal).
+/// sides), a convex hull (qhull's, placed), or a segment from a to b (a point when they are
+/// equal).
 struct PlacedCore {
   bool box = false;
   Vec3 centre = Vec3::Zero();
   Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  ///< a box's, as columns
   Vec3 half = Vec3::Zero();
   Vec3 a = Vec3::Zero(), b = Vec3::Zero();
+  std::optional<oracle::Hull> hull;
 
   /// Its vertices: a box's 8 corners (corner c on the positive side of axis k when bit k of c is
-  /// set), a segment's two ends, a point.
+  /// set), a hull's points (those inside it too: they are points of it), a segment's two ends, a
+  /// point.
   std::vector<Vec3> vertices() const {
+    if (hull) return hull->points;
     if (!box) return a == b ? std::vector<Vec3>{a} : std::vector<Vec3>{a, b};
     std::vector<Vec3> v;
     for (int c = 0; c < 8; ++c) {
@@ -148,8 +162,10 @@ struct PlacedCore {
     }
     return v;
   }
-  /// Its edges as pairs of vertices() indices: a box's 12, a segment's one.
+  /// Its edges as pairs of vertices() indices: a box's 12, a hull's triangles' edges (the
+  /// diagonals of its faces among them: segments of it), a segment's one.
   std::vector<std::pair<int, int>> edges() const {
+    if (hull) return hull->edges;
     if (!box)
       return a == b ? std::vector<std::pair<int, int>>{} : std::vector<std::pair<int, int>>{{0, 1}};
     std::vector<std::pair<int, int>> e;
@@ -158,25 +174,39 @@ struct PlacedCore {
         if (!(c & (1 << k))) e.emplace_back(c, c | (1 << k));
     return e;
   }
-  /// The directions of its edges: a box's axes, a segment's direction.
+  /// The directions of its edges: a box's axes, a hull's edges', a segment's direction.
   std::vector<Vec3> directions() const {
+    if (hull) {
+      std::vector<Vec3> d;
+      for (const auto& [i, j] : hull->edges)
+        d.push_back(hull->points[j] - hull->points[i]);
+      return d;
+    }
     if (!box) return a == b ? std::vector<Vec3>{} : std::vector<Vec3>{b - a};
     return {axes.col(0), axes.col(1), axes.col(2)};
   }
-  /// The distance of x to it, solid (0 inside a box).
+  /// The normals of its faces: a box's axes, a hull's facet normals; none for a segment.
+  std::vector<Vec3> faceNormals() const {
+    if (hull) return hull->normals;
+    if (!box) return {};
+    return {axes.col(0), axes.col(1), axes.col(2)};
+  }
+  /// The distance of x to it, solid (0 inside a box or hull).
   double distanceTo(const Vec3& x) const {
+    if (hull) return std::max(0.0, oracle::signedDistance(*hull, x));
     if (!box) return (x - oracle::closestPointSegment(x, a, b)).norm();
     const Vec3 local = axes.transpose() * (x - centre);
     return (local.cwiseAbs() - half).cwiseMax(0.0).norm();
   }
 };
 
-/// The exact signed distance of two part cores, at least one a box. Written apart from the core's
-/// GJK and EPA; test_world_fuzz_regressions checks it against qhull's hull of the Minkowski
-/// difference (oracle::solveMinkowski(); the closest points of a segment, of two segments in long
-/// double, are test/core/oracle.h's). Overlapping: the least overlap over the candidate separating
-/// axes, which include every facet normal of the cores' Minkowski difference (the boxes' axes, and
-/// the cross products of the two cores' edge directions). Apart: the least of each vertex's
+/// The exact signed distance of two part cores, at least one a box or a hull. Written apart from
+/// the core's GJK and EPA; test_world_fuzz_regressions checks it against qhull's hull of the
+/// Minkowski difference (oracle::solveMinkowski(); the closest points of a segment, of two
+/// segments in long double, of a point and a hull's triangles are test/core/oracle.h's).
+/// Overlapping: the least overlap over the candidate separating axes, which include every facet
+/// normal of the cores' Minkowski difference (the faces' normals, and the cross products of the
+/// two cores' edge directions). Apart: the least of each vertex's
 /// distance to the other core and of each edge pair's (a closest pair of points of two convex
 /// polytopes is always a vertex and a point of the other, or a point of each of two edges), an edge
 /// pair passed over where the balls about the two edges are already farther apart than the best so
@@ -197,9 +227,8 @@ inline double coreDistance(const PlacedCore& p, const PlacedCore& q) {
     depth = std::min({depth, p_hi - q_lo, q_hi - p_lo});
   };
   for (const PlacedCore* x : {&p, &q})
-    if (x->box)
-      for (int k = 0; k < 3; ++k)
-        axis(x->axes.col(k));
+    for (const Vec3& n : x->faceNormals())
+      axis(n);
   for (const Vec3& dp : p.directions()) {
     for (const Vec3& dq : q.directions()) {
       const Vec3 c = dp.cross(dq);
@@ -393,6 +422,7 @@ class Run {
       capsules_ = (more & 1) != 0;
       s_.ttc_horizon = horizon[(more >> 1) % 4];
       boxes_ = (more >> 3) % 4 == 3;
+      hulls_ = boxes_ && (more & 0x40) != 0;
       rates_ = frames_ && (more & 0x20) != 0;
     }
     out_.exact = exact_ || frames_;
@@ -401,14 +431,15 @@ class Run {
     out_.turns = turns_;
     out_.capsules = capsules_;
     out_.boxes = boxes_;
+    out_.hulls = hulls_;
     out_.twists = twists_;
     world_.emplace(s_);
     log_ << "settings: w " << s_.warning_distance << " c " << s_.contact_distance << " h "
          << s_.hysteresis << " timeout " << s_.pose_timeout << " align " << s_.align_poses
          << " exact_min " << s_.exact_min_distance << " frames " << frames_ << " rates " << rates_
          << " turns " << turns_ << " clock back " << clock_back_ << " capsules " << capsules_
-         << " boxes " << boxes_ << " twists " << twists_ << " horizon " << s_.ttc_horizon
-         << " backend "
+         << " boxes " << boxes_ << " hulls " << hulls_ << " twists " << twists_ << " horizon "
+         << s_.ttc_horizon << " backend "
          << (s_.backend == collision_monitor::core::BackendType::Gjk ? "gjk" : "libccd") << "\n";
     const int n = 2 + in_.byte() % 5;
     bodies_.resize(n);
@@ -453,7 +484,10 @@ class Run {
                                  Vec3(0.0, -0.6, 0.8)};
     // Boxes: in a case of boxes, a part whose next byte is odd is a box, its half sides from 1 cm
     // (a plate) to 0.45 m, turned in the body by one of four rotations, and rounded by half the
-    // part's radius or not at all.
+    // part's radius or not at all. In a case of hulls too, such a part whose turn's byte has bit
+    // 2 is the convex hull of that box's corners instead, each corner pulled in to 40 % of the
+    // way from the centre where a bit of the next byte says (some then inside the others' hull),
+    // or with bit 3 of only four of them (a tetrahedron), again some pulled in.
     static const double side[] = {0.01, 0.08, 0.2, 0.45};
     static const Eigen::Quaterniond turn[] = {
         Eigen::Quaterniond::Identity(), Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Vec3::UnitZ())),
@@ -470,8 +504,22 @@ class Run {
           part.half = Vec3::Zero();
           part.box_half = Vec3(side[(x >> 1) % 4], side[(x >> 3) % 4], side[(x >> 5) % 4]);
           part.radius = x & 0x80 ? 0.5 * part.radius : 0.0;
-          part.turn = turn[in_.byte() % 4].toRotationMatrix();
+          const std::uint8_t t = in_.byte();
+          part.turn = turn[t % 4].toRotationMatrix();
           part.box = true;
+          if (hulls_ && (t & 4)) {
+            const std::uint8_t pulled = in_.byte();
+            for (int c = 0; c < 8; ++c) {
+              // The tetrahedron's corners: those with an even number of positive sides.
+              if ((t & 8) && (((c & 1) + ((c >> 1) & 1) + ((c >> 2) & 1)) % 2)) continue;
+              const Vec3 sign(c & 1 ? 1.0 : -1.0, c & 2 ? 1.0 : -1.0, c & 4 ? 1.0 : -1.0);
+              part.hull_points.push_back((pulled >> c & 1 ? 0.4 : 1.0) *
+                                         sign.cwiseProduct(part.box_half));
+            }
+            part.hull = std::make_shared<const oracle::Hull>(oracle::makeHull(part.hull_points));
+            part.box = false;
+            part.box_half = Vec3::Zero();
+          }
         }
       }
     }
@@ -486,8 +534,9 @@ class Run {
                               : ConvexShape::sphere(x.radius),
                     cw::Transform3::Identity()};
       part.pose.t = x.centre;
-      if (x.box) {
-        part.shape = ConvexShape::box(2.0 * x.box_half);
+      if (x.box || x.hull) {
+        part.shape =
+            x.box ? ConvexShape::box(2.0 * x.box_half) : ConvexShape::convexHull(x.hull_points);
         if (x.radius > 0.0) part.shape = part.shape.padded(x.radius);
         part.pose.R = x.turn;
       } else if (x.half != Vec3::Zero()) {
@@ -501,6 +550,12 @@ class Run {
       log_ << " r " << x.radius << " at (" << x.centre.transpose() << ") half ("
            << x.half.transpose() << ")";
       if (x.box) log_ << " box (" << x.box_half.transpose() << ") turned " << x.turn.row(0);
+      if (x.hull) {
+        log_ << " hull of";
+        for (const Vec3& v : x.hull_points)
+          log_ << " (" << v.transpose() << ")";
+        log_ << " turned " << x.turn.row(0);
+      }
     }
     log_ << ", group '" << b.group << "')\n";
     const std::string why = world_->addBody(spec);
@@ -792,7 +847,10 @@ class Run {
   static PlacedCore placedCore(const RefBody& b, const RefPose& p, const RefPart& x) {
     PlacedCore core;
     core.box = x.box;
-    if (x.box) {
+    if (x.hull) {
+      core.hull = x.hull->transformed(
+          Eigen::AngleAxisd(p.angle, b.axis).toRotationMatrix() * x.turn, pointAt(b, p, x.centre));
+    } else if (x.box) {
       core.centre = pointAt(b, p, x.centre);
       core.axes = Eigen::AngleAxisd(p.angle, b.axis).toRotationMatrix() * x.turn;
       core.half = x.box_half;
@@ -803,13 +861,14 @@ class Run {
     return core;
   }
   /// Exact signed distance of bodies A and B at poses pa and pb: closed form between segments
-  /// (spheres and capsules), separating axes and closest features with a box (coreDistance()).
+  /// (spheres and capsules), separating axes and closest features with a box or a hull
+  /// (coreDistance()).
   static double bodyDistance(const RefBody& A, const RefPose& pa, const RefBody& B,
                              const RefPose& pb) {
     double best = kInf;
     for (const RefPart& x : A.parts) {
       for (const RefPart& y : B.parts) {
-        if (x.box || y.box) {
+        if (x.box || y.box || x.hull || y.hull) {
           const double apart = coreDistance(placedCore(A, pa, x), placedCore(B, pb, y));
           best = std::min(best, apart - x.radius - y.radius);
           continue;
@@ -839,12 +898,19 @@ class Run {
   static constexpr double kCaseBudget = 300000;
   /// The work of one distance of bodies A and B in those units: per part pair, 1 of two spheres
   /// or capsules (closed form, 0.3 us), 4 of a box and a capsule or sphere, 25 of two boxes
-  /// (coreDistance(): 1.3 and 6.9 us).
+  /// (coreDistance(): 1.3 and 6.9 us); with a hull (up to 8 points, 18 edges, 12 faces),
+  /// HULL_WORK.
   static double distanceWork(const RefBody& A, const RefBody& B) {
     double work = 0.0;
-    for (const RefPart& x : A.parts)
-      for (const RefPart& y : B.parts)
+    for (const RefPart& x : A.parts) {
+      for (const RefPart& y : B.parts) {
+        if (x.hull || y.hull) {
+          work += x.hull && y.hull ? 250.0 : x.box || y.box ? 100.0 : 12.0;
+          continue;
+        }
         work += x.box && y.box ? 25.0 : x.box || y.box ? 4.0 : 1.0;
+      }
+    }
     return work;
   }
 
@@ -878,11 +944,15 @@ class Run {
     return kInf;
   }
 
-  /// The farthest a point of a part's core (segment or box) reaches from its body's origin.
+  /// The farthest a point of a part's core (segment, box or hull) reaches from its body's origin.
   static double coreReach(const RefBody& b) {
     double r = 0.0;
-    for (const RefPart& x : b.parts)
-      r = std::max(r, x.centre.norm() + x.half.norm() + x.box_half.norm());
+    for (const RefPart& x : b.parts) {
+      double out = x.half.norm() + x.box_half.norm();
+      for (const Vec3& v : x.hull_points)
+        out = std::max(out, v.norm());
+      r = std::max(r, x.centre.norm() + out);
+    }
     return r;
   }
 
@@ -1514,8 +1584,10 @@ class Run {
           want.erase(w);
           continue;
         }
-        if (std::abs(x.distance - w->second.second) > kTol)
-          return fail("checkHypothetical distance");
+        if (std::abs(x.distance - w->second.second) > kTol) {
+          return fail("checkHypothetical distance to " + other + " " + std::to_string(x.distance) +
+                      ", the bodies " + std::to_string(w->second.second));
+        }
         if (!statusesNear(PairStatus::Clear, x.distance).count(x.status)) {
           return fail("checkHypothetical status");
         }
@@ -1533,7 +1605,8 @@ class Run {
     for (const auto& [other, v] : want) {
       // A fresh body within kTol of the margin may be left out.
       if (v.first == PairStatus::Unknown || v.second < margin - kTol) {
-        return fail("checkHypothetical leaves out " + other);
+        return fail("checkHypothetical leaves out " + other + " (" + name(v.first) + " at " +
+                    std::to_string(v.second) + ")");
       }
     }
   }
@@ -1552,6 +1625,7 @@ class Run {
   bool clock_back_ = false;  ///< frames: the clock may go back, a check at once
   bool capsules_ = false;    ///< bodies of capsules (segments swept by a radius), not spheres
   bool boxes_ = false;       ///< some parts boxes (rounded or not), the others as they would be
+  bool hulls_ = false;       ///< boxes: some of them convex hulls instead (rounded or not)
   double ttc_work_ = 0.0;    ///< the time-to-collision searches' work so far (kCaseBudget)
   bool twists_ = false;      ///< align_poses off: poses with twists (times to collision)
   std::int64_t frame_ns_ = 0;
