@@ -82,7 +82,7 @@ if(NOT COLLISION_MONITOR_CORE_ONLY)
 
   # The same for fuzz/regressions/world and fuzz/corpus/world with the world model's fuzzer
   # checks (fuzz/world_case.h; the libFuzzer target is fuzz/fuzz_world.cpp), and the check of
-  # the reference's box distances against test/core/oracle.h's qhull (called directly).
+  # the reference's box and hull distances against test/core/oracle.h's qhull (called directly).
   cm_add_gtest(test_world_fuzz_regressions
     SOURCES test/robustness/test_world_fuzz_regressions.cpp
     LIBS collision_monitor_world Qhull::qhull_r)

@@ -1,9 +1,9 @@
 /// \file
-/// libFuzzer target for the world model: settings, bodies of spheres, capsules or boxes and a
-/// sequence of operations (poses, checks, replacements, removals, queries), every check held to
-/// the contract as world_case.h describes. A failed check prints the operations and aborts, so
-/// libFuzzer saves the input (crash-<sha1>); copy it to fuzz/regressions/world/ and the replay
-/// gtest (test/robustness/test_world_fuzz_regressions.cpp) pins it.
+/// libFuzzer target for the world model: settings, bodies of spheres, capsules, boxes or convex
+/// hulls and a sequence of operations (poses, checks, replacements, removals, queries), every
+/// check held to the contract as world_case.h describes. A failed check prints the operations
+/// and aborts, so libFuzzer saves the input (crash-<sha1>); copy it to fuzz/regressions/world/
+/// and the replay gtest (test/robustness/test_world_fuzz_regressions.cpp) pins it.
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
