@@ -3,12 +3,12 @@
 /// test_world_fuzz_regressions): the bytes decode into settings, up to six bodies of one or two
 /// spheres or capsules (in a quarter of the cases with twists, boxes among them, and in half of
 /// those convex hulls of 4 to 8 points too; in a case that turns bodies, every part turns with
-/// its body, each body about an axis of its own), and a
-/// sequence of operations on a WorldModel (poses with stamps in and out of order, with or without
-/// twists, static poses, poses stamped ahead of the clock (aging from when they came), checks at
-/// times that move on by 0 to 0.7 s, the clock going back by up to 0.4 s (in frames mode too),
-/// bodies replaced, removed and added again, unresolved poses, forgotten poses, new thresholds,
-/// disabled pairs, and the three queries). Every check() is held to the contract:
+/// its body, each body about an axis of its own), and a sequence of operations on a WorldModel
+/// (poses with stamps in and out of order, with or without twists, static poses, poses stamped
+/// ahead of the clock (aging from when they came), checks at times that move on by 0 to 0.7 s,
+/// the clock going back by up to 0.4 s (in frames mode too), bodies replaced, removed and added
+/// again, unresolved poses, forgotten poses, new thresholds, disabled pairs, and the three
+/// queries). Every check() is held to the contract:
 /// - always: the events replay as a status machine (END of the status a pair has, BEGIN from
 ///   CLEAR; catch-up may give several transitions of a pair, in stamp order), and the statuses
 ///   they leave are those listed (every pair in WARNING, COLLISION or UNKNOWN, sorted, no
@@ -129,8 +129,8 @@ struct RefPart {
   /// centre is the half sides' norm).
   bool box = false;
   Vec3 box_half = Vec3::Zero();
-  Eigen::Matrix3d turn =
-      Eigen::Matrix3d::Identity();  ///< the box's (or hull's) axes in the body frame
+  /// The box's (or hull's) axes in the body frame.
+  Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
   /// A convex hull (rounded by the radius, 0 or more): the points it is given as, about the
   /// centre before `turn`, and qhull's hull of them (oracle::makeHull(): its faces, edges and
   /// facet planes, moved to each pose as they are).
@@ -200,17 +200,16 @@ struct PlacedCore {
   }
 };
 
-/// The exact signed distance of two part cores, at least one a box or a hull. Written apart from
-/// the core's GJK and EPA; test_world_fuzz_regressions checks it against qhull's hull of the
-/// Minkowski difference (oracle::solveMinkowski(); the closest points of a segment, of two
+/// The exact signed distance of two part cores, at least one a box or a hull. Written apart
+/// from the core's GJK and EPA; test_world_fuzz_regressions checks it against qhull's hull of
+/// the Minkowski difference (oracle::solveMinkowski(); the closest points of a segment, of two
 /// segments in long double, of a point and a hull's triangles are test/core/oracle.h's).
 /// Overlapping: the least overlap over the candidate separating axes, which include every facet
 /// normal of the cores' Minkowski difference (the faces' normals, and the cross products of the
-/// two cores' edge directions). Apart: the least of each vertex's
-/// distance to the other core and of each edge pair's (a closest pair of points of two convex
-/// polytopes is always a vertex and a point of the other, or a point of each of two edges), an edge
-/// pair passed over where the balls about the two edges are already farther apart than the best so
-/// far.
+/// two cores' edge directions). Apart: the least of each vertex's distance to the other core
+/// and of each edge pair's (a closest pair of points of two convex polytopes is always a vertex
+/// and a point of the other, or a point of each of two edges), an edge pair passed over where
+/// the balls about the two edges are already farther apart than the best so far.
 inline double coreDistance(const PlacedCore& p, const PlacedCore& q) {
   const std::vector<Vec3> vp = p.vertices(), vq = q.vertices();
   double depth = kInf;  // the least overlap so far; <= 0: a separating axis
@@ -853,12 +852,14 @@ class Run {
   static PlacedCore placedCore(const RefBody& b, const RefPose& p, const RefPart& x) {
     PlacedCore core;
     core.box = x.box;
-    if (x.hull) {
-      core.hull = x.hull->transformed(
-          Eigen::AngleAxisd(p.angle, b.axis).toRotationMatrix() * x.turn, pointAt(b, p, x.centre));
-    } else if (x.box) {
+    if (x.hull || x.box) {
+      const Eigen::Matrix3d axes = Eigen::AngleAxisd(p.angle, b.axis).toRotationMatrix() * x.turn;
+      if (x.hull) {
+        core.hull = x.hull->transformed(axes, pointAt(b, p, x.centre));
+        return core;
+      }
       core.centre = pointAt(b, p, x.centre);
-      core.axes = Eigen::AngleAxisd(p.angle, b.axis).toRotationMatrix() * x.turn;
+      core.axes = axes;
       core.half = x.box_half;
     } else {
       core.a = pointAt(b, p, x.centre - x.half);
