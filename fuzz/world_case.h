@@ -131,10 +131,9 @@ struct RefPart {
   Vec3 box_half = Vec3::Zero();
   /// The box's (or hull's) axes in the body frame.
   Eigen::Matrix3d turn = Eigen::Matrix3d::Identity();
-  /// A convex hull (rounded by the radius, 0 or more): the points it is given as, about the
-  /// centre before `turn`, and qhull's hull of them (oracle::makeHull(): its faces, edges and
-  /// facet planes, moved to each pose as they are).
-  std::vector<Vec3> hull_points;
+  /// A convex hull (rounded by the radius, 0 or more): qhull's hull of the points it is given
+  /// as (oracle::makeHull(), which keeps them as `points`), about the centre before `turn`: its
+  /// faces, edges and facet planes, moved to each pose as they are.
   std::shared_ptr<const oracle::Hull> hull;
 };
 
@@ -520,8 +519,8 @@ class Run {
           part.turn = turn[t % 4].toRotationMatrix();
           part.box = true;
           if (hulls_ && (t & 4)) {
-            part.hull_points = hullPoints(part.box_half, (t & 8) != 0, in_.byte());
-            part.hull = std::make_shared<const oracle::Hull>(oracle::makeHull(part.hull_points));
+            part.hull = std::make_shared<const oracle::Hull>(
+                oracle::makeHull(hullPoints(part.box_half, (t & 8) != 0, in_.byte())));
             part.box = false;
             part.box_half = Vec3::Zero();
           }
@@ -541,7 +540,7 @@ class Run {
       part.pose.t = x.centre;
       if (x.box || x.hull) {
         part.shape =
-            x.box ? ConvexShape::box(2.0 * x.box_half) : ConvexShape::convexHull(x.hull_points);
+            x.box ? ConvexShape::box(2.0 * x.box_half) : ConvexShape::convexHull(x.hull->points);
         if (x.radius > 0.0) part.shape = part.shape.padded(x.radius);
         part.pose.R = x.turn;
       } else if (x.half != Vec3::Zero()) {
@@ -557,7 +556,7 @@ class Run {
       if (x.box) log_ << " box (" << x.box_half.transpose() << ") turned " << x.turn.row(0);
       if (x.hull) {
         log_ << " hull of";
-        for (const Vec3& v : x.hull_points)
+        for (const Vec3& v : x.hull->points)
           log_ << " (" << v.transpose() << ")";
         log_ << " turned " << x.turn.row(0);
       }
@@ -958,8 +957,9 @@ class Run {
     double r = 0.0;
     for (const RefPart& x : b.parts) {
       double out = x.half.norm() + x.box_half.norm();
-      for (const Vec3& v : x.hull_points)
-        out = std::max(out, v.norm());
+      if (x.hull)
+        for (const Vec3& v : x.hull->points)
+          out = std::max(out, v.norm());
       r = std::max(r, x.centre.norm() + out);
     }
     return r;
