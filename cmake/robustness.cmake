@@ -41,6 +41,11 @@ if(NOT COLLISION_MONITOR_CORE_ONLY AND CATKIN_ENABLE_TESTING)
   find_package(rostest REQUIRED)
   file(GLOB CM_ROBUST_ROSTESTS RELATIVE ${CMAKE_CURRENT_SOURCE_DIR} test/robustness/*.test)
   foreach(t ${CM_ROBUST_ROSTESTS})
+    # The node under TSan needs a build with it; valgrind does not run such a build.
+    if((t MATCHES "/tsan\\.test$" AND NOT COLLISION_MONITOR_TSAN) OR
+       (t MATCHES "/valgrind\\.test$" AND COLLISION_MONITOR_TSAN))
+      continue()
+    endif()
     add_rostest(${t} DEPENDENCIES collision_monitor_node collision_monitor_ros
       collision_monitor_soak_driver collision_monitor_generate_messages_py)
   endforeach()
@@ -59,6 +64,12 @@ if(NOT COLLISION_MONITOR_CORE_ONLY AND CATKIN_ENABLE_TESTING)
   # does not exit fails the test after 90 s (with thread states and stacks in the log); CTest's
   # limit is a backstop above rostest's time-limit (170 s). The Panda comes from CM_ROBOT_DATA, as
   # for the tests in test/ros.
+  # The node under ThreadSanitizer (a build with COLLISION_MONITOR_TSAN only): ~70 s.
+  set(_cm_tsan _ctest_${PROJECT_NAME}_rostest_test_robustness_tsan.test)
+  if(TEST ${_cm_tsan})
+    set_tests_properties(${_cm_tsan} PROPERTIES TIMEOUT 420
+      ENVIRONMENT "CM_ROBOT_DATA=${CM_ROBOT_DATA_DIR}")
+  endif()
   set(_cm_valgrind _ctest_${PROJECT_NAME}_rostest_test_robustness_valgrind.test)
   if(TEST ${_cm_valgrind})
     set_tests_properties(${_cm_valgrind} PROPERTIES TIMEOUT 300
