@@ -3,7 +3,9 @@
 at once -- TF (moving joints), ~body_poses, two pose topics that a body switches between as it is
 replaced, ~bodies adding and removing bodies (a mesh among them), the three services from two
 threads, ~markers subscribed and unsubscribed, dynamic_reconfigure -- for LOAD_SECONDS, then sends
-SIGINT with all of it still running: TSan may have written no log (it writes one to report). Checks
+SIGINT with all of it still running: TSan may have written no log (it writes one to report). Then
+the same monitor as a nodelet in Debian's manager (libtsan preloaded): unloaded under that load,
+loaded again, and the manager stopped by SIGINT under load; no log of the manager either. Checks
 first that the node and the libraries of ours it mapped are instrumented (a build without TSan
 would pass vacuously), and afterwards that each kind of input was taken in.
 Figures go to stdout and to $CM_ARTIFACTS/tsan.txt when set."""
@@ -12,12 +14,15 @@ import math
 import os
 import re
 import signal
+import subprocess
 import sys
 import threading
 import time
 import unittest
 
+import roslib.packages
 import rospy
+import rosservice
 import rostest
 from collision_monitor.msg import Body, BodyPoses, CollisionEvent, Shape
 from collision_monitor.srv import CheckCollision, GetDistance, ListBodies
@@ -32,10 +37,10 @@ from cm_test_util import Monitor, pose, shape, sphere_body, wait_for
 E = CollisionEvent
 FIGURES = []
 LOAD_SECONDS = 20.0
+NODELET_LOAD_SECONDS = 8.0
 READY = {'panda_joint1': 0.0, 'panda_joint2': -0.785398, 'panda_joint3': 0.0,
          'panda_joint4': -2.35619, 'panda_joint5': 0.0, 'panda_joint6': 1.5707,
          'panda_joint7': 0.785398, 'panda_finger_joint1': 0.02, 'panda_finger_joint2': 0.02}
-NS = '/collision_monitor/'
 TOPICS = ('/tsan/pose_a', '/tsan/pose_b')
 
 
@@ -62,10 +67,12 @@ def tsan_reports(text):
 
 
 class Load:
-    """The input threads: each runs until `stop` is set and counts what it did."""
+    """The input threads, against the monitor `m` (its namespace `m.node`): each runs until
+    `stop` is set and counts what it did."""
 
     def __init__(self, m):
         self.m = m
+        self.ns = m.node + '/'
         self.stop = threading.Event()
         self.sigint = threading.Event()  # set when the node is told to stop: errors expected
         self.counts = {}
@@ -178,7 +185,7 @@ class Load:
     def distances(self):
         """~get_distance in a loop: a pair, the nearest body, the pose topics' body in another
         frame, an unknown id."""
-        get_distance = rospy.ServiceProxy(NS + 'get_distance', GetDistance, persistent=True)
+        get_distance = rospy.ServiceProxy(self.ns + 'get_distance', GetDistance, persistent=True)
         asks = [('pair', 'panda_hand', 'table', ''), ('nearest', 'post', '', ''),
                 ('pose_topic', 'panda_hand', 'tracked', 'panda_hand'),
                 ('unknown', 'nobody', 'table', '')]
@@ -193,9 +200,9 @@ class Load:
         probe = Body(id='probe', operation=Body.ADD)
         probe.header.frame_id = 'panda_hand'
         probe.parts = [shape(Shape.BOX, [0.1, 0.1, 0.1])]
-        check_collision = rospy.ServiceProxy(NS + 'check_collision', CheckCollision,
+        check_collision = rospy.ServiceProxy(self.ns + 'check_collision', CheckCollision,
                                              persistent=True)
-        list_bodies = rospy.ServiceProxy(NS + 'list_bodies', ListBodies, persistent=True)
+        list_bodies = rospy.ServiceProxy(self.ns + 'list_bodies', ListBodies, persistent=True)
         while not self.stop.is_set():
             self.answered('check_collision', check_collision(probe, pose(), 0.3))
             self.count('list_bodies_ok' if list_bodies().ids else 'list_bodies_empty')
@@ -205,7 +212,7 @@ class Load:
         subscribed)."""
         got = []
         while not self.stop.is_set():
-            sub = rospy.Subscriber('/collision_monitor/markers', MarkerArray, got.append,
+            sub = rospy.Subscriber(self.ns + 'markers', MarkerArray, got.append,
                                    queue_size=10)
             self.stop.wait(0.5)
             sub.unregister()
@@ -215,7 +222,7 @@ class Load:
 
     def reconfigure(self):
         """dynamic_reconfigure every 0.25 s: thresholds, align_poses, the rate, the backend."""
-        client = Client('/collision_monitor', timeout=30.0)
+        client = Client(self.m.node, timeout=30.0)
         k = 0
         while not self.stop.is_set():
             client.update_configuration({
@@ -247,50 +254,62 @@ class Tsan(unittest.TestCase):
         self.assertTrue(any('libcollision_monitor_ros' in f for f in ours), ours)
         for f in [exe] + ours:
             self.assertTrue(instrumented(f), f + ' was not compiled with -fsanitize=thread')
-        # Reports go to the log this test reads (else to the node's stderr, unread).
-        with open('/proc/%d/environ' % self.pid, 'rb') as f:
-            env = dict(v.split(b'=', 1) for v in f.read().split(b'\0') if b'=' in v)
-        options = env.get(b'TSAN_OPTIONS', b'').decode().split()
-        self.assertIn('log_path=' + self.log_prefix, options)
+        self.assert_logs_here(self.pid)
         figure('instrumented: %s' % ', '.join([exe] + ours))
 
-    def test_2_load_then_sigint(self):
-        m = self.m
-        # On ~body_poses (Load.body_poses).
+    def start_load(self, m):
+        """The bodies Load.body_poses poses and the table (the node has it from YAML), then every
+        input thread of Load against `m`."""
         m.add(sphere_body('post', 0.03))
         m.add(sphere_body('far', 0.05))
-        for b in ('post', 'far'):
+        table = Body(id='table', operation=Body.ADD)
+        table.header.frame_id = 'panda_link0'
+        table.parts = [shape(Shape.BOX, [1.0, 1.0, 0.04], pose=pose(x=0.5, z=-0.05))]
+        m.add(table)
+        for b in ('post', 'far', 'table'):
             self.assertTrue(m.wait_listed(b, timeout=20.0), b)
         load = Load(m)
-        t0 = time.monotonic()
+        load.t0 = time.monotonic()
         load.start(load.joint_states, load.body_poses, load.pose_topics, load.bodies,
                    load.distances, load.probes, load.markers, load.reconfigure)
-        time.sleep(LOAD_SECONDS)
-        self.assertTrue(alive(self.pid), 'the node died under load')
-        diag = m.diagnostics
-        t1 = time.monotonic()
-        load.sigint.set()
-        os.kill(self.pid, signal.SIGINT)  # with every input still coming
-        exited = wait_for(lambda: not alive(self.pid), 60.0, 0.1)
-        t_exit = time.monotonic() - t1
-        load.join()
+        return load
+
+    def stop_process(self, pid, what):
+        """SIGINT to `pid`, and its exit within 60 s; the seconds it took."""
+        t0 = time.monotonic()
+        os.kill(pid, signal.SIGINT)
+        exited = wait_for(lambda: not alive(pid), 60.0, 0.1)
+        self.assertTrue(exited, what + ' did not exit within 60 s of SIGINT')
+        return time.monotonic() - t0
+
+    def check_load(self, load, label):
+        """Every kind of input was taken in and answered, and no call failed but at the end."""
+        m = load.m
         with m.lock:
-            collisions = sum(1 for t, e in m.events if t >= t0 and e.type == E.COLLISION_BEGIN
+            collisions = sum(1 for t, e in m.events if t >= load.t0 and e.type == E.COLLISION_BEGIN
                              and {e.pair.body_a, e.pair.body_b} == {'panda_hand', 'post'})
-        figure('%.0f s of load, then SIGINT -> exit %.2f s; %s; hand-post COLLISION_BEGINs %d; '
-               'last /diagnostics: %s' % (t1 - t0, t_exit, sorted(load.counts.items()),
-                                          collisions, diag and diag.message))
-        self.assertTrue(exited, 'the node did not exit within 60 s of SIGINT')
+        figure('%s: %s; hand-post COLLISION_BEGINs %d; last /diagnostics: %s'
+               % (label, sorted(load.counts.items()), collisions,
+                  m.diagnostics and m.diagnostics.message))
         self.assertEqual(load.errors, [])
-        # Every kind of input was taken in and answered.
         for key in ('get_distance_pair_ok', 'get_distance_nearest_ok', 'get_distance_pose_topic_ok',
                     'get_distance_unknown_refused', 'check_collision_ok', 'list_bodies_ok',
                     'reconfigurations', 'marker_arrays'):
             self.assertGreater(load.counts.get(key, 0), 0, key)
         self.assertGreater(collisions, 0, 'no collision of the hand with the post under load')
-        # TSan's log of this node: none, since TSan writes one only to report (a race, a lock
-        # order inversion, a thread leak, an error of its own).
-        logs = glob.glob('%s.%d' % (self.log_prefix, self.pid))
+
+    def assert_logs_here(self, pid):
+        """Process `pid` sends TSan's reports to the log check_no_log() reads (else to its
+        stderr, unread)."""
+        with open('/proc/%d/environ' % pid, 'rb') as f:
+            env = dict(v.split(b'=', 1) for v in f.read().split(b'\0') if b'=' in v)
+        options = env.get(b'TSAN_OPTIONS', b'').decode().split()
+        self.assertIn('log_path=' + self.log_prefix, options)
+
+    def check_no_log(self, pid):
+        """TSan's log of process `pid`: none, since TSan writes one only to report (a race, a
+        lock order inversion, a thread leak, an error of its own)."""
+        logs = glob.glob('%s.%d' % (self.log_prefix, pid))
         reports = []
         for path in logs:
             with open(path, errors='replace') as f:
@@ -299,6 +318,56 @@ class Tsan(unittest.TestCase):
             print('[tsan] %s:\n%s' % (path, text[:40000]), flush=True)
         figure('TSan logs %s: %d reports %s' % (logs, len(reports), reports))
         self.assertEqual(logs, [])
+
+    def test_2_load_then_sigint(self):
+        load = self.start_load(self.m)
+        time.sleep(LOAD_SECONDS)
+        self.assertTrue(alive(self.pid), 'the node died under load')
+        load.sigint.set()
+        t_exit = self.stop_process(self.pid, 'the node')  # with every input still coming
+        load.join()
+        self.check_load(load, 'node: %.0f s of load, then SIGINT -> exit %.2f s'
+                        % (LOAD_SECONDS, t_exit))
+        self.check_no_log(self.pid)
+
+    def test_3_nodelet_unloaded_and_loaded_again_under_load(self):
+        """The monitor as a nodelet in Debian's manager (libtsan preloaded): unloaded while every
+        input comes (~Monitor with the manager running on), loaded again, then the manager
+        stopped by SIGINT under load."""
+        manager = node_pid('/tsan_manager')
+        loader = node_pid('/cm_nodelet')
+        self.assertTrue(manager and loader, 'no pid for the manager or the nodelet loader')
+        m = Monitor('/cm_nodelet/')
+        libs = [f for f in mapped_files(manager) if 'libcollision_monitor_ros' in f]
+        self.assertTrue(any('libtsan' in f for f in mapped_files(manager)))
+        self.assertTrue(libs and all(instrumented(f) for f in libs), libs)
+        self.assert_logs_here(manager)
+        load = self.start_load(m)
+        time.sleep(NODELET_LOAD_SECONDS)
+        load.sigint.set()
+        t_unload = self.stop_process(loader, 'nodelet load')  # it unloads the nodelet
+        self.assertTrue(wait_for(lambda: '/cm_nodelet/get_distance' not in
+                                 rosservice.get_service_list(), 30.0, 0.1), 'not unloaded')
+        time.sleep(1.0)  # the inputs keep coming to the manager with no monitor
+        load.join()
+        self.check_load(load, 'nodelet: %.0f s of load, then unloaded (loader exit %.2f s)'
+                        % (NODELET_LOAD_SECONDS, t_unload))
+        reloader = subprocess.Popen(roslib.packages.find_node('nodelet', 'nodelet')[:1] + [
+            'load', 'collision_monitor/CollisionMonitorNodelet', 'tsan_manager',
+            '__name:=cm_nodelet'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            load = self.start_load(Monitor('/cm_nodelet/'))
+            time.sleep(NODELET_LOAD_SECONDS)
+            self.assertTrue(alive(manager), 'the manager died under load')
+            load.sigint.set()
+            t_exit = self.stop_process(manager, 'the manager')
+            load.join()
+            self.check_load(load, 'nodelet loaded again: %.0f s of load, then SIGINT to the '
+                            'manager -> exit %.2f s' % (NODELET_LOAD_SECONDS, t_exit))
+        finally:
+            reloader.terminate()
+            reloader.wait(30.0)
+        self.check_no_log(manager)
 
     @classmethod
     def tearDownClass(cls):
