@@ -60,16 +60,16 @@ if(NOT COLLISION_MONITOR_CORE_ONLY AND CATKIN_ENABLE_TESTING)
   catkin_run_tests_target(rosunit master_restart rosunit-master_restart.xml
     COMMAND "/usr/bin/python3 ${CMAKE_CURRENT_SOURCE_DIR}/test/robustness/test_master_restart.py $<TARGET_FILE:collision_monitor_node> --gtest_output=xml:${CATKIN_TEST_RESULTS_DIR}/${PROJECT_NAME}/rosunit-master_restart.xml"
     DEPENDENCIES collision_monitor_node collision_monitor_ros collision_monitor_generate_messages_py)
-  # The node under valgrind memcheck: ~20 s (node up in ~8 s, exit ~1 s after SIGINT). A node that
-  # does not exit fails the test after 90 s (with thread states and stacks in the log); CTest's
-  # limit is a backstop above rostest's time-limit (170 s). The Panda comes from CM_ROBOT_DATA, as
-  # for the tests in test/ros.
-  # The node under ThreadSanitizer (a build with COLLISION_MONITOR_TSAN only): ~70 s.
+  # The node and nodelet under ThreadSanitizer (COLLISION_MONITOR_TSAN builds only): ~45 s.
   set(_cm_tsan _ctest_${PROJECT_NAME}_rostest_test_robustness_tsan.test)
   if(TEST ${_cm_tsan})
     set_tests_properties(${_cm_tsan} PROPERTIES TIMEOUT 420
       ENVIRONMENT "CM_ROBOT_DATA=${CM_ROBOT_DATA_DIR}")
   endif()
+  # The node under valgrind memcheck: ~20 s (node up in ~8 s, exit ~1 s after SIGINT). A node that
+  # does not exit fails the test after 90 s (with thread states and stacks in the log); CTest's
+  # limit is a backstop above rostest's time-limit (170 s). The Panda comes from CM_ROBOT_DATA, as
+  # for the tests in test/ros.
   set(_cm_valgrind _ctest_${PROJECT_NAME}_rostest_test_robustness_valgrind.test)
   if(TEST ${_cm_valgrind})
     set_tests_properties(${_cm_valgrind} PROPERTIES TIMEOUT 300

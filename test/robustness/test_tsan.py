@@ -74,7 +74,7 @@ class Load:
         self.m = m
         self.ns = m.node + '/'
         self.stop = threading.Event()
-        self.sigint = threading.Event()  # set when the node is told to stop: errors expected
+        self.sigint = threading.Event()  # set as the monitor is stopped: errors expected then
         self.counts = {}
         self.errors = []
         self.lock = threading.Lock()
@@ -100,7 +100,7 @@ class Load:
         try:
             target()
         except (rospy.ROSException, rospy.ServiceException) as e:
-            if not self.sigint.is_set():  # the node going away at SIGINT is expected
+            if not self.sigint.is_set():
                 self.errors.append('%s: %s' % (target.__name__, e))
 
     def join(self):
@@ -126,7 +126,7 @@ class Load:
 
     def body_poses(self):
         """'post' in the hand frame, on the hand and 1 m off it in turn (a collision every
-        second), and 'far' in the base frame: ~body_poses at 50 Hz."""
+        second), and 'far' 1 m behind the hand: ~body_poses at 50 Hz."""
         k = 0
         while not self.stop.is_set():
             on_hand = (k // 25) % 2 == 0
