@@ -3,7 +3,7 @@
 # world gtests, rostests over a real roscore), clang-tidy over the sources (.clang-tidy), then the
 # geometry core again under ASan+UBSan, a bounded libFuzzer run on the core, then a build inside a
 # catkin workspace, then the core alone installed and used by a plain CMake program, then the node
-# under ThreadSanitizer. Exits non-zero on any failure.
+# and nodelet under ThreadSanitizer. Exits non-zero on any failure.
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
 JOBS="$(nproc)"
@@ -108,7 +108,7 @@ if [ -n "$extra" ] || [ ! -f "$CORE_BUILD/install/include/collision_monitor/core
 fi
 bash "$CM_ROOT/scripts/check_core_consumer.sh" "$CORE_BUILD/install"
 
-echo "=== 7/7 the node under ThreadSanitizer: every input thread driven at once, then SIGINT; no report (test/robustness/tsan.test)"
+echo "=== 7/7 the node and nodelet under ThreadSanitizer: every input thread driven at once, then SIGINT, unload, reload; no report (test/robustness/tsan.test)"
 # Only the node, its libraries and the messages: the other tests have run in steps 1 and 3.
 TSAN_BUILD="$CM_BUILD-tsan"
 cmake -S "$CM_ROOT" -B "$TSAN_BUILD" -DPYTHON_EXECUTABLE="$CM_PYTHON" -DCOLLISION_MONITOR_TSAN=ON \
