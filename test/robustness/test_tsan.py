@@ -32,15 +32,12 @@ from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
 from robust_util import alive, node_pid, save_figures
-from cm_test_util import Monitor, pose, shape, sphere_body, wait_for
+from cm_test_util import Monitor, panda_joint_state, pose, shape, sphere_body, wait_for
 
 E = CollisionEvent
 FIGURES = []
 LOAD_SECONDS = 20.0
 NODELET_LOAD_SECONDS = 8.0
-READY = {'panda_joint1': 0.0, 'panda_joint2': -0.785398, 'panda_joint3': 0.0,
-         'panda_joint4': -2.35619, 'panda_joint5': 0.0, 'panda_joint6': 1.5707,
-         'panda_joint7': 0.785398, 'panda_finger_joint1': 0.02, 'panda_finger_joint2': 0.02}
 TOPICS = ('/tsan/pose_a', '/tsan/pose_b')
 
 
@@ -109,18 +106,13 @@ class Load:
             t.join(10.0)
 
     def joint_states(self):
-        """READY with panda_joint1 and panda_joint4 swinging: TF moves every link, 50 Hz."""
+        """The ready configuration with panda_joint1 and panda_joint4 swinging: TF moves every link, 50 Hz."""
         pub = rospy.Publisher('/joint_states', JointState, queue_size=10)
         t0 = time.monotonic()
         while not self.stop.is_set():
-            js = JointState()
-            js.header.stamp = rospy.Time.now()
-            js.name = list(READY)
-            js.position = [READY[n] for n in js.name]
             s = time.monotonic() - t0
-            js.position[0] = 0.6 * math.sin(2.0 * s)
-            js.position[3] = READY['panda_joint4'] + 0.3 * math.sin(3.0 * s)
-            pub.publish(js)
+            pub.publish(panda_joint_state(panda_joint1=0.6 * math.sin(2.0 * s),
+                                          panda_joint4=0.3 * math.sin(3.0 * s)))
             self.count('joint_states')
             time.sleep(0.02)
 

@@ -24,13 +24,10 @@ from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
 from robust_util import alive, body_bytes, node_pid, raw_class, save_figures, shape_bytes
-from cm_test_util import Monitor, pose, shape, sphere_body, wait_for
+from cm_test_util import Monitor, panda_joint_state, pose, shape, sphere_body, wait_for
 
 E = CollisionEvent
 FIGURES = []
-READY = {'panda_joint1': 0.0, 'panda_joint2': -0.785398, 'panda_joint3': 0.0,
-         'panda_joint4': -2.35619, 'panda_joint5': 0.0, 'panda_joint6': 1.5707,
-         'panda_joint7': 0.785398, 'panda_finger_joint1': 0.02, 'panda_finger_joint2': 0.02}
 
 
 def figure(line):
@@ -39,17 +36,12 @@ def figure(line):
 
 
 def joint_states():
-    """Publishes READY with panda_joint1 swinging slowly (the links move: TF every cycle)."""
+    """Publishes the ready configuration with panda_joint1 swinging slowly (the links move: TF every cycle)."""
     pub = rospy.Publisher('/joint_states', JointState, queue_size=10)
     t0 = time.monotonic()
     while not rospy.is_shutdown():
-        js = JointState()
-        js.header.stamp = rospy.Time.now()
-        js.name = list(READY)
-        js.position = [READY[n] for n in js.name]
-        js.position[0] = 0.3 * math.sin(time.monotonic() - t0)
         try:
-            pub.publish(js)
+            pub.publish(panda_joint_state(panda_joint1=0.3 * math.sin(time.monotonic() - t0)))
         except rospy.ROSException:
             return
         time.sleep(0.05)

@@ -9,6 +9,7 @@ from collision_monitor.msg import (Body, BodyPoses, CollisionEvent, CollisionSta
 from collision_monitor.srv import CheckCollision, GetDistance, ListBodies
 from diagnostic_msgs.msg import DiagnosticArray
 from geometry_msgs.msg import Pose, TransformStamped
+from sensor_msgs.msg import JointState
 
 NS = '/collision_monitor/'
 EVENT_NAMES = {v: k for k, v in vars(CollisionEvent).items()
@@ -48,6 +49,23 @@ def tf_transform(child, parent='world', stamp=None, xyz=(0.0, 0.0, 0.0), q=(0, 0
     (t.transform.rotation.x, t.transform.rotation.y, t.transform.rotation.z,
      t.transform.rotation.w) = q
     return t
+
+
+# The Panda's SRDF "default" (ready) configuration.
+PANDA_READY = {'panda_joint1': 0.0, 'panda_joint2': -0.785398, 'panda_joint3': 0.0,
+               'panda_joint4': -2.35619, 'panda_joint5': 0.0, 'panda_joint6': 1.5707,
+               'panda_joint7': 0.785398, 'panda_finger_joint1': 0.02,
+               'panda_finger_joint2': 0.02}
+
+
+def panda_joint_state(**offsets):
+    """A JointState of PANDA_READY stamped now, each joint named in `offsets` moved by its
+    value (rad)."""
+    js = JointState()
+    js.header.stamp = rospy.Time.now()
+    js.name = list(PANDA_READY)
+    js.position = [PANDA_READY[n] + offsets.get(n, 0.0) for n in js.name]
+    return js
 
 
 def wait_for(predicate, timeout, period=0.01):

@@ -23,16 +23,13 @@ from roscpp.srv import GetLoggers
 from sensor_msgs.msg import JointState
 from tf2_msgs.msg import TFMessage
 
-from cm_test_util import Monitor, PoseStreamer, pose, sphere_body, tf_transform, wait_for
+from cm_test_util import (Monitor, PoseStreamer, panda_joint_state, pose, sphere_body,
+                          tf_transform, wait_for)
 
 E = CollisionEvent
 LINKS = ['panda_hand', 'panda_leftfinger', 'panda_link0', 'panda_link1', 'panda_link2',
          'panda_link3', 'panda_link4', 'panda_link5', 'panda_link6', 'panda_link7',
          'panda_rightfinger']
-# The SRDF "default" (ready) configuration.
-READY = {'panda_joint1': 0.0, 'panda_joint2': -0.785398, 'panda_joint3': 0.0,
-         'panda_joint4': -2.35619, 'panda_joint5': 0.0, 'panda_joint6': 1.5707,
-         'panda_joint7': 0.785398, 'panda_finger_joint1': 0.02, 'panda_finger_joint2': 0.02}
 
 
 class JointStates:
@@ -44,12 +41,8 @@ class JointStates:
     def _run(self, period):
         while not rospy.is_shutdown():
             if self.running:
-                js = JointState()
-                js.header.stamp = rospy.Time.now()
-                js.name = list(READY)
-                js.position = [READY[n] for n in js.name]
                 try:
-                    self.pub.publish(js)
+                    self.pub.publish(panda_joint_state())
                 except rospy.ROSException:  # shutting down
                     return
             time.sleep(period)
