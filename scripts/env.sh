@@ -17,4 +17,8 @@ cm_source_devel() {
   export ROS_HOME="${ROS_HOME:-$CM_BUILD/ros_home}"
   export PATH="/usr/bin:$PATH"
 }
+# ccache: paths under the package are hashed relative to it, and the working directory is left out
+# of the hash. By default ccache hashes the build folder into every object built with -g (the
+# ASan, fuzz and TSan builds), so a clone at another path (a CI runner's) found none of them.
 export CCACHE_BASEDIR="$CM_ROOT"
+export CCACHE_NOHASHDIR=1

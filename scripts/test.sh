@@ -32,9 +32,20 @@ run_ctest() {
   if [ "$total" -eq 0 ]; then FAILED=$((FAILED + 1)); echo "test.sh: no tests ran in $dir" >&2; fi
   [ "$rc" -eq 0 ] || [ "$failed" -gt 0 ] || FAILED=$((FAILED + 1))
 }
+# step <title>: closes the step before (its time goes to TIMES) and opens the next.
+TIMES=""
+STEP=""
+STEP_START=$SECONDS
+step() {
+  if [ -n "$STEP" ]; then TIMES="$TIMES${TIMES:+, }$STEP $((SECONDS - STEP_START)) s"; fi
+  STEP="${1%% *}"
+  STEP_START=$SECONDS
+  [ -z "$1" ] || echo "=== $1"
+}
+step "0/7 apt dependencies (scripts/install_deps.sh)"
 bash "$CM_ROOT/scripts/install_deps.sh"
 
-echo "=== 1/7 standalone build (-Werror) and full test suite"
+step "1/7 standalone build (-Werror) and full test suite"
 bash "$CM_ROOT/scripts/build.sh" -DCOLLISION_MONITOR_WERROR=ON
 cm_source_devel
 if [ ! -d "$CM_ROBOT_DATA/example-robot-data" ]; then
@@ -43,14 +54,14 @@ if [ ! -d "$CM_ROBOT_DATA/example-robot-data" ]; then
 fi
 run_ctest "$CM_BUILD" CM_ARTIFACTS="$CM_BUILD/test_results"
 
-echo "=== 2/7 clang-tidy over src/ and examples/ (the checks of .clang-tidy, every finding an error)"
+step "2/7 clang-tidy over src/ and examples/ (the checks of .clang-tidy, every finding an error)"
 if bash "$CM_ROOT/scripts/tidy.sh" "$CM_BUILD"; then
   PASSED=$((PASSED + 1))
 else
   FAILED=$((FAILED + 1))
 fi
 
-echo "=== 3/7 geometry core under AddressSanitizer + UndefinedBehaviorSanitizer"
+step "3/7 geometry core under AddressSanitizer + UndefinedBehaviorSanitizer"
 SAN_BUILD="$CM_BUILD-asan"
 cmake -S "$CM_ROOT" -B "$SAN_BUILD" -DCOLLISION_MONITOR_CORE_ONLY=ON -DCOLLISION_MONITOR_SANITIZE=ON \
   -DCOLLISION_MONITOR_WERROR=ON -DCOLLISION_MONITOR_BENCHMARKS=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
@@ -58,7 +69,7 @@ cmake --build "$SAN_BUILD" -j"$JOBS"
 run_ctest "$SAN_BUILD" ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 \
   CM_SWEEP_SCALE="${CM_SWEEP_SCALE_SANITIZER:-0.1}"
 
-echo "=== 4/7 libFuzzer (clang, ASan + UBSan) on the geometry core, the world model and the ROS layer's input: replay the corpora, fuzz ${CM_FUZZ_RUNS:-1200}, ${CM_FUZZ_WORLD_RUNS:-3000} and ${CM_FUZZ_ROS_RUNS:-20000} inputs (seed ${CM_FUZZ_SEED:-1}, at most ${CM_FUZZ_SECONDS:-120} s each)"
+step "4/7 libFuzzer (clang, ASan + UBSan) on the geometry core, the world model and the ROS layer's input: replay the corpora, fuzz ${CM_FUZZ_RUNS:-1200}, ${CM_FUZZ_WORLD_RUNS:-3000} and ${CM_FUZZ_ROS_RUNS:-20000} inputs (seed ${CM_FUZZ_SEED:-1}, at most ${CM_FUZZ_SECONDS:-120} s each)"
 # Fixed seed and input count: the same inputs on every machine (open findings of longer runs are
 # in fuzz/open/core, docs/reliability.md). The ROS target uses the messages built in step 1.
 if CM_FUZZ_SEED="${CM_FUZZ_SEED:-1}" CM_FUZZ_RUNS="${CM_FUZZ_RUNS:-1200}" \
@@ -69,7 +80,7 @@ else
   FAILED=$((FAILED + 1))
 fi
 
-echo "=== 5/7 build and install inside a catkin workspace (catkin_make install), the demo from the install space, a downstream package and a plain CMake program against it"
+step "5/7 build and install inside a catkin workspace (catkin_make install), the demo from the install space, a downstream package and a plain CMake program against it"
 # The workspace links back to this package (src/collision_monitor) and holds an install space with
 # its launch files. roslaunch finds a package's files by walking its whole folder, following links
 # and skipping only folders whose names start with a dot: a workspace named build-ws in the package
@@ -92,7 +103,7 @@ if ! out="$(roslaunch --files collision_monitor demo.launch 2>&1)"; then
 fi
 echo "roslaunch collision_monitor demo.launch resolves to $out: ok"
 
-echo "=== 6/7 the geometry core alone: core-only build of the library (no tests), cmake --install, a plain CMake program against it"
+step "6/7 the geometry core alone: core-only build of the library (no tests), cmake --install, a plain CMake program against it"
 CORE_BUILD="$CM_BUILD-core"
 rm -rf "$CORE_BUILD/install"
 cmake -S "$CM_ROOT" -B "$CORE_BUILD" -DCOLLISION_MONITOR_CORE_ONLY=ON -DBUILD_TESTING=OFF \
@@ -108,7 +119,7 @@ if [ -n "$extra" ] || [ ! -f "$CORE_BUILD/install/include/collision_monitor/core
 fi
 bash "$CM_ROOT/scripts/check_core_consumer.sh" "$CORE_BUILD/install"
 
-echo "=== 7/7 the node and nodelet under ThreadSanitizer: every input thread driven at once, then SIGINT, unload, reload; no report (test/robustness/tsan.test)"
+step "7/7 the node and nodelet under ThreadSanitizer: every input thread driven at once, then SIGINT, unload, reload; no report (test/robustness/tsan.test)"
 # Only the node, its libraries and the messages: the other tests have run in steps 1 and 3.
 TSAN_BUILD="$CM_BUILD-tsan"
 cmake -S "$CM_ROOT" -B "$TSAN_BUILD" -DPYTHON_EXECUTABLE="$CM_PYTHON" -DCOLLISION_MONITOR_TSAN=ON \
@@ -117,6 +128,8 @@ cmake --build "$TSAN_BUILD" -j"$JOBS" --target collision_monitor_node collision_
 CM_CTEST_SELECT="-R rostest_test_robustness_tsan" run_ctest "$TSAN_BUILD" \
   CM_ARTIFACTS="$CM_BUILD/test_results"
 
-# One closing line for CI: every CTest test of both builds.
+# Closing lines for CI: each step's time, then every CTest test of both builds.
+step ""
+echo "times: $TIMES; in all $SECONDS s"
 echo "all: $PASSED passed, $FAILED failed"
 [ "$FAILED" -eq 0 ]
