@@ -17,26 +17,32 @@ if [ -z "$TIDY" ]; then
   echo "tidy.sh: clang-tidy not found (apt-get install clang-tidy)" >&2
   exit 1
 fi
-# The translation units of the database under src/ and examples/, each once.
-mapfile -t FILES < <("$CM_PYTHON" - "$DB" "$CM_ROOT" <<'PY'
-import json, os, sys
-root = os.path.realpath(sys.argv[2])
-seen = set()
-for entry in json.load(open(sys.argv[1])):
-    f = os.path.realpath(os.path.join(entry["directory"], entry["file"]))
-    rel = os.path.relpath(f, root)
-    if rel.split(os.sep)[0] in ("src", "examples") and f not in seen:
-        seen.add(f)
-        print(f)
-PY
-)
-if [ "${#FILES[@]}" -eq 0 ]; then
+# The translation units of the database under src/ and examples/, each once, less those a clean
+# run found clean with everything they are built from as it is now (scripts/tidy_units.py; the
+# cache is $CM_TIDY_CACHE, ~/.cache/collision_monitor/tidy by default; CM_TIDY_CACHE= runs all).
+CACHE="${CM_TIDY_CACHE-${XDG_CACHE_HOME:-$HOME/.cache}/collision_monitor/tidy}"
+[ -z "$CACHE" ] || mkdir -p "$CACHE"
+UNITS_TEXT="$("$CM_PYTHON" "$CM_ROOT/scripts/tidy_units.py" "$DB" "$CM_ROOT" "$TIDY" "$CACHE")"
+if [ -z "$UNITS_TEXT" ]; then
   echo "tidy.sh: no sources of src/ or examples/ in $DB" >&2
   exit 1
 fi
+mapfile -t UNITS <<<"$UNITS_TEXT"
+FILES=()
+KEYS=()
+CACHED=0
+for unit in "${UNITS[@]}"; do
+  if [ "${unit%% *}" = cached ]; then
+    CACHED=$((CACHED + 1))
+  else
+    KEYS+=("${unit%% *}")
+    FILES+=("${unit#* }")
+  fi
+done
 LOG="$BUILD/tidy.log"
 rc=0
-printf '%s\n' "${FILES[@]}" | xargs -P"$(nproc)" -n1 "$TIDY" -p "$BUILD" --quiet \
+: >"$LOG"
+[ "${#FILES[@]}" -eq 0 ] || printf '%s\n' "${FILES[@]}" | xargs -P"$(nproc)" -n1 "$TIDY" -p "$BUILD" --quiet \
   --header-filter="^$CM_ROOT/(include|src)/" >"$LOG" 2>&1 || rc=1
 findings="$(grep -cE '^/.*: (error|warning): ' "$LOG" || true)"
 if [ "$rc" -ne 0 ] || [ "$findings" -ne 0 ]; then
@@ -44,4 +50,7 @@ if [ "$rc" -ne 0 ] || [ "$findings" -ne 0 ]; then
   echo "tidy.sh: $findings finding(s) in ${#FILES[@]} files (full log: $LOG)" >&2
   exit 1
 fi
-echo "clang-tidy: ${#FILES[@]} files, no finding"
+if [ -n "$CACHE" ]; then
+  for key in "${KEYS[@]}"; do : >"$CACHE/$key"; done
+fi
+echo "clang-tidy: ${#UNITS[@]} files, no finding (${#FILES[@]} run, $CACHED unchanged since a clean run)"
