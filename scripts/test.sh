@@ -3,7 +3,8 @@
 # world gtests, rostests over a real roscore), clang-tidy over the sources (.clang-tidy), then the
 # geometry core again under ASan+UBSan, a bounded libFuzzer run on the core, then a build inside a
 # catkin workspace, then the core alone installed and used by a plain CMake program, then the node
-# and nodelet under ThreadSanitizer. Exits non-zero on any failure.
+# and nodelet under ThreadSanitizer. Prints each step's time, then the totals. Exits non-zero on
+# any failure.
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
 JOBS="$(nproc)"

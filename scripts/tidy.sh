@@ -22,7 +22,8 @@ fi
 # cache is $CM_TIDY_CACHE, ~/.cache/collision_monitor/tidy by default; CM_TIDY_CACHE= runs all).
 CACHE="${CM_TIDY_CACHE-${XDG_CACHE_HOME:-$HOME/.cache}/collision_monitor/tidy}"
 [ -z "$CACHE" ] || mkdir -p "$CACHE"
-UNITS_TEXT="$("$CM_PYTHON" "$CM_ROOT/scripts/tidy_units.py" "$DB" "$CM_ROOT" "$TIDY" "$CACHE")"
+FILTER="^$CM_ROOT/(include|src)/"
+UNITS_TEXT="$("$CM_PYTHON" "$CM_ROOT/scripts/tidy_units.py" "$DB" "$CM_ROOT" "$TIDY" "$FILTER" "$CACHE")"
 if [ -z "$UNITS_TEXT" ]; then
   echo "tidy.sh: no sources of src/ or examples/ in $DB" >&2
   exit 1
@@ -43,7 +44,7 @@ LOG="$BUILD/tidy.log"
 rc=0
 : >"$LOG"
 [ "${#FILES[@]}" -eq 0 ] || printf '%s\n' "${FILES[@]}" | xargs -P"$(nproc)" -n1 "$TIDY" -p "$BUILD" --quiet \
-  --header-filter="^$CM_ROOT/(include|src)/" >"$LOG" 2>&1 || rc=1
+  --header-filter="$FILTER" >"$LOG" 2>&1 || rc=1
 findings="$(grep -cE '^/.*: (error|warning): ' "$LOG" || true)"
 if [ "$rc" -ne 0 ] || [ "$findings" -ne 0 ]; then
   grep -E -A3 '^/.*: (error|warning): ' "$LOG" >&2 || tail -50 "$LOG" >&2

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """The translation units scripts/tidy.sh runs clang-tidy on, and which of them it may skip.
 
-Usage: tidy_units.py <compile_commands.json> <package root> <clang-tidy> <cache folder or "">
+Usage: tidy_units.py <compile_commands.json> <package root> <clang-tidy> <header filter>
+       <cache folder or "">
 
 Prints one line per translation unit of the database under src/ and examples/ (each once):
 "<key> <file>" for a unit to run, "cached <file>" for one skipped. A unit is skipped when its
@@ -51,7 +52,7 @@ def dependencies(entry, args):
 
 
 def main():
-    db_path, root, tidy, cache = sys.argv[1:5]
+    db_path, root, tidy, header_filter, cache = sys.argv[1:6]
     root = os.path.realpath(root)
 
     def rel(text):
@@ -77,7 +78,7 @@ def main():
         h = hashlib.sha256()
         h.update(version.encode())
         h.update(config)
-        h.update(b"header filter (include|src)/\0")
+        h.update(rel(header_filter).encode() + b"\0")
         h.update(rel(" ".join(args)).encode() + b"\0")
         for dep in dependencies(entry, args):
             with open(dep, "rb") as f:
