@@ -239,6 +239,11 @@ Monitor::~Monitor() {
   // A check of seconds (bodies of 1,000 parts) stops now; first, since a ~set_parameters call in
   // progress waits for it, and the server's reset below waits for that call.
   world_->abandonChecks();
+  // The services' threads stop before the reconfigure server goes: its destructor frees the
+  // callback and the config before it shuts its service, so a ~set_parameters call let in then
+  // would run on freed memory (ThreadSanitizer saw it at unload). stop() waits for calls running.
+  services_queue_.disable();
+  if (services_spinner_) services_spinner_->stop();
   reconfigure_.reset();  // no change comes in while the rest stops
   {
     std::lock_guard<std::mutex> lock(loop_mutex_);
@@ -251,11 +256,9 @@ Monitor::~Monitor() {
   // No callback starts from here on; one in progress finishes (no check holds the world now).
   callback_queue_.disable();
   bodies_queue_.disable();
-  services_queue_.disable();
   what_if_queue_.disable();
   if (spinner_) spinner_->stop();
   if (bodies_spinner_) bodies_spinner_->stop();
-  if (services_spinner_) services_spinner_->stop();
   if (what_if_spinner_) what_if_spinner_->stop();
   tf_receiver_.reset();  // after the loop, which reads through it; its trigger()s are harmless
   bodies_sub_.shutdown();
@@ -676,6 +679,7 @@ std::string Monitor::addBody(world::BodySpec spec) {
   t.frame = spec.frame;
   t.origin = spec.origin;
   t.pose_topic = topic;
+  t.came = ros::Time::now();
   {
     const auto lock = lockWorld();
     std::string err = world_->addBody(std::move(spec));
@@ -1307,12 +1311,14 @@ void Monitor::runCycle() {
   // second such pose of a body on, WorldModel::keepsPoses()).
   std::vector<std::pair<std::string, std::string>> attached;  // id, frame
   bool catch_up = false;
+  double pose_timeout = 0.0;
   {
     std::lock_guard<std::mutex> lock(world_mutex_);
     for (const auto& [id, t] : tracked_) {
       if (t.from_tf) attached.emplace_back(id, t.frame);
     }
     catch_up = world_->settings().align_poses;
+    pose_timeout = world_->settings().pose_timeout;
   }
   struct FramePose {
     Transform3 pose;
@@ -1372,11 +1378,16 @@ void Monitor::runCycle() {
       } else {
         frames[frame] =
             FramePose{toTransform3(tf.transform), toStamp(tf.header.stamp), arrivedAt(first.at)};
-        if (catch_up && before != tf_seen_.end()) {
+        if (catch_up) {
           // What the frame did since its last lookup, for catch-up: where TF moved it between
-          // two checks that it outran.
-          for (const ros::Time& at : tf_receiver_->stampsBetween(tf_snapshot, before->second.stamp,
-                                                                 stamp, between_most)) {
+          // two checks that it outran. A frame not looked up before (new to TF, or to the
+          // bodies): since a pose_timeout ago, as far as the buffer goes; a body that was not
+          // there then takes only what came after it (below).
+          const ros::Time since = before != tf_seen_.end()
+                                      ? before->second.stamp
+                                      : ros::Time(std::max(0.0, now - pose_timeout));
+          for (const ros::Time& at :
+               tf_receiver_->stampsBetween(tf_snapshot, since, stamp, between_most)) {
             try {
               const auto t = tf_buffer_->lookupTransform(fixed_frame_, frame, at);
               frames_between[frame].push_back(
@@ -1429,11 +1440,14 @@ void Monitor::runCycle() {
       if (it == tracked_.end() || !it->second.from_tf || it->second.frame != frame) continue;
       const auto& f = frames[frame];
       if (f) {
-        // Not to a body new since the last check: nothing of it before it came.
+        // To a body with no pose yet, nothing from before it came.
         const auto between = frames_between.find(frame);
-        if (between != frames_between.end() && world_->pose(id)) {
-          for (const FramePose& b : between->second)
-            world_->setPose(id, b.pose, b.stamp);
+        if (between != frames_between.end()) {
+          const bool posed = world_->pose(id).has_value();
+          const world::Stamp came = toStamp(it->second.came);
+          for (const FramePose& b : between->second) {
+            if (posed || b.stamp >= came) world_->setPose(id, b.pose, b.stamp);
+          }
         }
         world_->setPose(id, f->pose, f->stamp, std::nullopt, f->arrived);
       } else {

@@ -4,8 +4,9 @@ at once -- TF (moving joints), ~body_poses, two pose topics that a body switches
 replaced, ~bodies adding and removing bodies (a mesh among them), the three services from two
 threads, ~markers subscribed and unsubscribed, dynamic_reconfigure -- for LOAD_SECONDS, then sends
 SIGINT with all of it still running: TSan may have written no log (it writes one to report). Then
-the same monitor as a nodelet in Debian's manager (libtsan preloaded): unloaded under that load,
-loaded again, and the manager stopped by SIGINT under load; no log of the manager either. Checks
+the same monitor as a nodelet in Debian's manager (libtsan preloaded), beside a second one under a
+load of its own: unloaded under that load, loaded again, and the manager stopped by SIGINT under
+load; no log of the manager either. Each stop comes during back-to-back reconfigure calls. Checks
 first that the node and the libraries of ours it mapped are instrumented (a build without TSan
 would pass vacuously), and afterwards that each kind of input was taken in.
 Figures go to stdout and to $CM_ARTIFACTS/tsan.txt when set."""
@@ -71,6 +72,7 @@ class Load:
         self.m = m
         self.ns = m.node + '/'
         self.stop = threading.Event()
+        self.burst = threading.Event()  # set 1 s before the monitor is stopped
         self.sigint = threading.Event()  # set as the monitor is stopped: errors expected then
         self.counts = {}
         self.errors = []
@@ -224,6 +226,19 @@ class Load:
             k += 1
             self.stop.wait(0.25)
 
+    def reconfigure_burst(self):
+        """From `burst` on, dynamic_reconfigure calls back to back until the end: one is in
+        progress as the monitor stops (~Monitor freed the server under such a call)."""
+        client = Client(self.m.node, timeout=30.0)
+        while not self.burst.wait(0.05):
+            if self.stop.is_set():
+                return
+        k = 0
+        while not self.stop.is_set():
+            client.update_configuration({'warning_distance': 0.05 + 0.01 * (k % 3)})
+            self.count('burst_reconfigurations')
+            k += 1
+
 
 class Tsan(unittest.TestCase):
     @classmethod
@@ -249,9 +264,10 @@ class Tsan(unittest.TestCase):
         self.assert_logs_here(self.pid)
         figure('instrumented: %s' % ', '.join([exe] + ours))
 
-    def start_load(self, m):
+    def start_load(self, m, joints=True):
         """The bodies Load.body_poses poses and the table (the node has it from YAML), then every
-        input thread of Load against `m`."""
+        input thread of Load against `m` (/joint_states only if `joints`: one load publishes them
+        for every monitor)."""
         m.add(sphere_body('post', 0.03))
         m.add(sphere_body('far', 0.05))
         table = Body(id='table', operation=Body.ADD)
@@ -262,12 +278,20 @@ class Tsan(unittest.TestCase):
             self.assertTrue(m.wait_listed(b, timeout=20.0), b)
         load = Load(m)
         load.t0 = time.monotonic()
-        load.start(load.joint_states, load.body_poses, load.pose_topics, load.bodies,
-                   load.distances, load.probes, load.markers, load.reconfigure)
+        load.start(load.body_poses, load.pose_topics, load.bodies, load.distances, load.probes,
+                   load.markers, load.reconfigure, load.reconfigure_burst, load.reconfigure_burst)
+        if joints:
+            load.start(load.joint_states)
         return load
 
-    def stop_process(self, pid, what):
-        """SIGINT to `pid`, and its exit within 60 s; the seconds it took."""
+    def stop_process(self, pid, what, loads):
+        """After 1 s of reconfigure bursts of `loads`, SIGINT to `pid` and its exit within 60 s;
+        the seconds it took."""
+        for load in loads:
+            load.burst.set()
+        time.sleep(1.0)
+        for load in loads:
+            load.sigint.set()
         t0 = time.monotonic()
         os.kill(pid, signal.SIGINT)
         exited = wait_for(lambda: not alive(pid), 60.0, 0.1)
@@ -275,7 +299,8 @@ class Tsan(unittest.TestCase):
         return time.monotonic() - t0
 
     def check_load(self, load, label):
-        """Every kind of input was taken in and answered, and no call failed but at the end."""
+        """Every kind of input was taken in and answered, pose messages came during checks, and
+        no call failed but at the end."""
         m = load.m
         with m.lock:
             collisions = sum(1 for t, e in m.events if t >= load.t0 and e.type == E.COLLISION_BEGIN
@@ -286,9 +311,11 @@ class Tsan(unittest.TestCase):
         self.assertEqual(load.errors, [])
         for key in ('get_distance_pair_ok', 'get_distance_nearest_ok', 'get_distance_pose_topic_ok',
                     'get_distance_unknown_refused', 'check_collision_ok', 'list_bodies_ok',
-                    'reconfigurations', 'marker_arrays'):
+                    'reconfigurations', 'burst_reconfigurations', 'marker_arrays'):
             self.assertGreater(load.counts.get(key, 0), 0, key)
         self.assertGreater(collisions, 0, 'no collision of the hand with the post under load')
+        deferred = m.diag_value('pose messages deferred during a check (total)')
+        self.assertGreater(int(deferred or 0), 0, 'no pose message came during a check')
 
     def assert_logs_here(self, pid):
         """Process `pid` sends TSan's reports to the log check_no_log() reads (else to its
@@ -315,32 +342,33 @@ class Tsan(unittest.TestCase):
         load = self.start_load(self.m)
         time.sleep(LOAD_SECONDS)
         self.assertTrue(alive(self.pid), 'the node died under load')
-        load.sigint.set()
-        t_exit = self.stop_process(self.pid, 'the node')  # with every input still coming
+        t_exit = self.stop_process(self.pid, 'the node', [load])  # every input still coming
         load.join()
         self.check_load(load, 'node: %.0f s of load, then SIGINT -> exit %.2f s'
                         % (LOAD_SECONDS, t_exit))
         self.check_no_log(self.pid)
 
     def test_3_nodelet_unloaded_and_loaded_again_under_load(self):
-        """The monitor as a nodelet in Debian's manager (libtsan preloaded): unloaded while every
-        input comes (~Monitor with the manager running on), loaded again, then the manager
-        stopped by SIGINT under load."""
+        """Two monitors as nodelets in Debian's manager (libtsan preloaded), each under a load of
+        its own (/joint_states from cm_nodelet_b's): cm_nodelet unloaded while every input comes
+        (~Monitor with the manager and cm_nodelet_b running on), loaded again, then the manager
+        stopped by SIGINT under both loads. Two monitors in one process: state shared between
+        them (a static) would race."""
         manager = node_pid('/tsan_manager')
         loader = node_pid('/cm_nodelet')
-        self.assertTrue(manager and loader, 'no pid for the manager or the nodelet loader')
-        m = Monitor('/cm_nodelet/')
+        self.assertTrue(manager and loader and node_pid('/cm_nodelet_b'),
+                        'no pid for the manager or a nodelet loader')
         libs = [f for f in mapped_files(manager) if 'libcollision_monitor_ros' in f]
         self.assertTrue(any('libtsan' in f for f in mapped_files(manager)))
         self.assertTrue(libs and all(instrumented(f) for f in libs), libs)
         self.assert_logs_here(manager)
-        load = self.start_load(m)
+        load_b = self.start_load(Monitor('/cm_nodelet_b/'))
+        load = self.start_load(Monitor('/cm_nodelet/'), joints=False)
         time.sleep(NODELET_LOAD_SECONDS)
-        load.sigint.set()
-        t_unload = self.stop_process(loader, 'nodelet load')  # it unloads the nodelet
+        t_unload = self.stop_process(loader, 'nodelet load', [load])  # it unloads the nodelet
         self.assertTrue(wait_for(lambda: '/cm_nodelet/get_distance' not in
                                  rosservice.get_service_list(), 30.0, 0.1), 'not unloaded')
-        time.sleep(1.0)  # the inputs keep coming to the manager with no monitor
+        time.sleep(1.0)  # the inputs keep coming to the manager with no monitor of theirs
         load.join()
         self.check_load(load, 'nodelet: %.0f s of load, then unloaded (loader exit %.2f s)'
                         % (NODELET_LOAD_SECONDS, t_unload))
@@ -348,14 +376,16 @@ class Tsan(unittest.TestCase):
             'load', 'collision_monitor/CollisionMonitorNodelet', 'tsan_manager',
             '__name:=cm_nodelet'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:
-            load = self.start_load(Monitor('/cm_nodelet/'))
+            load = self.start_load(Monitor('/cm_nodelet/'), joints=False)
             time.sleep(NODELET_LOAD_SECONDS)
             self.assertTrue(alive(manager), 'the manager died under load')
-            load.sigint.set()
-            t_exit = self.stop_process(manager, 'the manager')
+            t_exit = self.stop_process(manager, 'the manager', [load, load_b])
             load.join()
+            load_b.join()
             self.check_load(load, 'nodelet loaded again: %.0f s of load, then SIGINT to the '
                             'manager -> exit %.2f s' % (NODELET_LOAD_SECONDS, t_exit))
+            self.check_load(load_b, 'second nodelet: under load throughout, then SIGINT to the '
+                            'manager')
         finally:
             reloader.terminate()
             reloader.wait(30.0)

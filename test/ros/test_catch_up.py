@@ -11,7 +11,9 @@ its distance to 1e-6 m.
   at every check, the dart's): no event but at the checks.
 - The first version of that change shared the 1,024 lookups a check by TF bodies, the 600 on
   the fixed frame too (which need none): one stamp a check, 139 of 147 events missing in the
-  audit's run."""
+  audit's run.
+Then a new TF frame: caught up from its first transform (test_c), but a body added after the
+frame passed a target takes nothing from before it came (test_d)."""
 import math
 import sys
 import time
@@ -20,7 +22,7 @@ import unittest
 import rospy
 import rostest
 import tf2_ros
-from collision_monitor.msg import BodyPoses, CollisionEvent
+from collision_monitor.msg import Body, BodyPoses, CollisionEvent
 
 from cm_test_util import Monitor, pose, sphere_body, tf_transform, wait_for
 
@@ -155,6 +157,97 @@ class CatchUp(unittest.TestCase):
         for e in got:
             self.assertAlmostEqual(e.pair.distance, abs(x_at[e.header.stamp.to_nsec()]) - 0.2,
                                    delta=1e-6)
+
+    def test_c_a_new_tf_frame_is_caught_up_from_its_first_transform(self):
+        """A TF frame new to TF, `dart_c`, carries a sphere of 0.1 m added before the frame's
+        first transform. The frame starts inside a target of 0.1 m on the fixed frame and leaves
+        it at 10 m/s, sent at 100 Hz; checks at 5 Hz, not on TF. Its first lookup catches up over
+        the last pose_timeout: UNKNOWN_END and COLLISION_BEGIN at the first stamp, COLLISION_END
+        at the stamp 0.3 m out. Before the fifty-second session a frame's first lookup caught up
+        nothing: the pair was first evaluated at the first check, the dart already out."""
+        m = Monitor()
+        forget(m, 'dart', 'v')  # stale since the tests before: UNKNOWN pairs to list no more
+        m.add(fixed_body('g', 0.1, 0.0, 30.0))
+        m.add(sphere_body('w', 0.1, frame='dart_c', pose_from_topic=False))
+        self.assertTrue(wait_for(lambda: {'g', 'w'} <= set(m.list_bodies().ids), 10.0))
+        since = time.monotonic()
+        sent = send_tf_dart('dart_c', 30.0, [0.1 * min(k, 10) for k in range(61)])
+        pair = {frozenset(('g', 'w'))}
+
+        def got():
+            return [e for e in m.events_for(pair, since) if e.type != E.UNKNOWN_BEGIN]
+        self.assertTrue(wait_for(lambda: len(got()) >= 3, 5.0), got())
+        time.sleep(0.5)  # any event more
+        status, expected = 'N', [(E.UNKNOWN_END, sent[0][0])]
+        for stamp, x in sent:
+            nxt = next_status(status, abs(x) - 0.2)
+            expected += [(t, stamp) for t in TRANSITIONS.get((status, nxt), [])]
+            status = nxt
+        self.assertEqual([(e.type, e.header.stamp.to_nsec()) for e in got()],
+                         [(t, s.to_nsec()) for t, s in expected])
+        self.assertEqual([e.type for e in got()],
+                         [E.UNKNOWN_END, E.COLLISION_BEGIN, E.COLLISION_END])
+        x_at = dict((s.to_nsec(), x) for s, x in sent)
+        for e in got():
+            self.assertAlmostEqual(e.pair.distance, abs(x_at[e.header.stamp.to_nsec()]) - 0.2,
+                                   delta=1e-6)
+
+    def test_d_a_body_takes_nothing_of_its_frame_from_before_it_came(self):
+        """A TF frame `dart_d` passes through a target of 0.1 m (starts inside, out to 2.8 m at
+        10 m/s, 100 Hz); 0.1 s after its first transform, the dart out of the target, a sphere
+        of 0.1 m is added on it. The frame's first lookup catches up over the last pose_timeout
+        (0.5 s), the passage included: the body takes only the transforms after it came, so the
+        pair has no event but UNKNOWN ones, and its distance is 2.6 m."""
+        m = Monitor()
+        forget(m, 'w')
+        m.add(fixed_body('h', 0.1, 0.0, 40.0))
+        self.assertTrue(wait_for(lambda: 'h' in m.list_bodies().ids, 10.0))
+        since = time.monotonic()
+        xs = [0.1 * min(k, 28) for k in range(80)]
+        added = []
+
+        def add_body(k):
+            if k == 10:
+                added.append(rospy.Time.now())
+                m.add(sphere_body('z', 0.1, frame='dart_d', pose_from_topic=False))
+        sent = send_tf_dart('dart_d', 40.0, xs, add_body)
+        self.assertTrue(wait_for(lambda: 'z' in m.list_bodies().ids, 5.0))
+        pair = {frozenset(('h', 'z'))}
+        self.assertTrue(wait_for(lambda: any(e.type == E.UNKNOWN_END
+                                             for e in m.events_for(pair, since)), 5.0),
+                        m.events_for(pair, since))
+        time.sleep(0.5)  # any event more
+        events = m.events_for(pair, since)
+        self.assertEqual([e.type for e in events], [E.UNKNOWN_BEGIN, E.UNKNOWN_END])
+        # Evaluated first at a transform sent after the body, the dart out of the target.
+        self.assertGreaterEqual(events[1].header.stamp, added[0])
+        self.assertIn(events[1].header.stamp, [s for s, _ in sent])
+        r = m.get_distance('z', 'h', '')
+        self.assertTrue(r.success, r.message)
+        self.assertAlmostEqual(r.result.distance, 2.6, delta=1e-6)
+
+
+def forget(m, *ids):
+    """Removes bodies `ids` and waits until none is listed."""
+    for body_id in ids:
+        m.add(Body(id=body_id, operation=Body.REMOVE))
+    assert wait_for(lambda: not set(ids) & set(m.list_bodies().ids), 10.0), ids
+
+
+def send_tf_dart(frame, y, xs, each=None):
+    """Frame `frame` at (x, y, 0) in the fixed frame for each x of `xs`, 100 Hz, stamped now;
+    each(k) before the k-th. Returns (stamp, x) of every transform sent."""
+    br = tf2_ros.TransformBroadcaster()
+    sent = []
+    start = time.monotonic()
+    for k, x in enumerate(xs):
+        if each:
+            each(k)
+        now = rospy.Time.now()
+        br.sendTransform(tf_transform(frame, stamp=now, xyz=(x, y, 0.0)))
+        sent.append((now, x))
+        time.sleep(max(0.0, start + 0.01 * (k + 1) - time.monotonic()))
+    return sent
 
 
 class BodyPosesAt:
