@@ -12,6 +12,7 @@ rm -rf "$WS"
 mkdir -p "$WS/src"
 ln -sfn "$CM_ROOT/test/consumer" "$WS/src/cm_consumer_check"
 rc=0
+# shellcheck disable=SC2016  # expanded by the inner shell, in the clean environment
 env -i HOME="$HOME" PATH=/usr/bin:/bin LANG=C.UTF-8 INSTALL="$INSTALL" WS="$WS" bash -c '
     source "$INSTALL/setup.bash"
     cd "$WS" && catkin_make -DPYTHON_EXECUTABLE=/usr/bin/python3 &&

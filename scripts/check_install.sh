@@ -9,6 +9,7 @@ LOG="$INSTALL.demo.log"
 PORT=$(/usr/bin/python3 -c \
   'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')
 rc=0
+# shellcheck disable=SC2016  # expanded by the inner shell, in the clean environment
 env -i HOME="$HOME" PATH=/usr/bin:/bin LANG=C.UTF-8 ROS_HOME="$INSTALL/../ros_home_install" \
   ROS_MASTER_URI="http://localhost:$PORT" INSTALL="$INSTALL" PORT="$PORT" bash -c '
     source "$INSTALL/setup.bash"

@@ -5,14 +5,17 @@ CM_BUILD="${CM_BUILD:-$CM_ROOT/build}"
 # Real robot descriptions (Franka Panda, PR2) used by tests and benchmarks.
 CM_ROBOT_DATA="${CM_ROBOT_DATA:-$CM_ROOT/../shared/data}"
 # A pyenv python3 may shadow the system one; catkin needs Debian's python3 with catkin_pkg.
+# shellcheck disable=SC2034  # read by the scripts that source this file
 CM_PYTHON=/usr/bin/python3
 cm_source_devel() {
-  # shellcheck disable=SC1091
   set +u
+  # shellcheck disable=SC1091  # written by the build
   source "$CM_BUILD/devel/setup.bash"
   set -u
   if [ -d "$CM_ROBOT_DATA" ]; then
-    export ROS_PACKAGE_PATH="$ROS_PACKAGE_PATH:$(cd "$CM_ROBOT_DATA" && pwd)"
+    local data
+    data="$(cd "$CM_ROBOT_DATA" && pwd)"
+    export ROS_PACKAGE_PATH="$ROS_PACKAGE_PATH:$data"
   fi
   export ROS_HOME="${ROS_HOME:-$CM_BUILD/ros_home}"
   export PATH="/usr/bin:$PATH"

@@ -69,7 +69,7 @@ fuzz_one() {
     echo "fuzz.sh: $name FAILED; inputs: $(ls "$B/artifacts")" >&2
     return "$rc"
   fi
-  echo "fuzz.sh: $name ok ($(ls "$B/corpus-$name" | wc -l) corpus entries in $B/corpus-$name)"
+  echo "fuzz.sh: $name ok ($(find "$B/corpus-$name" -mindepth 1 -maxdepth 1 | wc -l) corpus entries in $B/corpus-$name)"
 }
 
 failed=0

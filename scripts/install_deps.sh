@@ -23,8 +23,8 @@ PACKAGES=(
   # the contract sweep's independent oracle (qhull through scipy)
   python3-numpy python3-scipy
   rviz xvfb imagemagick clang-format
-  # static analysis (scripts/tidy.sh)
-  clang-tidy
+  # static analysis (scripts/tidy.sh; scripts/lint.sh)
+  clang-tidy shellcheck python3-pyflakes
   # fuzzing (scripts/fuzz.sh): clang with libFuzzer and the sanitizer runtimes; valgrind (node leak check)
   clang libclang-rt-14-dev valgrind
 )

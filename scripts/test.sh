@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Every test: install dependencies, build with -Werror, run the whole CTest suite (core gtests,
-# world gtests, rostests over a real roscore), clang-tidy over the sources (.clang-tidy), then the
-# geometry core again under ASan+UBSan, a bounded libFuzzer run on the core, then a build inside a
-# catkin workspace, then the core alone installed and used by a plain CMake program, then the node
-# and nodelet under ThreadSanitizer. Prints each step's time, then the totals. Exits non-zero on
-# any failure.
+# world gtests, rostests over a real roscore), clang-tidy over the sources (.clang-tidy) and the
+# scripts' checks (scripts/lint.sh), then the geometry core again under ASan+UBSan, a bounded
+# libFuzzer run on the core, then a build inside a catkin workspace, then the core alone installed
+# and used by a plain CMake program, then the node and nodelet under ThreadSanitizer. Prints each
+# step's time, then the totals. Exits non-zero on any failure.
 set -euo pipefail
 source "$(dirname "$0")/env.sh"
 JOBS="$(nproc)"
@@ -17,7 +17,9 @@ run_ctest() {
   shift
   local log="$dir/ctest.log"
   local rc=0
-  (cd "$dir" && env "$@" ctest --output-on-failure -j"$JOBS" --timeout 900 ${CM_CTEST_SELECT:-}) 2>&1 | tee "$log" || rc=1
+  local select=()
+  read -r -a select <<<"${CM_CTEST_SELECT:-}"
+  (cd "$dir" && env "$@" ctest --output-on-failure -j"$JOBS" --timeout 900 "${select[@]}") 2>&1 | tee "$log" || rc=1
   local line
   line="$(grep -E "tests passed, [0-9]+ tests? failed out of [0-9]+" "$log" | tail -1)"
   if [ -z "$line" ]; then
@@ -32,6 +34,10 @@ run_ctest() {
   FAILED=$((FAILED + failed))
   if [ "$total" -eq 0 ]; then FAILED=$((FAILED + 1)); echo "test.sh: no tests ran in $dir" >&2; fi
   [ "$rc" -eq 0 ] || [ "$failed" -gt 0 ] || FAILED=$((FAILED + 1))
+}
+# counted <command...>: runs it, and counts it as one test passed or failed.
+counted() {
+  if "$@"; then PASSED=$((PASSED + 1)); else FAILED=$((FAILED + 1)); fi
 }
 # step <title>: closes the step before (its time goes to TIMES) and opens the next.
 TIMES=""
@@ -55,12 +61,9 @@ if [ ! -d "$CM_ROBOT_DATA/example-robot-data" ]; then
 fi
 run_ctest "$CM_BUILD" CM_ARTIFACTS="$CM_BUILD/test_results"
 
-step "2/7 clang-tidy over src/ and examples/ (the checks of .clang-tidy, every finding an error)"
-if bash "$CM_ROOT/scripts/tidy.sh" "$CM_BUILD"; then
-  PASSED=$((PASSED + 1))
-else
-  FAILED=$((FAILED + 1))
-fi
+step "2/7 static analysis: clang-tidy over src/ and examples/ (the checks of .clang-tidy), shellcheck and pyflakes over the scripts (scripts/lint.sh); every finding an error"
+counted bash "$CM_ROOT/scripts/tidy.sh" "$CM_BUILD"
+counted bash "$CM_ROOT/scripts/lint.sh"
 
 step "3/7 geometry core under AddressSanitizer + UndefinedBehaviorSanitizer"
 SAN_BUILD="$CM_BUILD-asan"
@@ -73,13 +76,9 @@ run_ctest "$SAN_BUILD" ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrac
 step "4/7 libFuzzer (clang, ASan + UBSan) on the geometry core, the world model and the ROS layer's input: replay the corpora, fuzz ${CM_FUZZ_RUNS:-1200}, ${CM_FUZZ_WORLD_RUNS:-3000} and ${CM_FUZZ_ROS_RUNS:-20000} inputs (seed ${CM_FUZZ_SEED:-1}, at most ${CM_FUZZ_SECONDS:-120} s each)"
 # Fixed seed and input count: the same inputs on every machine (open findings of longer runs are
 # in fuzz/open/core, docs/reliability.md). The ROS target uses the messages built in step 1.
-if CM_FUZZ_SEED="${CM_FUZZ_SEED:-1}" CM_FUZZ_RUNS="${CM_FUZZ_RUNS:-1200}" \
+counted env CM_FUZZ_SEED="${CM_FUZZ_SEED:-1}" CM_FUZZ_RUNS="${CM_FUZZ_RUNS:-1200}" \
   CM_FUZZ_WORLD_RUNS="${CM_FUZZ_WORLD_RUNS:-3000}" CM_FUZZ_ROS_RUNS="${CM_FUZZ_ROS_RUNS:-20000}" \
-  bash "$CM_ROOT/scripts/fuzz.sh" "${CM_FUZZ_SECONDS:-120}"; then
-  PASSED=$((PASSED + 1))
-else
-  FAILED=$((FAILED + 1))
-fi
+  bash "$CM_ROOT/scripts/fuzz.sh" "${CM_FUZZ_SECONDS:-120}"
 
 step "5/7 build and install inside a catkin workspace (catkin_make install), the demo from the install space, a downstream package and a plain CMake program against it"
 # The workspace links back to this package (src/collision_monitor) and holds an install space with
