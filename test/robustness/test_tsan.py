@@ -40,6 +40,7 @@ FIGURES = []
 LOAD_SECONDS = 20.0
 NODELET_LOAD_SECONDS = 8.0
 TOPICS = ('/tsan/pose_a', '/tsan/pose_b')
+BURST_THREADS = 4  # reconfigure calls back to back before each stop (Load.reconfigure_burst)
 
 
 def figure(line):
@@ -279,7 +280,7 @@ class Tsan(unittest.TestCase):
         load = Load(m)
         load.t0 = time.monotonic()
         load.start(load.body_poses, load.pose_topics, load.bodies, load.distances, load.probes,
-                   load.markers, load.reconfigure, load.reconfigure_burst, load.reconfigure_burst)
+                   load.markers, load.reconfigure, *[load.reconfigure_burst] * BURST_THREADS)
         if joints:
             load.start(load.joint_states)
         return load
