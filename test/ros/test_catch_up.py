@@ -141,14 +141,20 @@ class CatchUp(unittest.TestCase):
         self.assertTrue(wait_for(lambda: len(m.events_for(pair, since)) >= 4, 5.0),
                         m.events_for(pair, since))
         time.sleep(0.5)  # any event more
+        got = m.events_for(pair, since)
+        self.assertEqual(got[0].type, E.UNKNOWN_BEGIN)
+        self.assert_out_from_first_pose(got[1:], sent)
+
+    def assert_out_from_first_pose(self, got, sent):
+        """`got`, the events of a sphere of 0.1 m posed at x of `sent` ((stamp, x), from inside)
+        against one of 0.1 m at x = 0 after its UNKNOWN_BEGIN, are the oracle's from its first
+        pose on: UNKNOWN_END, COLLISION_BEGIN and COLLISION_END, each at its stamp with its
+        distance to 1e-6 m."""
         status, expected = 'N', [(E.UNKNOWN_END, sent[0][0])]
         for stamp, x in sent:
             nxt = next_status(status, abs(x) - 0.2)
             expected += [(t, stamp) for t in TRANSITIONS.get((status, nxt), [])]
             status = nxt
-        got = m.events_for(pair, since)
-        self.assertEqual(got[0].type, E.UNKNOWN_BEGIN)
-        got = got[1:]
         self.assertEqual([(e.type, e.header.stamp.to_nsec()) for e in got],
                          [(t, s.to_nsec()) for t, s in expected])
         self.assertEqual([e.type for e in got],
@@ -182,19 +188,7 @@ class CatchUp(unittest.TestCase):
             return [e for e in m.events_for(pair, since) if e.type != E.UNKNOWN_BEGIN]
         self.assertTrue(wait_for(lambda: len(got()) >= 3, 5.0), got())
         time.sleep(0.5)  # any event more
-        status, expected = 'N', [(E.UNKNOWN_END, sent[0][0])]
-        for stamp, x in sent:
-            nxt = next_status(status, abs(x) - 0.2)
-            expected += [(t, stamp) for t in TRANSITIONS.get((status, nxt), [])]
-            status = nxt
-        self.assertEqual([(e.type, e.header.stamp.to_nsec()) for e in got()],
-                         [(t, s.to_nsec()) for t, s in expected])
-        self.assertEqual([e.type for e in got()],
-                         [E.UNKNOWN_END, E.COLLISION_BEGIN, E.COLLISION_END])
-        x_at = dict((s.to_nsec(), x) for s, x in sent)
-        for e in got():
-            self.assertAlmostEqual(e.pair.distance, abs(x_at[e.header.stamp.to_nsec()]) - 0.2,
-                                   delta=1e-6)
+        self.assert_out_from_first_pose(got(), sent)
 
     def test_d_a_body_takes_nothing_of_its_frame_from_before_it_came(self):
         """A sphere of 0.1 m, static on the fixed frame 3 m off a target of 0.1 m, is moved
