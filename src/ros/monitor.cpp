@@ -237,7 +237,7 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
 
 Monitor::~Monitor() {
   // A check of seconds (bodies of 1,000 parts) stops now; first, since a ~set_parameters call in
-  // progress waits for it, and the server's reset below waits for that call.
+  // progress waits for it, and stopping the services' threads below waits for that call.
   world_->abandonChecks();
   // The services' threads stop before the reconfigure server goes: its destructor frees the
   // callback and the config before it shuts its service, so a ~set_parameters call let in then

@@ -102,7 +102,7 @@ class Monitor {
     bool from_tf = false;
     world::BodyOrigin origin = world::BodyOrigin::Topic;
     std::string pose_topic;  ///< subscribed for its poses (resolved, not remapped), or empty
-    ros::Time came;          ///< when it was added: TF catch-up gives it nothing older
+    ros::Time came;  ///< when added or replaced: unposed, it takes no TF catch-up from before
   };
 
   // start-up
