@@ -12,8 +12,8 @@ its distance to 1e-6 m.
 - The first version of that change shared the 1,024 lookups a check by TF bodies, the 600 on
   the fixed frame too (which need none): one stamp a check, 139 of 147 events missing in the
   audit's run.
-Then a new TF frame: caught up from its first transform (test_c), but a body added after the
-frame passed a target takes nothing from before it came (test_d)."""
+Then a TF frame new to TF: caught up from its first transform (test_c), but a body moved onto
+it takes nothing of the frame's transforms stamped before it came (test_d)."""
 import math
 import sys
 import time
