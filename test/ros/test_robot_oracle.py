@@ -1,0 +1,372 @@
+#!/usr/bin/python3
+"""rostest: a real robot's links against each other, at random joint configurations, against an
+independent oracle (robot_oracle_pr2.test: the PR2's STL meshes, each one hull and, in a second
+monitor, one hull per closed piece; robot_oracle_panda.test: the Panda's cylinders and spheres).
+
+The robot comes from the parameter server (robot_description, robot_description_semantic) and
+moves through robot_state_publisher: this test publishes joint_states, one configuration after
+another (the zero one, then random ones in the joint limits, fixed seed), and holds each still.
+The oracle reads the URDF and SRDF with ElementTree (not urdfdom, not the node's SRDF reader),
+reads the STL files and splits them into pieces itself, and takes each link's pose from TF (what the monitor attaches the link
+to); its distances are sweep_oracle.py's (numpy + qhull: the origin's signed distance to the hull
+of the difference of two parts' points, exact also when they overlap; a cylinder bracketed
+between its inner and outer prisms of ~ngon sides, 512 by default).
+
+Checked at every configuration, for every pair of links with collision geometry:
+  - a pair joined by a joint (links without geometry skipped over) or disabled by the SRDF is
+    refused by ~get_distance as never checked, naming that reason;
+  - every other pair's ~get_distance distance equals the oracle's (1e-7 m; a cylinder's within
+    its bracket), its witness points lie on their links and are that distance apart, its normal
+    is a unit vector from point_a towards point_b;
+  - ~state lists the pairs the thresholds put in WARNING or COLLISION, with those statuses (a
+    pair within the hysteresis above a threshold may keep the status it had), lists no other
+    pair and no pair that is never checked, and in_collision and min_distance agree.
+A configuration counts only once ~state is stamped after the joint state that set it and no
+link is stale. The share of pairs in COLLISION and WARNING is asserted, so the sample means
+something.
+"""
+import math
+import os
+import random
+import struct
+import sys
+import threading
+import time
+import unittest
+import xml.etree.ElementTree as ET
+
+import numpy as np
+from scipy.spatial import QhullError
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import sweep_oracle  # noqa: E402
+from sweep_oracle import (BOX, CYLINDER, MESH, SPHERE, ConvexHull, Tf, body_distance,  # noqa: E402
+                          body_sdf, make_obody, rpy_to_quat)
+
+import rospkg  # noqa: E402
+import rospy  # noqa: E402
+import rostest  # noqa: E402
+import tf2_ros  # noqa: E402
+from collision_monitor.msg import PairState  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+
+from cm_test_util import Monitor, wait_for  # noqa: E402
+
+WARNING = 0.05   # the node's defaults (docs/node.md)
+CONTACT = 0.0
+HYSTERESIS = 0.005
+TOL = 1e-7       # distance, exact parts (m)
+SURFACE_TOL = 1e-6  # a witness point's distance to its link's surface (m)
+SEED = 20261202
+
+
+def floats(text, default):
+    return [float(x) for x in text.split()] if text else list(default)
+
+
+def read_stl(path):
+    """The triangles of an STL file (binary, or ASCII 'solid ... facet'), n x 3 x 3, as float32
+    gives them."""
+    with open(path, 'rb') as f:
+        data = f.read()
+    if data[:5] == b'solid' and b'facet' in data[:512]:
+        pts = [[float(x) for x in line.split()[1:4]]
+               for line in data.decode('ascii', 'replace').splitlines()
+               if line.strip().startswith('vertex')]
+        return np.array(pts, np.float32).astype(float).reshape(-1, 3, 3)
+    n = struct.unpack_from('<I', data, 80)[0]
+    rec = np.dtype([('n', '<f4', 3), ('v', '<f4', (3, 3)), ('a', '<u2')])
+    return np.frombuffer(data, rec, count=n, offset=84)['v'].astype(float)
+
+
+def closed_pieces(tri):
+    """docs/node.md, mesh_decomposition "pieces": triangles that share a vertex position are one
+    piece; the mesh splits only when every piece is closed (each edge on an even number of its
+    triangles). Returns each piece's points, or None (one hull)."""
+    pos, idx = np.unique(tri.reshape(-1, 3), axis=0, return_inverse=True)
+    idx = idx.reshape(-1, 3)
+    up = list(range(len(pos)))
+
+    def find(i):
+        while up[i] != i:
+            up[i] = up[up[i]]
+            i = up[i]
+        return i
+    for a, b, c in idx:
+        up[find(b)] = find(a)
+        up[find(c)] = find(a)
+    edges = {}
+    for t in idx:
+        for i, j in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+            e = (min(i, j), max(i, j))
+            edges[e] = edges.get(e, 0) + 1
+    if any(n % 2 for n in edges.values()):
+        return None
+    roots = np.array([find(i) for i in range(len(pos))])
+    return [pos[roots == r] for r in np.unique(roots)]
+
+
+def hull_points(v):
+    """The hull's vertices (all the points when they are flat: the oracle takes any set)."""
+    try:
+        return v[ConvexHull(v).vertices]
+    except QhullError:  # a flat set: the set itself is exact
+        return v
+
+
+def resolve(uri):
+    if uri.startswith('package://'):
+        pkg, _, rest = uri[len('package://'):].partition('/')
+        return os.path.join(rospkg.RosPack().get_path(pkg), rest)
+    if uri.startswith('file://'):
+        return uri[len('file://'):]
+    raise ValueError('mesh URI neither package:// nor file://: ' + uri)
+
+
+class Robot:
+    """The URDF's links with collision geometry (their parts as sweep_oracle takes them), its
+    joints, and the pairs never checked (adjacent or SRDF-disabled) with the reason. With
+    `pieces`, a mesh is one part per closed piece (mesh_decomposition "pieces")."""
+
+    def __init__(self, urdf, srdf, pieces=False):
+        root = ET.fromstring(urdf)
+        self.parts = {}
+        hulls = {}
+        for link in root.findall('link'):
+            parts = []
+            for col in link.findall('collision'):
+                o = col.find('origin')
+                xyz = floats(o.get('xyz') if o is not None else '', (0, 0, 0))
+                rpy = floats(o.get('rpy') if o is not None else '', (0, 0, 0))
+                T = Tf.from_xyz_q(xyz, rpy_to_quat(*rpy))
+                g = col.find('geometry')[0]
+                if g.tag == 'box':
+                    parts.append((BOX, floats(g.get('size'), ()), None, T))
+                elif g.tag == 'sphere':
+                    parts.append((SPHERE, [float(g.get('radius'))], None, T))
+                elif g.tag == 'cylinder':
+                    parts.append((CYLINDER, [float(g.get('length')), float(g.get('radius'))],
+                                  None, T))
+                elif g.tag == 'mesh':
+                    path = resolve(g.get('filename'))
+                    if path not in hulls:
+                        tri = read_stl(path)
+                        split = closed_pieces(tri) if pieces else None
+                        hulls[path] = [hull_points(v) for v in split or [tri.reshape(-1, 3)]]
+                    scale = floats(g.get('scale'), (1, 1, 1))
+                    parts += [(MESH, (), v, T, scale) for v in hulls[path]]
+                else:
+                    raise ValueError('geometry the oracle does not know: ' + g.tag)
+            if parts:
+                self.parts[link.get('name')] = parts
+        self.joints = []   # (name, type, lower, upper, mimic (joint, multiplier, offset) or None)
+        parent_of = {}
+        for j in root.findall('joint'):
+            parent_of[j.find('child').get('link')] = j.find('parent').get('link')
+            if j.get('type') in ('fixed', 'floating', 'planar'):
+                continue
+            lim = j.find('limit')
+            lo = float(lim.get('lower', 0)) if lim is not None else 0.0
+            hi = float(lim.get('upper', 0)) if lim is not None else 0.0
+            if j.get('type') == 'continuous':
+                lo, hi = -math.pi, math.pi
+            m = j.find('mimic')
+            mimic = None if m is None else (m.get('joint'), float(m.get('multiplier', 1)),
+                                            float(m.get('offset', 0)))
+            self.joints.append((j.get('name'), j.get('type'), lo, hi, mimic))
+        self.never = {}
+        # Joined by a joint, links without geometry skipped over: each link's nearest ancestor
+        # with geometry.
+        for link in self.parts:
+            up = parent_of.get(link)
+            while up is not None and up not in self.parts:
+                up = parent_of.get(up)
+            if up is not None:
+                self.never.setdefault(key(link, up), 'adjacent links')
+        sroot = ET.fromstring(srdf) if srdf else None
+        if sroot is not None:
+            assert sroot.find('disable_default_collisions') is None, 'not modelled here'
+            for d in sroot.findall('disable_collisions'):
+                a, b = d.get('link1').strip(), d.get('link2').strip()
+                if a in self.parts and b in self.parts and a != b:
+                    self.never.setdefault(key(a, b), 'SRDF <disable_collisions>')
+
+    def configuration(self, rng):
+        """Joint positions: random in the limits (rng), or zero clamped into them (rng None)."""
+        q = {}
+        for name, _, lo, hi, mimic in self.joints:
+            q[name] = rng.uniform(lo, hi) if rng else min(max(0.0, lo), hi)
+        for name, *_, mimic in self.joints:
+            if mimic is not None and mimic[0] in q:
+                q[name] = mimic[1] * q[mimic[0]] + mimic[2]
+        return q
+
+
+def key(a, b):
+    return (a, b) if a < b else (b, a)
+
+
+def point(p):
+    return np.array([p.x, p.y, p.z])
+
+
+def on_surface(body, x):
+    """Whether x lies on the surface of one of the body's parts (between the inner and outer
+    prisms of a cylinder)."""
+    _, _, _, inner, outer = body_sdf(body, x)
+    return any(o - SURFACE_TOL <= 0.0 <= i + SURFACE_TOL for i, o in zip(inner, outer))
+
+
+class RobotOracle(unittest.TestCase):
+    @classmethod
+    def setUpClass(cls):
+        rospy.init_node('test_robot_oracle')
+        cls.configs = rospy.get_param('~configs', 4)
+        # Sides of a cylinder's bracketing prisms: 512 by default; fewer where the robot has
+        # many cylinders (the hull of the difference of two has 4 ngon^2 points).
+        sweep_oracle.NGON = rospy.get_param('~ngon', sweep_oracle.NGON)
+        urdf = rospy.get_param('robot_description')
+        srdf = rospy.get_param('robot_description_semantic', '')
+        # The monitors, each with its mesh_decomposition: {namespace: "hull" or "pieces"}.
+        cls.monitors = []
+        for ns, mode in sorted(rospy.get_param('~monitors', {'collision_monitor': 'hull'}).items()):
+            cls.monitors.append((ns, Monitor('/%s/' % ns), Robot(urdf, srdf, mode == 'pieces')))
+        cls.robot = cls.monitors[0][2]
+        cls.fixed = cls.monitors[0][1].state.header.frame_id
+        cls.tf = tf2_ros.Buffer()
+        cls.listener = tf2_ros.TransformListener(cls.tf)
+        cls.q = cls.robot.configuration(None)
+        cls.lock = threading.Lock()
+        cls.pub = rospy.Publisher('joint_states', JointState, queue_size=10)
+        cls.stop = False
+        cls.thread = threading.Thread(target=cls.publish_joints, daemon=True)
+        cls.thread.start()
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.stop = True
+        cls.thread.join()
+
+    @classmethod
+    def publish_joints(cls):
+        while not cls.stop and not rospy.is_shutdown():
+            with cls.lock:
+                msg = JointState(name=list(cls.q), position=list(cls.q.values()))
+                msg.header.stamp = rospy.Time.now()
+                cls.pub.publish(msg)
+            time.sleep(0.03)
+
+    def hold(self, q):
+        """Holds the robot still at q until every monitor's ~state is stamped after it with no
+        link stale; returns the links' poses in the fixed frame, from TF."""
+        with self.lock:
+            type(self).q = q
+            since = rospy.Time.now()
+        for ns, m, _ in self.monitors:
+            ok = wait_for(lambda: m.state.header.stamp > since + rospy.Duration(0.05)
+                          and not m.state.stale_bodies, 10.0)
+            self.assertTrue(ok, '%s did not take the configuration: stale %s' %
+                            (ns, list(m.state.stale_bodies)))
+        poses = {}
+        for link in self.robot.parts:
+            # This test's TF buffer, too, at or after the configuration (stamp 0: only fixed
+            # joints between the link and the fixed frame).
+            def lookup():
+                t = self.tf.lookup_transform(self.fixed, link, rospy.Time(0), rospy.Duration(2.0))
+                return t if t.header.stamp.is_zero() or t.header.stamp >= since else None
+            self.assertTrue(wait_for(lambda: lookup() is not None, 5.0), link)
+            t = lookup()
+            r, p = t.transform.rotation, t.transform.translation
+            poses[link] = Tf.from_xyz_q((p.x, p.y, p.z), (r.x, r.y, r.z, r.w))
+        return poses
+
+    def test_links_against_the_oracle(self):
+        rng = random.Random(SEED)
+        links = sorted(self.robot.parts)
+        pairs = [(a, b) for i, a in enumerate(links) for b in links[i + 1:]]
+        counts = {ns: {'checked': 0, 'never': 0, 'collision': 0, 'warning': 0, 'curved': 0}
+                  for ns, _, _ in self.monitors}
+        worst = 0.0
+        contacts = []
+        for c in range(self.configs):
+            poses = self.hold(self.robot.configuration(rng if c else None))
+            for ns, m, robot in self.monitors:
+                worst = max(worst, self.check(c, poses, pairs, ns, m, robot, counts[ns],
+                                              contacts))
+        rospy.loginfo('robot oracle: %d configurations, %s, largest error on exact parts %.3g m; '
+                      'in contact: %s', self.configs, counts, worst, ', '.join(contacts))
+        # A meaningful sample: pairs checked and pairs refused, some in contact and some near.
+        for n in counts.values():
+            self.assertGreater(n['checked'], 10, counts)
+            self.assertGreater(n['never'], 10, counts)
+            self.assertGreater(n['collision'], 0, counts)
+            self.assertGreater(n['warning'], 0, counts)
+
+    def check(self, c, poses, pairs, ns, m, robot, counts, contacts):
+        """Every pair of monitor `m` at configuration `c` against the oracle (see the module's
+        docstring); returns the largest error on exact parts."""
+        worst = 0.0
+        bodies = {link: make_obody(link, poses[link], parts, 0.0)
+                  for link, parts in robot.parts.items()}
+        state = m.state
+        listed = {key(p.body_a, p.body_b): p for p in state.pairs}
+        min_distance = math.inf
+        for a, b in pairs:
+            where = '%s, configuration %d, %s / %s' % (ns, c, a, b)
+            r = m.get_distance(a, b, '')
+            never = robot.never.get((a, b))
+            if never is not None:
+                counts['never'] += 1
+                self.assertFalse(r.success, where)
+                self.assertIn('are never checked: the pair is disabled (%s)' % never,
+                              r.message, where)
+                self.assertNotIn((a, b), listed, where)
+                continue
+            counts['checked'] += 1
+            self.assertTrue(r.success, where + ': ' + r.message)
+            hi, _, _, lo = body_distance(bodies[a], bodies[b])
+            d = r.result.distance
+            if bodies[a].approx or bodies[b].approx:
+                counts['curved'] += 1
+                self.assertTrue(lo - TOL <= d <= hi + TOL, '%s: %.9f not in [%.9f, %.9f]' %
+                                (where, d, lo, hi))
+            else:
+                self.assertAlmostEqual(d, hi, delta=TOL, msg=where)
+                worst = max(worst, abs(d - hi))
+            min_distance = min(min_distance, d)
+            pa, pb = point(r.result.point_a), point(r.result.point_b)
+            n = point(r.result.normal)
+            self.assertTrue(on_surface(bodies[a], pa), where + ': point_a off link a')
+            self.assertTrue(on_surface(bodies[b], pb), where + ': point_b off link b')
+            self.assertAlmostEqual(np.linalg.norm(pb - pa), abs(d), delta=1e-9, msg=where)
+            self.assertAlmostEqual(np.linalg.norm(n), 1.0, delta=1e-9, msg=where)
+            if abs(d) > 1e-6:
+                self.assertAlmostEqual(float(n @ (pb - pa)), d, delta=1e-9, msg=where)
+            # ~state at the same poses (the robot holds still).
+            p = listed.get((a, b))
+            status = p.status if p is not None else PairState.CLEAR
+            if d <= CONTACT:
+                counts['collision'] += 1
+                contacts.append('%s %d: %s / %s %.4f' % (ns, c, a, b, d))
+                self.assertEqual(status, PairState.COLLISION, where)
+            elif d < WARNING:
+                counts['warning'] += 1
+                allowed = {PairState.WARNING}
+                if d <= CONTACT + HYSTERESIS:
+                    allowed.add(PairState.COLLISION)
+                self.assertIn(status, allowed, '%s at %.6f m' % (where, d))
+            else:
+                allowed = {PairState.CLEAR}
+                if d <= WARNING + HYSTERESIS:
+                    allowed.add(PairState.WARNING)
+                self.assertIn(status, allowed, '%s at %.6f m' % (where, d))
+            if p is not None:
+                self.assertAlmostEqual(p.distance, d, delta=1e-9, msg=where)
+        self.assertEqual(state.in_collision,
+                         any(p.status == PairState.COLLISION for p in state.pairs), ns)
+        self.assertAlmostEqual(state.min_distance, min_distance, delta=1e-9, msg=ns)
+        return worst
+
+
+if __name__ == '__main__':
+    rostest.rosrun('collision_monitor', 'robot_oracle', RobotOracle)
