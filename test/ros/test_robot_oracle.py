@@ -18,6 +18,9 @@ Checked at every configuration, for every pair of links with collision geometry:
   - every other pair's ~get_distance distance equals the oracle's (1e-7 m; a cylinder's within
     its bracket), its witness points lie on their links and are that distance apart, its normal
     is a unit vector from point_a towards point_b;
+  - ~check_collision with sphere probes near random links (every other one named after a link:
+    that link moved there, its never-checked pairs left out) lists every link within the margin,
+    sorted, at the oracle's distances, and in_collision when one is in contact;
   - ~state lists the pairs the thresholds put in WARNING or COLLISION, with those statuses (a
     pair within the hysteresis above a threshold may keep the status it had), lists no other
     pair and no pair that is never checked, and in_collision and min_distance agree.
@@ -50,7 +53,7 @@ import tf2_ros  # noqa: E402
 from collision_monitor.msg import PairState  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 
-from cm_test_util import Monitor, wait_for  # noqa: E402
+from cm_test_util import Monitor, pose, sphere_body, wait_for  # noqa: E402
 
 WARNING = 0.05   # the node's defaults (docs/node.md)
 CONTACT = 0.0
@@ -58,6 +61,9 @@ HYSTERESIS = 0.005
 TOL = 1e-7       # distance, exact parts (m)
 SURFACE_TOL = 1e-6  # a witness point's distance to its link's surface (m)
 SEED = 20261202
+PROBES = 6          # ~check_collision probes a configuration
+PROBE_RADIUS = 0.05
+PROBE_MARGIN = 0.1
 
 
 def floats(text, default):
@@ -301,6 +307,8 @@ class RobotOracle(unittest.TestCase):
             self.assertGreater(n['never'], 10, counts)
             self.assertGreater(n['collision'], 0, counts)
             self.assertGreater(n['warning'], 0, counts)
+            self.assertGreater(n['probe pairs'], 4 * self.configs, counts)
+            self.assertGreater(n['probes in collision'], self.configs // 2, counts)
 
     def check(self, c, poses, pairs, ns, m, robot, counts, contacts):
         """Every pair of monitor `m` at configuration `c` against the oracle (see the module's
@@ -365,7 +373,43 @@ class RobotOracle(unittest.TestCase):
         self.assertEqual(state.in_collision,
                          any(p.status == PairState.COLLISION for p in state.pairs), ns)
         self.assertAlmostEqual(state.min_distance, min_distance, delta=1e-9, msg=ns)
+        self.probe(c, poses, ns, m, robot, bodies, counts)
         return worst
+
+    def probe(self, c, poses, ns, m, robot, bodies, counts):
+        """~check_collision: spheres near random links, every other one named after a link
+        (that link moved there: its never-checked pairs apply), against the oracle."""
+        rng = random.Random(SEED + c)
+        links = sorted(robot.parts)
+        for k in range(PROBES):
+            near = rng.choice(links)
+            centre = poses[near].t + np.array([rng.uniform(-0.2, 0.2) for _ in range(3)])
+            pid = near if k % 2 else ''
+            where = '%s, configuration %d, probe %d (%r at %s)' % (ns, c, k, pid, centre)
+            body = sphere_body(pid, PROBE_RADIUS, frame=self.fixed, pose_from_topic=False)
+            r = m.check_collision(body, pose(*centre), PROBE_MARGIN)
+            self.assertTrue(r.success, where + ': ' + r.message)
+            sphere = make_obody('probe', Tf(t=centre), [(SPHERE, [PROBE_RADIUS], None, Tf())], 0.0)
+            want = {}
+            for link in links:
+                if link == pid or (pid and key(pid, link) in robot.never):
+                    continue
+                hi, _, _, lo = body_distance(sphere, bodies[link])
+                if lo - TOL <= PROBE_MARGIN:
+                    want[link] = (lo, hi)
+            got = [(p.body_b, p.distance) for p in r.pairs]
+            self.assertEqual([d for _, d in got], sorted(d for _, d in got), where)
+            for link, d in got:
+                self.assertIn(link, want, '%s: %s at %.9f m' % (where, link, d))
+                lo, hi = want[link]
+                self.assertTrue(lo - TOL <= d <= hi + TOL, '%s: %s at %.9f not in [%.9f, %.9f]' %
+                                (where, link, d, lo, hi))
+            for link, (lo, hi) in want.items():
+                if hi + TOL < PROBE_MARGIN:  # surely within the margin
+                    self.assertIn(link, [x for x, _ in got], where)
+            self.assertEqual(r.in_collision, any(d <= CONTACT for _, d in got), where)
+            counts['probe pairs'] = counts.get('probe pairs', 0) + len(got)
+            counts['probes in collision'] = counts.get('probes in collision', 0) + r.in_collision
 
 
 if __name__ == '__main__':
