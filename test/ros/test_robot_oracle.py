@@ -5,10 +5,11 @@ monitor, one hull per closed piece; robot_oracle_panda.test: the Panda's cylinde
 
 The robot comes from the parameter server (robot_description, robot_description_semantic) and
 moves through robot_state_publisher: this test publishes joint_states, one configuration after
-another (the zero one, then random ones in the joint limits, fixed seed), and holds each still.
+another (the zero one, then random ones in the joint limits, fixed seed), each reached in a
+straight line in joint space over ~move_time seconds (0: at once), and holds each still.
 The oracle reads the URDF and SRDF with ElementTree (not urdfdom, not the node's SRDF reader),
-reads the STL files and splits them into pieces itself, and takes each link's pose from TF (what the monitor attaches the link
-to); its distances are sweep_oracle.py's (numpy + qhull: the origin's signed distance to the hull
+reads the STL files and splits them into pieces itself, and takes each link's pose from TF (what
+the monitor attaches the link to); its distances are sweep_oracle.py's (numpy + qhull: the origin's signed distance to the hull
 of the difference of two parts' points, exact also when they overlap; a cylinder bracketed
 between its inner and outer prisms of ~ngon sides, 512 by default).
 
@@ -24,6 +25,10 @@ Checked at every configuration, for every pair of links with collision geometry:
   - ~state lists the pairs the thresholds put in WARNING or COLLISION, with those statuses (a
     pair within the hysteresis above a threshold may keep the status it had), lists no other
     pair and no pair that is never checked, and in_collision and min_distance agree.
+With ~move_time, the events of each move: each is one the oracle's status machine (stepped over
+every /tf stamp of the move, from the statuses ~state had before) gives on that pair, at that
+stamp or at most MAX_LAG stamps later, at the oracle's distance there; each of the oracle's
+transitions is sent (pairs with a cylinder left out).
 A configuration counts only once ~state is stamped after the joint state that set it and no
 link is stale. The share of pairs in COLLISION and WARNING is asserted, so the sample means
 something.
@@ -50,8 +55,9 @@ import rospkg  # noqa: E402
 import rospy  # noqa: E402
 import rostest  # noqa: E402
 import tf2_ros  # noqa: E402
-from collision_monitor.msg import PairState  # noqa: E402
+from collision_monitor.msg import CollisionEvent, PairState  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
+from tf2_msgs.msg import TFMessage  # noqa: E402
 
 from cm_test_util import Monitor, pose, sphere_body, wait_for  # noqa: E402
 
@@ -61,6 +67,15 @@ HYSTERESIS = 0.005
 TOL = 1e-7       # distance, exact parts (m)
 SURFACE_TOL = 1e-6  # a witness point's distance to its link's surface (m)
 SEED = 20261202
+MAX_LAG = 4         # /tf stamps by which an event may come late (a check passing over a stamp)
+BEGIN = {PairState.WARNING: CollisionEvent.WARNING_BEGIN,
+         PairState.COLLISION: CollisionEvent.COLLISION_BEGIN}
+END = {PairState.WARNING: CollisionEvent.WARNING_END,
+       PairState.COLLISION: CollisionEvent.COLLISION_END}
+NAMES = {CollisionEvent.COLLISION_BEGIN: 'COLLISION_BEGIN',
+         CollisionEvent.COLLISION_END: 'COLLISION_END',
+         CollisionEvent.WARNING_BEGIN: 'WARNING_BEGIN', CollisionEvent.WARNING_END: 'WARNING_END',
+         CollisionEvent.UNKNOWN_BEGIN: 'UNKNOWN_BEGIN', CollisionEvent.UNKNOWN_END: 'UNKNOWN_END'}
 PROBES = 6          # ~check_collision probes a configuration
 PROBE_RADIUS = 0.05
 PROBE_MARGIN = 0.1
@@ -216,6 +231,30 @@ def point(p):
     return np.array([p.x, p.y, p.z])
 
 
+def as_tf(t):
+    r, p = t.transform.rotation, t.transform.translation
+    return Tf.from_xyz_q((p.x, p.y, p.z), (r.x, r.y, r.z, r.w))
+
+
+def next_status(prev, d):
+    """docs/node.md: thresholds with hysteresis (a status is left once past it by HYSTERESIS)."""
+    if prev == PairState.COLLISION and d <= CONTACT + HYSTERESIS:
+        return PairState.COLLISION
+    if d <= CONTACT:
+        return PairState.COLLISION
+    if prev != PairState.CLEAR:
+        return PairState.WARNING if d < WARNING + HYSTERESIS else PairState.CLEAR
+    return PairState.WARNING if d < WARNING else PairState.CLEAR
+
+
+def ball(body):
+    """(centre, radius) of a ball that holds the body."""
+    pts = np.concatenate([core for core, _ in body.outer])
+    centre = pts.mean(axis=0)
+    return centre, max(float(np.linalg.norm(core - centre, axis=1).max()) + r
+                       for core, r in body.outer)
+
+
 def on_surface(body, x):
     """Whether x lies on the surface of one of the body's parts (between the inner and outer
     prisms of a cylinder)."""
@@ -239,10 +278,15 @@ class RobotOracle(unittest.TestCase):
             cls.monitors.append((ns, Monitor('/%s/' % ns), Robot(urdf, srdf, mode == 'pieces')))
         cls.robot = cls.monitors[0][2]
         cls.fixed = cls.monitors[0][1].state.header.frame_id
-        cls.tf = tf2_ros.Buffer()
+        cls.tf = tf2_ros.Buffer(rospy.Duration(60.0))  # a move's poses are read after it
         cls.listener = tf2_ros.TransformListener(cls.tf)
-        cls.q = cls.robot.configuration(None)
+        # Seconds a move from one configuration to the next takes (0: a jump).
+        cls.move_time = rospy.get_param('~move_time', 0.0)
+        cls.q_from = cls.q_to = cls.robot.configuration(None)
+        cls.t0 = rospy.Time.now()
         cls.lock = threading.Lock()
+        cls.tf_stamps = set()  # ns: the stamps of robot_state_publisher's /tf messages
+        rospy.Subscriber('/tf', TFMessage, cls.on_tf, queue_size=1000)
         cls.pub = rospy.Publisher('joint_states', JointState, queue_size=10)
         cls.stop = False
         cls.thread = threading.Thread(target=cls.publish_joints, daemon=True)
@@ -254,20 +298,39 @@ class RobotOracle(unittest.TestCase):
         cls.thread.join()
 
     @classmethod
+    def on_tf(cls, msg):
+        with cls.lock:
+            cls.tf_stamps.update(t.header.stamp.to_nsec() for t in msg.transforms)
+
+    @classmethod
+    def joints_at(cls, now):
+        """The joint positions at `now`: on the straight line from q_from to q_to."""
+        f = (now - cls.t0).to_sec() / cls.move_time if cls.move_time > 0 else 1.0
+        f = min(1.0, max(0.0, f))
+        return {n: a + f * (cls.q_to[n] - a) for n, a in cls.q_from.items()}
+
+    @classmethod
     def publish_joints(cls):
         while not cls.stop and not rospy.is_shutdown():
             with cls.lock:
-                msg = JointState(name=list(cls.q), position=list(cls.q.values()))
-                msg.header.stamp = rospy.Time.now()
+                now = rospy.Time.now()
+                q = cls.joints_at(now)
+                msg = JointState(name=list(q), position=list(q.values()))
+                msg.header.stamp = now
                 cls.pub.publish(msg)
             time.sleep(0.03)
 
     def hold(self, q):
-        """Holds the robot still at q until every monitor's ~state is stamped after it with no
-        link stale; returns the links' poses in the fixed frame, from TF."""
+        """Moves the robot to q (in move_time) and holds it there until every monitor's ~state
+        is stamped after it with no link stale; returns the links' poses in the fixed frame, from
+        TF, and the move's start and end (ns)."""
         with self.lock:
-            type(self).q = q
-            since = rospy.Time.now()
+            now = rospy.Time.now()
+            cls = type(self)
+            cls.q_from, cls.q_to, cls.t0 = cls.joints_at(now), q, now
+            start = now
+        since = start + rospy.Duration(self.move_time)
+        wait_for(lambda: rospy.Time.now() > since, self.move_time + 5.0)
         for ns, m, _ in self.monitors:
             ok = wait_for(lambda: m.state.header.stamp > since + rospy.Duration(0.05)
                           and not m.state.stale_bodies, 10.0)
@@ -281,24 +344,27 @@ class RobotOracle(unittest.TestCase):
                 t = self.tf.lookup_transform(self.fixed, link, rospy.Time(0), rospy.Duration(2.0))
                 return t if t.header.stamp.is_zero() or t.header.stamp >= since else None
             self.assertTrue(wait_for(lambda: lookup() is not None, 5.0), link)
-            t = lookup()
-            r, p = t.transform.rotation, t.transform.translation
-            poses[link] = Tf.from_xyz_q((p.x, p.y, p.z), (r.x, r.y, r.z, r.w))
-        return poses
+            poses[link] = as_tf(lookup())
+        return poses, (start.to_nsec(), since.to_nsec())
 
     def test_links_against_the_oracle(self):
         rng = random.Random(SEED)
         links = sorted(self.robot.parts)
         pairs = [(a, b) for i, a in enumerate(links) for b in links[i + 1:]]
-        counts = {ns: {'checked': 0, 'never': 0, 'collision': 0, 'warning': 0, 'curved': 0}
+        counts = {ns: {'checked': 0, 'never': 0, 'collision': 0, 'warning': 0, 'curved': 0,
+                       'move events': 0, 'move stamps': 0, 'late': []}
                   for ns, _, _ in self.monitors}
         worst = 0.0
         contacts = []
+        statuses = {}  # ns -> {pair: status} at the last configuration
         for c in range(self.configs):
-            poses = self.hold(self.robot.configuration(rng if c else None))
+            poses, move = self.hold(self.robot.configuration(rng if c else None))
             for ns, m, robot in self.monitors:
+                if c and self.move_time > 0:
+                    self.check_move(c, move, pairs, ns, m, robot, statuses[ns], counts[ns])
                 worst = max(worst, self.check(c, poses, pairs, ns, m, robot, counts[ns],
                                               contacts))
+                statuses[ns] = {key(p.body_a, p.body_b): p.status for p in m.state.pairs}
         rospy.loginfo('robot oracle: %d configurations, %s, largest error on exact parts %.3g m; '
                       'in contact: %s', self.configs, counts, worst, ', '.join(contacts))
         # A meaningful sample: pairs checked and pairs refused, some in contact and some near.
@@ -309,6 +375,8 @@ class RobotOracle(unittest.TestCase):
             self.assertGreater(n['warning'], 0, counts)
             self.assertGreater(n['probe pairs'], 4 * self.configs, counts)
             self.assertGreater(n['probes in collision'], self.configs // 2, counts)
+            if self.move_time > 0:
+                self.assertGreater(n['move events'], self.configs, counts)
 
     def check(self, c, poses, pairs, ns, m, robot, counts, contacts):
         """Every pair of monitor `m` at configuration `c` against the oracle (see the module's
@@ -375,6 +443,78 @@ class RobotOracle(unittest.TestCase):
         self.assertAlmostEqual(state.min_distance, min_distance, delta=1e-9, msg=ns)
         self.probe(c, poses, ns, m, robot, bodies, counts)
         return worst
+
+    def check_move(self, c, move, pairs, ns, m, robot, before, counts):
+        """The events of monitor `m` during the move to configuration `c` against the oracle's
+        status machine stepped over every /tf stamp of the move, from the statuses the monitor
+        had before it (~state): each event is one the oracle gives on that pair, at the same stamp
+        or at most MAX_LAG stamps later (a check that comes late may pass over a stamp), at the
+        oracle's distance there, leaving the pair in the oracle's status; and each of the
+        oracle's transitions is sent. Pairs with a cylinder (bracketed) are left out."""
+        start, end = move
+        with self.lock:
+            stamps = sorted(t for t in self.tf_stamps if start < t <= end + int(0.2e9))
+        index = {t: i for i, t in enumerate(stamps)}
+        links = sorted(robot.parts)
+        bodies = {}  # stamp -> {link: OBody}
+        for t in stamps:
+            at = rospy.Time(0, t)
+            bodies[t] = {link: make_obody(link, as_tf(self.tf.lookup_transform(
+                self.fixed, link, at)), robot.parts[link], 0.0) for link in links}
+        exact = {link for link in links if not bodies[stamps[0]][link].approx}
+        # A ball about each link (its parts' points and radii) for a cheap lower bound.
+        balls = {t: {link: ball(b) for link, b in by_link.items()} for t, by_link in bodies.items()}
+        distances = {}
+
+        def distance(pair, t):
+            if (pair, t) not in distances:
+                distances[(pair, t)] = body_distance(bodies[t][pair[0]], bodies[t][pair[1]])[0]
+            return distances[(pair, t)]
+
+        predicted, status_at = [], {}
+        for pair in pairs:
+            if pair in robot.never or not set(pair) <= exact:
+                continue
+            status = before.get(pair, PairState.CLEAR)
+            for t in stamps:
+                (ca, ra), (cb, rb) = balls[t][pair[0]], balls[t][pair[1]]
+                far = np.linalg.norm(ca - cb) - ra - rb > WARNING + HYSTERESIS + 1e-3
+                new = next_status(status, math.inf if far else distance(pair, t))
+                status_at[(pair, t)] = new
+                if new != status:
+                    if status != PairState.CLEAR:
+                        predicted.append((t, pair, END[status]))
+                    if new != PairState.CLEAR:
+                        predicted.append((t, pair, BEGIN[new]))
+                    status = new
+        with m.lock:
+            events = [e for _, e in m.events if start < e.header.stamp.to_nsec() <= stamps[-1]]
+        actual = [(e.header.stamp.to_nsec(), key(e.pair.body_a, e.pair.body_b), e.type, e)
+                  for e in events if set((e.pair.body_a, e.pair.body_b)) <= exact]
+
+        def lag(item, others):
+            found = [index[item[0]] - index[o[0]] for o in others
+                     if o[1:3] == item[1:3] and item[0] in index and o[0] in index
+                     and index[item[0]] >= index[o[0]]]
+            return min(found) if found else None
+
+        for t, pair, etype, e in actual:
+            where = '%s, move to configuration %d: %s on %s at %.3f' % (
+                ns, c, NAMES[etype], pair, t * 1e-9)
+            self.assertIn(t, index, where + ', a stamp /tf did not have')
+            n = lag((t, pair, etype), predicted)
+            self.assertTrue(n is not None and n <= MAX_LAG, where + ', which the oracle does not '
+                            'give (lag %s)' % n)
+            counts['late'] += [n] if n else []
+            self.assertAlmostEqual(e.pair.distance, distance(pair, t), delta=TOL, msg=where)
+            self.assertEqual(e.pair.status, status_at[(pair, t)], where)
+        for p in predicted:
+            self.assertTrue(any(lag(a[:3], [p]) is not None and lag(a[:3], [p]) <= MAX_LAG
+                                for a in actual),
+                            '%s, move to configuration %d: the oracle gives %s on %s at %.3f, the '
+                            'monitor did not send it' % (ns, c, NAMES[p[2]], p[1], p[0] * 1e-9))
+        counts['move events'] += len(actual)
+        counts['move stamps'] += len(stamps)
 
     def probe(self, c, poses, ns, m, robot, bodies, counts):
         """~check_collision: spheres near random links, every other one named after a link
