@@ -505,7 +505,11 @@ class RobotOracle(unittest.TestCase):
             n = lag((t, pair, etype), predicted)
             self.assertTrue(n is not None and n <= MAX_LAG, where + ', which the oracle does not '
                             'give (lag %s)' % n)
-            counts['late'] += [n] if n else []
+            if n:  # the oracle's transition n stamps before, at that stamp's distance
+                t0 = stamps[index[t] - n]
+                counts['late'].append('%s %s at %.3f: %d late (%.6f m there, %.6f m at %.3f)' % (
+                    NAMES[etype], '/'.join(pair), t * 1e-9, n, distance(pair, t0),
+                    distance(pair, t), t0 * 1e-9))
             self.assertAlmostEqual(e.pair.distance, distance(pair, t), delta=TOL, msg=where)
             self.assertEqual(e.pair.status, status_at[(pair, t)], where)
         for p in predicted:
