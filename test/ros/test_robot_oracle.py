@@ -27,8 +27,9 @@ Checked at every configuration, for every pair of links with collision geometry:
     pair and no pair that is never checked, and in_collision and min_distance agree.
 With ~move_time, the events of each move: each is one the oracle's status machine (stepped over
 every /tf stamp of the move, from the statuses ~state had before) gives on that pair, at that
-stamp or at most MAX_LAG stamps later, at the oracle's distance there; each of the oracle's
-transitions is sent (pairs with a cylinder left out).
+stamp or at most a monitor's max_lag stamps later (MAX_LAG by default; 0 for a monitor that
+checks slower than TF, whose catch-up goes over every stamp), at the oracle's distance there;
+each of the oracle's transitions is sent (pairs with a cylinder left out).
 A configuration counts only once ~state is stamped after the joint state that set it and no
 link is stale. The share of pairs in COLLISION and WARNING is asserted, so the sample means
 something.
@@ -272,10 +273,15 @@ class RobotOracle(unittest.TestCase):
         sweep_oracle.NGON = rospy.get_param('~ngon', sweep_oracle.NGON)
         urdf = rospy.get_param('robot_description')
         srdf = rospy.get_param('robot_description_semantic', '')
-        # The monitors, each with its mesh_decomposition: {namespace: "hull" or "pieces"}.
+        # The monitors: {namespace: {mesh_decomposition: hull or pieces, max_lag: /tf stamps by
+        # which a move's event may come late (MAX_LAG by default)}}.
         cls.monitors = []
-        for ns, mode in sorted(rospy.get_param('~monitors', {'collision_monitor': 'hull'}).items()):
-            cls.monitors.append((ns, Monitor('/%s/' % ns), Robot(urdf, srdf, mode == 'pieces')))
+        default = {'collision_monitor': {'mesh_decomposition': 'hull'}}
+        for ns, cfg in sorted(rospy.get_param('~monitors', default).items()):
+            m = Monitor('/%s/' % ns)
+            m.max_lag = cfg.get('max_lag', MAX_LAG)
+            pieces = cfg.get('mesh_decomposition', 'hull') == 'pieces'
+            cls.monitors.append((ns, m, Robot(urdf, srdf, pieces)))
         cls.robot = cls.monitors[0][2]
         cls.fixed = cls.monitors[0][1].state.header.frame_id
         cls.tf = tf2_ros.Buffer(rospy.Duration(60.0))  # a move's poses are read after it
@@ -448,7 +454,7 @@ class RobotOracle(unittest.TestCase):
         """The events of monitor `m` during the move to configuration `c` against the oracle's
         status machine stepped over every /tf stamp of the move, from the statuses the monitor
         had before it (~state): each event is one the oracle gives on that pair, at the same stamp
-        or at most MAX_LAG stamps later (a check that comes late may pass over a stamp), at the
+        or at most max_lag stamps later (a check that comes late may pass over a stamp), at the
         oracle's distance there, leaving the pair in the oracle's status; and each of the
         oracle's transitions is sent. Pairs with a cylinder (bracketed) are left out."""
         start, end = move
@@ -503,7 +509,7 @@ class RobotOracle(unittest.TestCase):
                 ns, c, NAMES[etype], pair, t * 1e-9)
             self.assertIn(t, index, where + ', a stamp /tf did not have')
             n = lag((t, pair, etype), predicted)
-            self.assertTrue(n is not None and n <= MAX_LAG, where + ', which the oracle does not '
+            self.assertTrue(n is not None and n <= m.max_lag, where + ', which the oracle does not '
                             'give (lag %s)' % n)
             if n:  # the oracle's transition n stamps before, at that stamp's distance
                 t0 = stamps[index[t] - n]
@@ -513,7 +519,7 @@ class RobotOracle(unittest.TestCase):
             self.assertAlmostEqual(e.pair.distance, distance(pair, t), delta=TOL, msg=where)
             self.assertEqual(e.pair.status, status_at[(pair, t)], where)
         for p in predicted:
-            self.assertTrue(any(lag(a[:3], [p]) is not None and lag(a[:3], [p]) <= MAX_LAG
+            self.assertTrue(any(lag(a[:3], [p]) is not None and lag(a[:3], [p]) <= m.max_lag
                                 for a in actual),
                             '%s, move to configuration %d: the oracle gives %s on %s at %.3f, the '
                             'monitor did not send it' % (ns, c, NAMES[p[2]], p[1], p[0] * 1e-9))
