@@ -7,6 +7,7 @@ radii (exact, also when penetrating). A body is a union of parts: its distance i
 part pairs (docs/node.md: "the smallest over its bodies' convex part pairs").
 """
 import math
+import struct
 
 import numpy as np
 from scipy.spatial import ConvexHull as _ConvexHull
@@ -24,6 +25,21 @@ def ConvexHull(pts):
                 raise
 
 SPHERE, BOX, CYLINDER, CONE, CAPSULE, ELLIPSOID, CONVEX, MESH = 1, 2, 3, 4, 5, 6, 7, 8
+
+
+def read_stl(path):
+    """The triangles of an STL file (binary, or ASCII 'solid ... facet'), n x 3 x 3, as float32
+    gives them."""
+    with open(path, 'rb') as f:
+        data = f.read()
+    if data[:5] == b'solid' and b'facet' in data[:512]:
+        pts = [[float(x) for x in line.split()[1:4]]
+               for line in data.decode('ascii', 'replace').splitlines()
+               if line.strip().startswith('vertex')]
+        return np.array(pts, np.float32).astype(float).reshape(-1, 3, 3)
+    n = struct.unpack_from('<I', data, 80)[0]
+    rec = np.dtype([('n', '<f4', 3), ('v', '<f4', (3, 3)), ('a', '<u2')])
+    return np.frombuffer(data, rec, count=n, offset=84)['v'].astype(float)
 
 
 # ---------------------------------------------------------------- rigid transforms

@@ -39,7 +39,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from sweep_oracle import (BOX, CAPSULE, CONE, CONVEX, CYLINDER, MESH, SPHERE, Tf, body_distance, body_sdf,  # noqa: E402
-                          make_obody, rpy_to_quat, time_to_collision)
+                          make_obody, read_stl, rpy_to_quat, time_to_collision)
 
 import rospy  # noqa: E402
 import rostest  # noqa: E402
@@ -116,26 +116,15 @@ class Scene:
         self.T[child] = self.T[parent] * Tf.from_xyz_q(xyz, q)
 
 
-def read_stl(path):
-    import struct
-    with open(path, 'rb') as f:
-        data = f.read()
-    n = struct.unpack_from('<I', data, 80)[0]
-    pts = []
-    for i in range(n):
-        vals = struct.unpack_from('<12f', data, 84 + 50 * i)
-        pts += [vals[3:6], vals[6:9], vals[9:12]]
-    return np.unique(np.array(pts, float), axis=0)
-
-
 MESHES = {}
 
 
 def mesh_verts(name):
     if name not in MESHES:
         import rospkg
-        MESHES[name] = read_stl(os.path.join(rospkg.RosPack().get_path('collision_monitor'),
-                                             'meshes', name))
+        tri = read_stl(os.path.join(rospkg.RosPack().get_path('collision_monitor'), 'meshes',
+                                    name))
+        MESHES[name] = np.unique(tri.reshape(-1, 3), axis=0)
     return MESHES[name]
 
 

@@ -37,7 +37,6 @@ something.
 import math
 import os
 import random
-import struct
 import sys
 import threading
 import time
@@ -50,7 +49,7 @@ from scipy.spatial import QhullError
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import sweep_oracle  # noqa: E402
 from sweep_oracle import (BOX, CYLINDER, MESH, SPHERE, ConvexHull, Tf, body_distance,  # noqa: E402
-                          body_sdf, make_obody, rpy_to_quat)
+                          body_sdf, make_obody, read_stl, rpy_to_quat)
 
 import rospkg  # noqa: E402
 import rospy  # noqa: E402
@@ -84,21 +83,6 @@ PROBE_MARGIN = 0.1
 
 def floats(text, default):
     return [float(x) for x in text.split()] if text else list(default)
-
-
-def read_stl(path):
-    """The triangles of an STL file (binary, or ASCII 'solid ... facet'), n x 3 x 3, as float32
-    gives them."""
-    with open(path, 'rb') as f:
-        data = f.read()
-    if data[:5] == b'solid' and b'facet' in data[:512]:
-        pts = [[float(x) for x in line.split()[1:4]]
-               for line in data.decode('ascii', 'replace').splitlines()
-               if line.strip().startswith('vertex')]
-        return np.array(pts, np.float32).astype(float).reshape(-1, 3, 3)
-    n = struct.unpack_from('<I', data, 80)[0]
-    rec = np.dtype([('n', '<f4', 3), ('v', '<f4', (3, 3)), ('a', '<u2')])
-    return np.frombuffer(data, rec, count=n, offset=84)['v'].astype(float)
 
 
 def closed_pieces(tri):
