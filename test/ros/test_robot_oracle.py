@@ -260,12 +260,16 @@ class RobotOracle(unittest.TestCase):
         # The monitors: {namespace: {mesh_decomposition: hull or pieces, max_lag: /tf stamps by
         # which a move's event may come late (MAX_LAG by default)}}.
         cls.monitors = []
+        robots = {}  # one a mesh_decomposition: monitors of the same geometry share its oracle
         default = {'collision_monitor': {'mesh_decomposition': 'hull'}}
         for ns, cfg in sorted(rospy.get_param('~monitors', default).items()):
             m = Monitor('/%s/' % ns)
             m.max_lag = cfg.get('max_lag', MAX_LAG)
             pieces = cfg.get('mesh_decomposition', 'hull') == 'pieces'
-            cls.monitors.append((ns, m, Robot(urdf, srdf, pieces)))
+            if pieces not in robots:
+                robots[pieces] = Robot(urdf, srdf, pieces)
+            cls.monitors.append((ns, m, robots[pieces]))
+        cls.memo = {}  # the oracle's answers this configuration: (id(robot), when, what) -> value
         cls.robot = cls.monitors[0][2]
         cls.fixed = cls.monitors[0][1].state.header.frame_id
         cls.tf = tf2_ros.Buffer(rospy.Duration(60.0))  # a move's poses are read after it
@@ -348,6 +352,7 @@ class RobotOracle(unittest.TestCase):
         contacts = []
         statuses = {}  # ns -> {pair: status} at the last configuration
         for c in range(self.configs):
+            self.memo.clear()
             poses, move = self.hold(self.robot.configuration(rng if c else None))
             for ns, m, robot in self.monitors:
                 if c and self.move_time > 0:
@@ -368,12 +373,19 @@ class RobotOracle(unittest.TestCase):
             if self.move_time > 0:
                 self.assertGreater(n['move events'], self.configs, counts)
 
+    def oracle(self, robot, when, what, compute):
+        """compute(), once for the monitors that share `robot`'s geometry."""
+        k = (id(robot), when, what)
+        if k not in self.memo:
+            self.memo[k] = compute()
+        return self.memo[k]
+
     def check(self, c, poses, pairs, ns, m, robot, counts, contacts):
         """Every pair of monitor `m` at configuration `c` against the oracle (see the module's
         docstring); returns the largest error on exact parts."""
         worst = 0.0
-        bodies = {link: make_obody(link, poses[link], parts, 0.0)
-                  for link, parts in robot.parts.items()}
+        bodies = self.oracle(robot, ('config', c), 'bodies', lambda: {
+            link: make_obody(link, poses[link], parts, 0.0) for link, parts in robot.parts.items()})
         state = m.state
         listed = {key(p.body_a, p.body_b): p for p in state.pairs}
         min_distance = math.inf
@@ -390,7 +402,8 @@ class RobotOracle(unittest.TestCase):
                 continue
             counts['checked'] += 1
             self.assertTrue(r.success, where + ': ' + r.message)
-            hi, _, _, lo = body_distance(bodies[a], bodies[b])
+            hi, _, _, lo = self.oracle(robot, ('config', c), (a, b),
+                                       lambda: body_distance(bodies[a], bodies[b]))
             d = r.result.distance
             if bodies[a].approx or bodies[b].approx:
                 counts['curved'] += 1
@@ -446,20 +459,17 @@ class RobotOracle(unittest.TestCase):
             stamps = sorted(t for t in self.tf_stamps if start < t <= end + int(0.2e9))
         index = {t: i for i, t in enumerate(stamps)}
         links = sorted(robot.parts)
-        bodies = {}  # stamp -> {link: OBody}
-        for t in stamps:
-            at = rospy.Time(0, t)
-            bodies[t] = {link: make_obody(link, as_tf(self.tf.lookup_transform(
-                self.fixed, link, at)), robot.parts[link], 0.0) for link in links}
+        bodies = {t: self.oracle(robot, ('stamp', t), 'bodies', lambda: {
+            link: make_obody(link, as_tf(self.tf.lookup_transform(
+                self.fixed, link, rospy.Time(0, t))), robot.parts[link], 0.0) for link in links})
+            for t in stamps}
         exact = {link for link in links if not bodies[stamps[0]][link].approx}
         # A ball about each link (its parts' points and radii) for a cheap lower bound.
         balls = {t: {link: ball(b) for link, b in by_link.items()} for t, by_link in bodies.items()}
-        distances = {}
 
         def distance(pair, t):
-            if (pair, t) not in distances:
-                distances[(pair, t)] = body_distance(bodies[t][pair[0]], bodies[t][pair[1]])[0]
-            return distances[(pair, t)]
+            return self.oracle(robot, ('stamp', t), pair, lambda: body_distance(
+                bodies[t][pair[0]], bodies[t][pair[1]]))[0]
 
         predicted, status_at = [], {}
         for pair in pairs:
@@ -528,7 +538,8 @@ class RobotOracle(unittest.TestCase):
             for link in links:
                 if link == pid or (pid and key(pid, link) in robot.never):
                     continue
-                hi, _, _, lo = body_distance(sphere, bodies[link])
+                hi, _, _, lo = self.oracle(robot, ('probe', c, k), link,
+                                           lambda: body_distance(sphere, bodies[link]))
                 if lo - TOL <= PROBE_MARGIN:
                     want[link] = (lo, hi)
             got = [(p.body_b, p.distance) for p in r.pairs]
