@@ -21,7 +21,6 @@ Checked, for every pair with an obstacle:
 and no pair of two links has an event (the SRDF disables the adjacent ones; the motion keeps the
 others apart).
 """
-import math
 import os
 import sys
 import threading
@@ -29,6 +28,7 @@ import time
 import unittest
 import xml.etree.ElementTree as ET
 
+import numpy as np
 import rospy
 import rostest
 
@@ -36,164 +36,52 @@ from collision_monitor.msg import CollisionEvent, PairState
 from sensor_msgs.msg import JointState
 from tf2_msgs.msg import TFMessage
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..",
-                                "scripts"))
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path[:0] = [os.path.join(HERE, "..", "..", "scripts"), os.path.join(HERE, "..", "ros")]
 import panda_demo_scene as scene  # noqa: E402
+from event_oracle import MAX_LAG, NAMES, Timeline, key, run  # noqa: E402
+from urdf_kinematics import Kinematics, origin_tf  # noqa: E402
 
 PKG = "collision_monitor"
-WARNING = 0.05
-CONTACT = 0.0
-HYSTERESIS = 0.005
-CLEAR, WARN, COLL = "clear", "warning", "collision"
-STATUS = {CLEAR: PairState.CLEAR, WARN: PairState.WARNING, COLL: PairState.COLLISION}
-MAX_LAG = 4  # TF stamps (20 ms each) by which a check may come late on a loaded machine
-BEGIN = {WARN: CollisionEvent.WARNING_BEGIN, COLL: CollisionEvent.COLLISION_BEGIN}
-END = {WARN: CollisionEvent.WARNING_END, COLL: CollisionEvent.COLLISION_END}
-NAMES = {CollisionEvent.COLLISION_BEGIN: "COLLISION_BEGIN",
-         CollisionEvent.COLLISION_END: "COLLISION_END",
-         CollisionEvent.WARNING_BEGIN: "WARNING_BEGIN", CollisionEvent.WARNING_END: "WARNING_END",
-         CollisionEvent.UNKNOWN_BEGIN: "UNKNOWN_BEGIN", CollisionEvent.UNKNOWN_END: "UNKNOWN_END"}
 
 
-def key(a, b):
-    return tuple(sorted((a, b)))
-
-
-# --- 3-vectors and 3x3 matrices as lists -------------------------------------------------------
-def mat_mul(a, b):
-    return [[sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
-
-
-def mat_vec(a, v):
-    return [sum(a[i][k] * v[k] for k in range(3)) for i in range(3)]
-
-
-def add(a, b):
-    return [a[i] + b[i] for i in range(3)]
-
-
-def sub(a, b):
-    return [a[i] - b[i] for i in range(3)]
-
-
-def norm(a):
-    return math.sqrt(sum(x * x for x in a))
-
-
-def rpy_matrix(r, p, y):
-    """URDF rpy: R = Rz(y) Ry(p) Rx(r)."""
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), \
-        math.sin(y)
-    return [[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
-            [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
-            [-sp, cp * sr, cp * cr]]
-
-
-def axis_angle(axis, t):
-    n = norm(axis)
-    x, y, z = (a / n for a in axis)
-    c, s = math.cos(t), math.sin(t)
-    k = 1.0 - c
-    return [[c + x * x * k, x * y * k - z * s, x * z * k + y * s],
-            [y * x * k + z * s, c + y * y * k, y * z * k - x * s],
-            [z * x * k - y * s, z * y * k + x * s, c + z * z * k]]
-
-
-def floats(text, default):
-    return [float(x) for x in text.split()] if text else list(default)
+def point(p):
+    return np.array([p.x, p.y, p.z])
 
 
 class Urdf(object):
-    """Joints and collision parts of a URDF (sphere and cylinder parts only)."""
+    """The collision parts of a URDF (spheres and cylinders only) and its kinematics."""
 
     def __init__(self, text):
         root = ET.fromstring(text)
-        self.root = None
-        self.joints = []
-        children = set()
-        for j in root.findall("joint"):
-            o = j.find("origin")
-            a = j.find("axis")
-            self.joints.append(dict(
-                name=j.get("name"), type=j.get("type"), parent=j.find("parent").get("link"),
-                child=j.find("child").get("link"),
-                xyz=floats(o.get("xyz") if o is not None else None, [0, 0, 0]),
-                rpy=floats(o.get("rpy") if o is not None else None, [0, 0, 0]),
-                axis=floats(a.get("xyz") if a is not None else None, [1, 0, 0])))
-            children.add(j.find("child").get("link"))
-        self.parts = {}
+        self.kinematics = Kinematics(root)
+        self.parts = {}  # link -> [(kind, radius, length, Tf of the part in the link)]
         for link in root.findall("link"):
             parts = []
             for c in link.findall("collision"):
                 g = c.find("geometry")[0]
-                o = c.find("origin")
-                xyz = floats(o.get("xyz") if o is not None else None, [0, 0, 0])
-                rot = rpy_matrix(*floats(o.get("rpy") if o is not None else None, [0, 0, 0]))
                 if g.tag == "sphere":
-                    parts.append(("sphere", float(g.get("radius")), 0.0, xyz, rot))
+                    parts.append(("sphere", float(g.get("radius")), 0.0, origin_tf(c)))
                 elif g.tag == "cylinder":
-                    parts.append(("cylinder", float(g.get("radius")), float(g.get("length")), xyz,
-                                  rot))
+                    parts.append(("cylinder", float(g.get("radius")), float(g.get("length")),
+                                  origin_tf(c)))
                 else:
                     raise ValueError("the oracle has no closed form for a %s part" % g.tag)
             if parts:
                 self.parts[link.get("name")] = parts
-            if link.get("name") not in children:
-                self.root = link.get("name")
-
-    def link_poses(self, q):
-        """{link: (R, p)} in the root link's frame for joint positions q (a dict)."""
-        poses = {self.root: ([[1, 0, 0], [0, 1, 0], [0, 0, 1]], [0.0, 0.0, 0.0])}
-        pending = list(self.joints)
-        while pending:
-            rest = []
-            for j in pending:
-                if j["parent"] not in poses:
-                    rest.append(j)
-                    continue
-                r, p = poses[j["parent"]]
-                r1 = mat_mul(r, rpy_matrix(*j["rpy"]))
-                p1 = add(p, mat_vec(r, j["xyz"]))
-                v = q.get(j["name"], 0.0)
-                if j["type"] in ("revolute", "continuous"):
-                    r1 = mat_mul(r1, axis_angle(j["axis"], v))
-                elif j["type"] == "prismatic":
-                    n = norm(j["axis"])
-                    p1 = add(p1, mat_vec(r1, [a * v / n for a in j["axis"]]))
-                poses[j["child"]] = (r1, p1)
-            if len(rest) == len(pending):
-                raise ValueError("the URDF's joints do not form a tree")
-            pending = rest
-        return poses
 
 
 def point_part_signed_distance(c, part, link_pose):
     """Signed distance of point c to a solid sphere or cylinder (axis z) part of a link."""
-    kind, radius, length, xyz, rot = part
-    r_link, p_link = link_pose
-    r = mat_mul(r_link, rot)
-    d = sub(c, add(p_link, mat_vec(r_link, xyz)))
-    local = [sum(r[k][i] * d[k] for k in range(3)) for i in range(3)]
+    kind, radius, length, origin = part
+    local = (link_pose * origin).inv().apply(np.asarray(c, float))
     if kind == "sphere":
-        return norm(local) - radius
-    dr = math.hypot(local[0], local[1]) - radius
-    dz = abs(local[2]) - 0.5 * length
+        return float(np.linalg.norm(local)) - radius
+    dr = float(np.hypot(local[0], local[1])) - radius
+    dz = abs(float(local[2])) - 0.5 * length
     if dr <= 0.0 and dz <= 0.0:
         return max(dr, dz)
-    return math.hypot(max(dr, 0.0), max(dz, 0.0))
-
-
-def next_status(prev, d):
-    """docs/node.md: thresholds with hysteresis (a status is left once past it by HYSTERESIS)."""
-    if prev == COLL and d <= CONTACT + HYSTERESIS:
-        return COLL
-    if prev in (COLL, WARN):
-        if d <= CONTACT:
-            return COLL
-        return WARN if d < WARNING + HYSTERESIS else CLEAR
-    if d <= CONTACT:
-        return COLL
-    return WARN if d < WARNING else CLEAR
+    return float(np.hypot(max(dr, 0.0), max(dz, 0.0)))
 
 
 class PandaDemo(unittest.TestCase):
@@ -203,6 +91,7 @@ class PandaDemo(unittest.TestCase):
         cls.lock = threading.Lock()
         cls.events = []
         cls.joint_states = {}  # stamp (ns) -> {joint: position}
+        cls.poses = {}  # stamp (ns) -> {link: pose}, the forward kinematics of its joint state
         cls.timeout = rospy.get_param("~timeout", 40.0)
         cls.urdf = Urdf(rospy.get_param("/robot_description"))
         cls.obstacles = {}  # id -> (centre in the root frame, radius)
@@ -235,10 +124,14 @@ class PandaDemo(unittest.TestCase):
         with cls.lock:
             cls.joint_states[msg.header.stamp.to_nsec()] = dict(zip(msg.name, msg.position))
 
-    def distance(self, link, obstacle, q):
+    def distance(self, link, obstacle, stamp):
+        """The pair's distance at the joint state stamped `stamp` (ns)."""
+        if stamp not in self.poses:
+            with self.lock:
+                q = self.joint_states[stamp]
+            self.poses[stamp] = self.urdf.kinematics.link_poses(q)
         centre, radius = self.obstacles[obstacle]
-        pose = self.urdf.link_poses(q)[link]
-        return min(point_part_signed_distance(centre, p, pose)
+        return min(point_part_signed_distance(centre, p, self.poses[stamp][link])
                    for p in self.urdf.parts[link]) - radius
 
     def designed_events_seen(self):
@@ -280,52 +173,35 @@ class PandaDemo(unittest.TestCase):
             stamp = e.header.stamp.to_nsec()
             self.assertIn(stamp, states, "%s on %s at a stamp no joint_states had" %
                           (NAMES[e.type], pair))
-            d = self.distance(link, obstacle, states[stamp])
+            d = self.distance(link, obstacle, stamp)
             worst = max(worst, abs(e.pair.distance - d))
             self.assertAlmostEqual(e.pair.distance, d, delta=1e-7, msg="%s %s at %.3f" % (
                 NAMES[e.type], pair, e.header.stamp.to_sec()))
             # Witness points: the obstacle's on its sphere, the two |distance| apart.
             centre, radius = self.obstacles[obstacle]
             on_obstacle = e.pair.point_a if e.pair.body_a == obstacle else e.pair.point_b
-            gap = sub([e.pair.point_a.x, e.pair.point_a.y, e.pair.point_a.z],
-                      [e.pair.point_b.x, e.pair.point_b.y, e.pair.point_b.z])
-            self.assertAlmostEqual(
-                norm(sub([on_obstacle.x, on_obstacle.y, on_obstacle.z], centre)), radius,
-                delta=1e-7)
-            self.assertAlmostEqual(norm(gap), abs(d), delta=1e-7)
+            gap = point(e.pair.point_a) - point(e.pair.point_b)
+            self.assertAlmostEqual(np.linalg.norm(point(on_obstacle) - centre), radius,
+                                   delta=1e-7)
+            self.assertAlmostEqual(np.linalg.norm(gap), abs(d), delta=1e-7)
             checked += 1
         # The oracle's own events over the stamps the robot's TF had (those the monitor's checks
         # can see; robot_state_publisher passes on some of the joint_states), pair by pair.
-        tf_stamps = [t for t in sorted(self.tf_stamps) if t in states]
+        timeline = Timeline(t for t in self.tf_stamps if t in states)
+        tf_stamps = timeline.stamps
         predicted = []  # (stamp ns, pair, type)
         oracle_status = {}  # (pair, stamp ns) -> status
         for obstacle in self.obstacles:
             for link in links:
-                status = CLEAR
-                for s in tf_stamps:
-                    new = next_status(status, self.distance(link, obstacle, states[s]))
-                    oracle_status[(key(link, obstacle), s)] = new
-                    if new != status:
-                        if status in END:
-                            predicted.append((s, key(link, obstacle), END[status]))
-                        if new in BEGIN:
-                            predicted.append((s, key(link, obstacle), BEGIN[new]))
-                        status = new
+                pair = key(link, obstacle)
+                given, at = run(pair, PairState.CLEAR, tf_stamps,
+                                 lambda t: self.distance(link, obstacle, t))
+                predicted += given
+                oracle_status.update(((pair, t), status) for t, status in at.items())
         actual = [(e.header.stamp.to_nsec(), key(e.pair.body_a, e.pair.body_b), e.type,
                    e.pair.status)
                   for e in events
                   if e.type not in (CollisionEvent.UNKNOWN_BEGIN, CollisionEvent.UNKNOWN_END)]
-        index = dict((t, i) for i, t in enumerate(tf_stamps))
-
-        def lag(item, others):
-            """TF stamps from the first of `others` that is the same event up to `item`, if any
-            at or before it: 0 is the same stamp. A check that comes late (a loaded machine) may
-            pass over a TF stamp and send the event at the next."""
-            found = [index[item[0]] - index[o[0]] for o in others
-                     if o[1] == item[1] and o[2] == item[2] and o[0] in index and
-                     item[0] in index and 0 <= index[item[0]] - index[o[0]]]
-            return min(found) if found else None
-
         # Compared from a second after the robot's first pose (its pairs' UNKNOWN_END; the oracle
         # starts CLEAR at the first TF) to half a second before the last TF.
         unknown_ends = [e.header.stamp.to_nsec() for e in events
@@ -339,19 +215,18 @@ class PandaDemo(unittest.TestCase):
         lags = []
         for a in actual:
             if start <= a[0] <= end:
-                n = lag(a, predicted)
+                n = timeline.lag(a, predicted)
                 self.assertTrue(n is not None and n <= MAX_LAG, "the monitor sent %s on %s at "
                                 "%.3f (phase %.2f s), which the oracle does not give (lag %s)" % (
                                     NAMES[a[2]], a[1], a[0] * 1e-9, scene.phase(a[0] * 1e-9), n))
                 lags.append(n)
-                self.assertEqual(a[3], STATUS[oracle_status[(a[1], a[0])]],
+                self.assertEqual(a[3], oracle_status[(a[1], a[0])],
                                  "%s on %s at %.3f leaves the pair in status %d, the oracle's "
-                                 "is %s" % (NAMES[a[2]], a[1], a[0] * 1e-9, a[3],
+                                 "is %d" % (NAMES[a[2]], a[1], a[0] * 1e-9, a[3],
                                             oracle_status[(a[1], a[0])]))
         middle = [p for p in predicted if start <= p[0] <= end]
         for p in middle:
-            self.assertTrue(any(lag(a, [p]) is not None and lag(a, [p]) <= MAX_LAG
-                                for a in actual),
+            self.assertTrue(timeline.sent(p, actual, MAX_LAG),
                             "the oracle gives %s on %s at %.3f (phase %.2f s), the monitor did "
                             "not send it" % (NAMES[p[2]], p[1], p[0] * 1e-9,
                                              scene.phase(p[0] * 1e-9)))

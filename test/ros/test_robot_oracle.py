@@ -5,8 +5,10 @@ monitor, one hull per closed piece; robot_oracle_panda.test: the Panda's cylinde
 
 The robot comes from the parameter server (robot_description, robot_description_semantic) and
 moves through robot_state_publisher: this test publishes joint_states, one configuration after
-another (the zero one, then random ones in the joint limits, fixed seed), each reached in a
-straight line in joint space over ~move_time seconds (0: at once), and holds each still.
+another (the zero one, then random ones in the joint limits, fixed seed; with ~candidates, each
+the one of that many drawn in which the oracle, at the URDF's forward kinematics, finds the most
+pairs in contact), each reached in a straight line in joint space over ~move_time seconds (0: at
+once), and holds each still.
 The oracle reads the URDF and SRDF with ElementTree (not urdfdom, not the node's SRDF reader),
 reads the STL files and splits them into pieces itself, and takes each link's pose from TF (what
 the monitor attaches the link to); its distances are sweep_oracle.py's (numpy + qhull: the origin's signed distance to the hull
@@ -48,41 +50,28 @@ from scipy.spatial import QhullError
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import sweep_oracle  # noqa: E402
+from event_oracle import (CONTACT, HYSTERESIS, MAX_LAG, NAMES, WARNING, Timeline,  # noqa: E402
+                          key, run)
 from sweep_oracle import (BOX, CYLINDER, MESH, SPHERE, ConvexHull, Tf, body_distance,  # noqa: E402
-                          body_sdf, make_obody, read_stl, rpy_to_quat)
+                          body_sdf, make_obody, read_stl)
+from urdf_kinematics import Kinematics, floats, origin_tf  # noqa: E402
 
 import rospkg  # noqa: E402
 import rospy  # noqa: E402
 import rostest  # noqa: E402
 import tf2_ros  # noqa: E402
-from collision_monitor.msg import CollisionEvent, PairState  # noqa: E402
+from collision_monitor.msg import PairState  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from tf2_msgs.msg import TFMessage  # noqa: E402
 
 from cm_test_util import Monitor, pose, sphere_body, wait_for  # noqa: E402
 
-WARNING = 0.05   # the node's defaults (docs/node.md)
-CONTACT = 0.0
-HYSTERESIS = 0.005
 TOL = 1e-7       # distance, exact parts (m)
 SURFACE_TOL = 1e-6  # a witness point's distance to its link's surface (m)
 SEED = 20261202
-MAX_LAG = 4         # /tf stamps by which an event may come late (a check passing over a stamp)
-BEGIN = {PairState.WARNING: CollisionEvent.WARNING_BEGIN,
-         PairState.COLLISION: CollisionEvent.COLLISION_BEGIN}
-END = {PairState.WARNING: CollisionEvent.WARNING_END,
-       PairState.COLLISION: CollisionEvent.COLLISION_END}
-NAMES = {CollisionEvent.COLLISION_BEGIN: 'COLLISION_BEGIN',
-         CollisionEvent.COLLISION_END: 'COLLISION_END',
-         CollisionEvent.WARNING_BEGIN: 'WARNING_BEGIN', CollisionEvent.WARNING_END: 'WARNING_END',
-         CollisionEvent.UNKNOWN_BEGIN: 'UNKNOWN_BEGIN', CollisionEvent.UNKNOWN_END: 'UNKNOWN_END'}
 PROBES = 6          # ~check_collision probes a configuration
 PROBE_RADIUS = 0.05
 PROBE_MARGIN = 0.1
-
-
-def floats(text, default):
-    return [float(x) for x in text.split()] if text else list(default)
 
 
 def closed_pieces(tri):
@@ -141,10 +130,7 @@ class Robot:
         for link in root.findall('link'):
             parts = []
             for col in link.findall('collision'):
-                o = col.find('origin')
-                xyz = floats(o.get('xyz') if o is not None else '', (0, 0, 0))
-                rpy = floats(o.get('rpy') if o is not None else '', (0, 0, 0))
-                T = Tf.from_xyz_q(xyz, rpy_to_quat(*rpy))
+                T = origin_tf(col)
                 g = col.find('geometry')[0]
                 if g.tag == 'box':
                     parts.append((BOX, floats(g.get('size'), ()), None, T))
@@ -165,28 +151,14 @@ class Robot:
                     raise ValueError('geometry the oracle does not know: ' + g.tag)
             if parts:
                 self.parts[link.get('name')] = parts
-        self.joints = []   # (name, type, lower, upper, mimic (joint, multiplier, offset) or None)
-        parent_of = {}
-        for j in root.findall('joint'):
-            parent_of[j.find('child').get('link')] = j.find('parent').get('link')
-            if j.get('type') in ('fixed', 'floating', 'planar'):
-                continue
-            lim = j.find('limit')
-            lo = float(lim.get('lower', 0)) if lim is not None else 0.0
-            hi = float(lim.get('upper', 0)) if lim is not None else 0.0
-            if j.get('type') == 'continuous':
-                lo, hi = -math.pi, math.pi
-            m = j.find('mimic')
-            mimic = None if m is None else (m.get('joint'), float(m.get('multiplier', 1)),
-                                            float(m.get('offset', 0)))
-            self.joints.append((j.get('name'), j.get('type'), lo, hi, mimic))
+        self.kinematics = Kinematics(root)
         self.never = {}
         # Joined by a joint, links without geometry skipped over: each link's nearest ancestor
         # with geometry.
         for link in self.parts:
-            up = parent_of.get(link)
+            up = self.kinematics.parent.get(link)
             while up is not None and up not in self.parts:
-                up = parent_of.get(up)
+                up = self.kinematics.parent.get(up)
             if up is not None:
                 self.never.setdefault(key(link, up), 'adjacent links')
         sroot = ET.fromstring(srdf) if srdf else None
@@ -197,19 +169,33 @@ class Robot:
                 if a in self.parts and b in self.parts and a != b:
                     self.never.setdefault(key(a, b), 'SRDF <disable_collisions>')
 
-    def configuration(self, rng):
-        """Joint positions: random in the limits (rng), or zero clamped into them (rng None)."""
-        q = {}
-        for name, _, lo, hi, mimic in self.joints:
-            q[name] = rng.uniform(lo, hi) if rng else min(max(0.0, lo), hi)
-        for name, *_, mimic in self.joints:
-            if mimic is not None and mimic[0] in q:
-                q[name] = mimic[1] * q[mimic[0]] + mimic[2]
-        return q
+    def contacts(self, q):
+        """The pairs checked in contact and within WARNING at joint positions q, by the URDF's
+        forward kinematics (in its root link's frame) and the oracle: (contacts, near)."""
+        poses = self.kinematics.link_poses(q)
+        bodies = {link: make_obody(link, poses[link], parts, 0.0)
+                  for link, parts in self.parts.items()}
+        balls = {link: ball(b) for link, b in bodies.items()}
+        links = sorted(self.parts)
+        contacts = near = 0
+        for i, a in enumerate(links):
+            for b in links[i + 1:]:
+                (ca, ra), (cb, rb) = balls[a], balls[b]
+                if (a, b) in self.never or np.linalg.norm(ca - cb) - ra - rb >= WARNING:
+                    continue
+                d = body_distance(bodies[a], bodies[b])[0]
+                contacts += d <= CONTACT
+                near += d < WARNING
+        return contacts, near
 
-
-def key(a, b):
-    return (a, b) if a < b else (b, a)
+    def configuration(self, rng, candidates=0):
+        """Joint positions: zero clamped into the limits (rng None), random in the limits, or
+        of `candidates` random ones the one with the most pairs in contact (then near)."""
+        if rng is None or candidates <= 1:
+            return self.kinematics.configuration(rng)
+        drawn = [self.kinematics.configuration(rng) for _ in range(candidates)]
+        scores = [self.contacts(q) for q in drawn]
+        return drawn[scores.index(max(scores))]
 
 
 def point(p):
@@ -219,17 +205,6 @@ def point(p):
 def as_tf(t):
     r, p = t.transform.rotation, t.transform.translation
     return Tf.from_xyz_q((p.x, p.y, p.z), (r.x, r.y, r.z, r.w))
-
-
-def next_status(prev, d):
-    """docs/node.md: thresholds with hysteresis (a status is left once past it by HYSTERESIS)."""
-    if prev == PairState.COLLISION and d <= CONTACT + HYSTERESIS:
-        return PairState.COLLISION
-    if d <= CONTACT:
-        return PairState.COLLISION
-    if prev != PairState.CLEAR:
-        return PairState.WARNING if d < WARNING + HYSTERESIS else PairState.CLEAR
-    return PairState.WARNING if d < WARNING else PairState.CLEAR
 
 
 def ball(body):
@@ -252,6 +227,9 @@ class RobotOracle(unittest.TestCase):
     def setUpClass(cls):
         rospy.init_node('test_robot_oracle')
         cls.configs = rospy.get_param('~configs', 4)
+        # Each random configuration is the one of ~candidates drawn with the most pairs in
+        # contact (0: the first drawn).
+        cls.candidates = rospy.get_param('~candidates', 0)
         # Sides of a cylinder's bracketing prisms: 512 by default; fewer where the robot has
         # many cylinders (the hull of the difference of two has 4 ngon^2 points).
         sweep_oracle.NGON = rospy.get_param('~ngon', sweep_oracle.NGON)
@@ -346,14 +324,15 @@ class RobotOracle(unittest.TestCase):
         links = sorted(self.robot.parts)
         pairs = [(a, b) for i, a in enumerate(links) for b in links[i + 1:]]
         counts = {ns: {'checked': 0, 'never': 0, 'collision': 0, 'warning': 0, 'curved': 0,
-                       'move events': 0, 'move stamps': 0, 'late': []}
+                       'configs in contact': 0, 'move events': 0, 'move stamps': 0, 'late': []}
                   for ns, _, _ in self.monitors}
         worst = 0.0
-        contacts = []
+        contacts = set()  # 'configuration: pair distance', all monitors'
         statuses = {}  # ns -> {pair: status} at the last configuration
         for c in range(self.configs):
             self.memo.clear()
-            poses, move = self.hold(self.robot.configuration(rng if c else None))
+            poses, move = self.hold(self.robot.configuration(rng if c else None,
+                                                             self.candidates))
             for ns, m, robot in self.monitors:
                 if c and self.move_time > 0:
                     self.check_move(c, move, pairs, ns, m, robot, statuses[ns], counts[ns])
@@ -361,12 +340,14 @@ class RobotOracle(unittest.TestCase):
                                               contacts))
                 statuses[ns] = {key(p.body_a, p.body_b): p.status for p in m.state.pairs}
         rospy.loginfo('robot oracle: %d configurations, %s, largest error on exact parts %.3g m; '
-                      'in contact: %s', self.configs, counts, worst, ', '.join(contacts))
-        # A meaningful sample: pairs checked and pairs refused, some in contact and some near.
+                      'in contact: %s', self.configs, counts, worst, ', '.join(sorted(contacts)))
+        # A meaningful sample: pairs checked and pairs refused, some in contact (with
+        # ~candidates, in every random configuration) and some near.
         for n in counts.values():
             self.assertGreater(n['checked'], 10, counts)
             self.assertGreater(n['never'], 10, counts)
-            self.assertGreater(n['collision'], 0, counts)
+            self.assertGreaterEqual(n['configs in contact'],
+                                    self.configs - 1 if self.candidates > 1 else 1, counts)
             self.assertGreater(n['warning'], 0, counts)
             self.assertGreater(n['probe pairs'], 4 * self.configs, counts)
             self.assertGreater(n['probes in collision'], self.configs // 2, counts)
@@ -426,7 +407,7 @@ class RobotOracle(unittest.TestCase):
             status = p.status if p is not None else PairState.CLEAR
             if d <= CONTACT:
                 counts['collision'] += 1
-                contacts.append('%s %d: %s / %s %.4f' % (ns, c, a, b, d))
+                contacts.add('%d: %s / %s %.4f' % (c, a, b, d))
                 self.assertEqual(status, PairState.COLLISION, where)
             elif d < WARNING:
                 counts['warning'] += 1
@@ -444,6 +425,7 @@ class RobotOracle(unittest.TestCase):
         self.assertEqual(state.in_collision,
                          any(p.status == PairState.COLLISION for p in state.pairs), ns)
         self.assertAlmostEqual(state.min_distance, min_distance, delta=1e-9, msg=ns)
+        counts['configs in contact'] += min_distance <= CONTACT
         self.probe(c, poses, ns, m, robot, bodies, counts)
         return worst
 
@@ -456,8 +438,8 @@ class RobotOracle(unittest.TestCase):
         oracle's transitions is sent. Pairs with a cylinder (bracketed) are left out."""
         start, end = move
         with self.lock:
-            stamps = sorted(t for t in self.tf_stamps if start < t <= end + int(0.2e9))
-        index = {t: i for i, t in enumerate(stamps)}
+            timeline = Timeline(t for t in self.tf_stamps if start < t <= end + int(0.2e9))
+        stamps = timeline.stamps
         links = sorted(robot.parts)
         bodies = {t: self.oracle(robot, ('stamp', t), 'bodies', lambda: {
             link: make_obody(link, as_tf(self.tf.lookup_transform(
@@ -471,50 +453,40 @@ class RobotOracle(unittest.TestCase):
             return self.oracle(robot, ('stamp', t), pair, lambda: body_distance(
                 bodies[t][pair[0]], bodies[t][pair[1]]))[0]
 
+        def near_distance(pair, t):
+            """distance(), or inf when the balls are far past every threshold."""
+            (ca, ra), (cb, rb) = balls[t][pair[0]], balls[t][pair[1]]
+            far = np.linalg.norm(ca - cb) - ra - rb > WARNING + HYSTERESIS + 1e-3
+            return math.inf if far else distance(pair, t)
+
         predicted, status_at = [], {}
         for pair in pairs:
             if pair in robot.never or not set(pair) <= exact:
                 continue
-            status = before.get(pair, PairState.CLEAR)
-            for t in stamps:
-                (ca, ra), (cb, rb) = balls[t][pair[0]], balls[t][pair[1]]
-                far = np.linalg.norm(ca - cb) - ra - rb > WARNING + HYSTERESIS + 1e-3
-                new = next_status(status, math.inf if far else distance(pair, t))
-                status_at[(pair, t)] = new
-                if new != status:
-                    if status != PairState.CLEAR:
-                        predicted.append((t, pair, END[status]))
-                    if new != PairState.CLEAR:
-                        predicted.append((t, pair, BEGIN[new]))
-                    status = new
+            given, at = run(pair, before.get(pair, PairState.CLEAR), stamps,
+                             lambda t: near_distance(pair, t))
+            predicted += given
+            status_at.update(((pair, t), status) for t, status in at.items())
         with m.lock:
             events = [e for _, e in m.events if start < e.header.stamp.to_nsec() <= stamps[-1]]
         actual = [(e.header.stamp.to_nsec(), key(e.pair.body_a, e.pair.body_b), e.type, e)
                   for e in events if set((e.pair.body_a, e.pair.body_b)) <= exact]
-
-        def lag(item, others):
-            found = [index[item[0]] - index[o[0]] for o in others
-                     if o[1:3] == item[1:3] and item[0] in index and o[0] in index
-                     and index[item[0]] >= index[o[0]]]
-            return min(found) if found else None
-
         for t, pair, etype, e in actual:
             where = '%s, move to configuration %d: %s on %s at %.3f' % (
                 ns, c, NAMES[etype], pair, t * 1e-9)
-            self.assertIn(t, index, where + ', a stamp /tf did not have')
-            n = lag((t, pair, etype), predicted)
+            self.assertIn(t, timeline.index, where + ', a stamp /tf did not have')
+            n = timeline.lag((t, pair, etype), predicted)
             self.assertTrue(n is not None and n <= m.max_lag, where + ', which the oracle does not '
                             'give (lag %s)' % n)
             if n:  # the oracle's transition n stamps before, at that stamp's distance
-                t0 = stamps[index[t] - n]
+                t0 = stamps[timeline.index[t] - n]
                 counts['late'].append('%s %s at %.3f: %d late (%.6f m there, %.6f m at %.3f)' % (
                     NAMES[etype], '/'.join(pair), t * 1e-9, n, distance(pair, t0),
                     distance(pair, t), t0 * 1e-9))
             self.assertAlmostEqual(e.pair.distance, distance(pair, t), delta=TOL, msg=where)
             self.assertEqual(e.pair.status, status_at[(pair, t)], where)
         for p in predicted:
-            self.assertTrue(any(lag(a[:3], [p]) is not None and lag(a[:3], [p]) <= m.max_lag
-                                for a in actual),
+            self.assertTrue(timeline.sent(p, actual, m.max_lag),
                             '%s, move to configuration %d: the oracle gives %s on %s at %.3f, the '
                             'monitor did not send it' % (ns, c, NAMES[p[2]], p[1], p[0] * 1e-9))
         counts['move events'] += len(actual)
