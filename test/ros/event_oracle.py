@@ -1,7 +1,8 @@
 """The monitor's status machine and events as docs/node.md gives them, for the tests that hold a
-monitor's events to an oracle's distances (test_robot_oracle.py, test/demo/panda_demo_test.py):
-the oracle steps this machine over a run's stamps with its own distances, and each event the
-monitor sent is matched to one the machine gives, at the same stamp or a few later.
+monitor's events to an oracle's distances (test_robot_oracle.py, test_catch_up.py,
+test/demo/panda_demo_test.py): the oracle steps this machine over a run's stamps with its own
+distances, and each event the monitor sent is matched to one the machine gives, at the same stamp
+or a few later.
 """
 from collision_monitor.msg import CollisionEvent, PairState
 

@@ -22,12 +22,12 @@ import unittest
 import rospy
 import rostest
 import tf2_ros
-from collision_monitor.msg import Body, BodyPoses, CollisionEvent
+from collision_monitor.msg import Body, BodyPoses, CollisionEvent, PairState
 
 from cm_test_util import Monitor, pose, sphere_body, tf_transform, wait_for
+from event_oracle import run
 
 E = CollisionEvent
-WARNING, CONTACT, HYSTERESIS = 0.05, 0.0, 0.005
 TARGETS = [(0.0, 0.12), (0.5, -0.15), (-0.7, 0.05)]  # x, y: nearest -0.08, -0.05, -0.15 m
 EXTRAS = 600
 RUN = 6.0  # s
@@ -35,22 +35,6 @@ RUN = 6.0  # s
 
 def dart_x(t):
     return 1.3 * math.sin(2.0 * math.pi * t / 2.7)
-
-
-def next_status(status, d):
-    """pair_logic's step: COLLISION at or below contact, WARNING below warning; a status is left
-    once past its threshold by the hysteresis."""
-    if status == 'C':
-        return 'C' if d <= CONTACT + HYSTERESIS else ('W' if d < WARNING + HYSTERESIS else 'N')
-    if status == 'W':
-        return 'C' if d <= CONTACT else ('W' if d < WARNING + HYSTERESIS else 'N')
-    return 'C' if d <= CONTACT else ('W' if d < WARNING else 'N')
-
-
-TRANSITIONS = {('N', 'W'): [E.WARNING_BEGIN], ('N', 'C'): [E.COLLISION_BEGIN],
-               ('W', 'N'): [E.WARNING_END], ('C', 'N'): [E.COLLISION_END],
-               ('W', 'C'): [E.WARNING_END, E.COLLISION_BEGIN],
-               ('C', 'W'): [E.COLLISION_END, E.WARNING_BEGIN]}
 
 
 def fixed_body(body_id, radius, x, y, group=''):
@@ -97,12 +81,9 @@ class CatchUp(unittest.TestCase):
 
             def gap(x):
                 return math.hypot(x - tx, ty) - 0.2
-            status, expected = 'N', []
-            for stamp, x in stamps:
-                nxt = next_status(status, gap(x))
-                expected += [(t, stamp) for t in TRANSITIONS.get((status, nxt), [])]
-                status = nxt
-            expected = [(t, s.to_nsec()) for t, s in expected if lo <= s < hi]
+            given, _ = run(tid, PairState.CLEAR, range(len(stamps)), lambda k: gap(stamps[k][1]))
+            expected = [(t, stamps[k][0].to_nsec()) for k, _, t in given
+                        if lo <= stamps[k][0] < hi]
             got = [e for e in events if {e.pair.body_a, e.pair.body_b} == {'dart', tid}
                    and e.type not in (E.UNKNOWN_BEGIN, E.UNKNOWN_END)
                    and lo <= e.header.stamp < hi]
@@ -150,11 +131,8 @@ class CatchUp(unittest.TestCase):
         against one of 0.1 m at x = 0 after its UNKNOWN_BEGIN, are the oracle's from its first
         pose on: UNKNOWN_END, COLLISION_BEGIN and COLLISION_END, each at its stamp with its
         distance to 1e-6 m."""
-        status, expected = 'N', [(E.UNKNOWN_END, sent[0][0])]
-        for stamp, x in sent:
-            nxt = next_status(status, abs(x) - 0.2)
-            expected += [(t, stamp) for t in TRANSITIONS.get((status, nxt), [])]
-            status = nxt
+        given, _ = run(None, PairState.CLEAR, range(len(sent)), lambda k: abs(sent[k][1]) - 0.2)
+        expected = [(E.UNKNOWN_END, sent[0][0])] + [(t, sent[k][0]) for k, _, t in given]
         self.assertEqual([(e.type, e.header.stamp.to_nsec()) for e in got],
                          [(t, s.to_nsec()) for t, s in expected])
         self.assertEqual([e.type for e in got],

@@ -11,9 +11,10 @@ pairs in contact), each reached in a straight line in joint space over ~move_tim
 once), and holds each still.
 The oracle reads the URDF and SRDF with ElementTree (not urdfdom, not the node's SRDF reader),
 reads the STL files and splits them into pieces itself, and takes each link's pose from TF (what
-the monitor attaches the link to); its distances are sweep_oracle.py's (numpy + qhull: the origin's signed distance to the hull
-of the difference of two parts' points, exact also when they overlap; a cylinder bracketed
-between its inner and outer prisms of ~ngon sides, 512 by default).
+the monitor attaches the link to); its distances are sweep_oracle.py's (numpy + qhull: the
+origin's signed distance to the hull of the difference of two parts' points, exact also when they
+overlap; a cylinder bracketed between its inner and outer prisms of ~ngon sides, 512 by
+default).
 
 Checked at every configuration, for every pair of links with collision geometry:
   - a pair joined by a joint (links without geometry skipped over) or disabled by the SRDF is
