@@ -97,6 +97,26 @@ class LaunchFile(unittest.TestCase):
             self.assertFalse(r.success)
             self.assertIn('the pair is disabled (disabled_pairs parameter)', r.message)
 
+    def test_every_shipped_launch_file_documents_its_arguments(self):
+        # roslaunch --ros-args lists an argument whose default is empty as required; none of the
+        # shipped launch files needs one, so such an argument's doc says it is optional. Every
+        # argument has a doc.
+        files = sorted(os.listdir(os.path.join(PKG, 'launch')))
+        self.assertIn('collision_monitor.launch', files)
+        for name in files:
+            out = subprocess.run(['roslaunch', '--ros-args', os.path.join(PKG, 'launch', name)],
+                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                 timeout=60, check=True).stdout
+            self.assertNotIn('undocumented', out, name)
+            section = None
+            for line in out.splitlines():
+                if line.endswith('Arguments:'):
+                    section = line
+                elif section == 'Required Arguments:' and line.startswith('  '):
+                    doc = line.strip().partition(': ')[2]
+                    self.assertTrue(doc.startswith('optional'), '%s: %s' % (name, line))
+            self.assertIsNotNone(section, name + ': no arguments listed\n' + out)
+
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'launch_file', LaunchFile, sys.argv)
