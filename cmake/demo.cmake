@@ -26,6 +26,8 @@ if(TARGET collision_monitor_node)
   add_rostest(test/demo/demo_screenshot.test DEPENDENCIES ${CM_DEMO_TEST_DEPS})
   set_tests_properties(_ctest_${PROJECT_NAME}_rostest_test_demo_demo_screenshot.test PROPERTIES
     ENVIRONMENT "CM_DEMO_ARTIFACTS=${CMAKE_BINARY_DIR}/test_results")
+  # The demo's summary (scripts/demo_summary.py) fed by the test: what it prints.
+  add_rostest(test/demo/demo_summary.test DEPENDENCIES ${CM_DEMO_TEST_DEPS})
   # The Panda demo (launch/panda_demo.launch): every event with an obstacle against the test's
   # own forward kinematics and closed-form distances. The Panda comes from CM_ROBOT_DATA
   # (cmake/ros.cmake).

@@ -2,7 +2,9 @@
 """Live summary of the monitor for the demo: prints every event as it happens (time, type, pair,
 distance in mm) and, when the demo ends (after ~duration seconds, or on Ctrl-C), a final table:
 per pair the minimum distance and its events, counts per event type, and cycle statistics from
-~state (rate, compute_time).
+~state (rate, compute_time). A pair's UNKNOWN_END whose UNKNOWN_BEGIN came before this summary
+connected (the robot's pairs, known from its first poses) is counted, not printed, and a pair
+with no other event and never near is one count under the table, not a row.
 
 Parameters: ~monitor [/collision_monitor], ~duration [30 s; 0 = until shutdown]. Exits after
 printing when the duration is up (launch it with required="true" to end the demo).
@@ -50,7 +52,8 @@ class Summary(object):
         self.duration = float(rospy.get_param("~duration", 30.0))
         self.lock = threading.Lock()
         self.start = rospy.get_time()
-        self.pairs = {}  # key -> dict(min=, status=, counts={type: n})
+        self.pairs = {}  # key -> dict(min=, near=, counts={type: n})
+        self.unknown = set()  # pairs whose UNKNOWN_BEGIN this summary printed, until their END
         self.counts = dict((t, 0) for t in EVENT_NAMES)
         self.compute_times = []
         self.state_stamps = []
@@ -65,7 +68,12 @@ class Summary(object):
 
     def entry(self, a, b):
         return self.pairs.setdefault(pair_key(a, b), {
-            "min": float("inf"), "counts": dict((t, 0) for t in EVENT_NAMES)})
+            "min": float("inf"), "near": False, "counts": dict((t, 0) for t in EVENT_NAMES)})
+
+    def listed(self, e):
+        """Whether a pair gets a row: an event other than an UNKNOWN_END, or near in ~state."""
+        return e["near"] or any(n for t, n in e["counts"].items()
+                                if t != CollisionEvent.UNKNOWN_END)
 
     def on_event(self, ev):
         with self.lock:
@@ -77,6 +85,13 @@ class Summary(object):
             e["counts"][ev.type] = e["counts"].get(ev.type, 0) + 1
             if ev.pair.status != PairState.UNKNOWN and not math.isinf(ev.pair.distance):
                 e["min"] = min(e["min"], ev.pair.distance)
+            k = pair_key(ev.pair.body_a, ev.pair.body_b)
+            if ev.type == CollisionEvent.UNKNOWN_BEGIN:
+                self.unknown.add(k)
+            elif ev.type == CollisionEvent.UNKNOWN_END:
+                if k not in self.unknown:
+                    return  # known from its first poses, before this summary connected
+                self.unknown.discard(k)
             if ev.pair.status == PairState.UNKNOWN:
                 dist = ""
             elif math.isinf(ev.pair.distance):
@@ -97,6 +112,7 @@ class Summary(object):
                 if p.status in (PairState.WARNING, PairState.COLLISION):
                     e = self.entry(p.body_a, p.body_b)
                     e["min"] = min(e["min"], p.distance)
+                    e["near"] = True
 
     def report(self):
         with self.lock:
@@ -114,12 +130,21 @@ class Summary(object):
             order = [CollisionEvent.COLLISION_BEGIN, CollisionEvent.COLLISION_END,
                      CollisionEvent.WARNING_BEGIN, CollisionEvent.WARNING_END,
                      CollisionEvent.UNKNOWN_BEGIN, CollisionEvent.UNKNOWN_END]
+            quiet = []  # (min, key): pairs with only their first UNKNOWN_END
             for key in sorted(self.pairs):
                 e = self.pairs[key]
+                if not self.listed(e):
+                    quiet.append((e["min"], key))
+                    continue
                 out.append("%-34s %10s %s" % ("%s <-> %s" % key, mm(e["min"]), " ".join(
                     "%6d" % e["counts"].get(t, 0) for t in order)))
-            if not self.pairs:
+            if len(quiet) == len(self.pairs):
                 out.append("(no pair came within the warning distance)")
+            if quiet:
+                d, key = min(quiet)
+                out.append("+ %d pair%s known from the first poses (an UNKNOWN_END only), not "
+                           "listed; nearest %s <-> %s at %s mm" % (
+                               len(quiet), "" if len(quiet) == 1 else "s", key[0], key[1], mm(d)))
             out.append("events: " + ", ".join(
                 "%s %d" % (EVENT_NAMES[t], self.counts[t]) for t in order))
             ended = [EVENT_NAMES[end] for begin, end in zip(order[0::2], order[1::2])
@@ -127,8 +152,8 @@ class Summary(object):
             if ended:
                 # ~events is not latched: the robot's pairs are UNKNOWN until its TF comes,
                 # usually before this summary has connected.
-                out.append("(%s without their BEGINs: those came before this summary connected)"
-                           % ", ".join(ended))
+                out.append("(%s without their BEGINs: those came before this summary "
+                           "connected; such UNKNOWN_ENDs are not printed above)" % ", ".join(ended))
             n = len(self.compute_times)
             if n:
                 ct = sorted(self.compute_times)
