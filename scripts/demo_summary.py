@@ -152,8 +152,9 @@ class Summary(object):
             if ended:
                 # ~events is not latched: the robot's pairs are UNKNOWN until its TF comes,
                 # usually before this summary has connected.
-                out.append("(%s without their BEGINs: those came before this summary "
-                           "connected; such UNKNOWN_ENDs are not printed above)" % ", ".join(ended))
+                out.append("(%s without their BEGINs: those came before this summary connected%s)"
+                           % (", ".join(ended), "; such UNKNOWN_ENDs are not printed above"
+                              if "UNKNOWN_END" in ended else ""))
             n = len(self.compute_times)
             if n:
                 ct = sorted(self.compute_times)
