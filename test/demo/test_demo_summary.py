@@ -2,8 +2,8 @@
 """rostest (demo_summary.test): scripts/demo_summary.py, run as a process of its own against a
 fake monitor's ~events and ~state published by this test, prints each event live except an
 UNKNOWN_END whose UNKNOWN_BEGIN it did not see (the robot's pairs, known from its first poses
-before it connected: 49 lines of the Panda demo's 61 before); its table has a row for each pair
-with another event or near in ~state, and one line for the rest."""
+before it connected: 49 of the 71 lines of a 12 s Panda demo before); its table has a row for
+each pair with another event or near in ~state, and one line for the rest."""
 import os
 import re
 import subprocess
