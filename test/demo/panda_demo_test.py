@@ -39,14 +39,12 @@ from tf2_msgs.msg import TFMessage
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path[:0] = [os.path.join(HERE, "..", "..", "scripts"), os.path.join(HERE, "..", "ros")]
 import panda_demo_scene as scene  # noqa: E402
-from event_oracle import MAX_LAG, NAMES, Timeline, key, run  # noqa: E402
+from cm_test_util import EVENT_NAMES as NAMES  # noqa: E402
+from cm_test_util import point  # noqa: E402
+from event_oracle import MAX_LAG, Timeline, key, run  # noqa: E402
 from urdf_kinematics import Kinematics, origin_tf  # noqa: E402
 
 PKG = "collision_monitor"
-
-
-def point(p):
-    return np.array([p.x, p.y, p.z])
 
 
 class Urdf(object):

@@ -4,6 +4,7 @@ import math
 import threading
 import time
 
+import numpy as np
 import rospy
 from collision_monitor.msg import (Body, BodyPoses, CollisionEvent, CollisionState, Shape)
 from collision_monitor.srv import CheckCollision, GetDistance, ListBodies
@@ -212,6 +213,11 @@ class PoseStreamer:
             except rospy.ROSException:  # shutting down
                 return
             time.sleep(self.period)
+
+
+def point(p):
+    """A message's x, y, z (Point, Vector3) as an array."""
+    return np.array([p.x, p.y, p.z])
 
 
 def point_close(p, xyz, tol=1e-6):

@@ -14,10 +14,6 @@ BEGIN = {PairState.WARNING: CollisionEvent.WARNING_BEGIN,
          PairState.COLLISION: CollisionEvent.COLLISION_BEGIN}
 END = {PairState.WARNING: CollisionEvent.WARNING_END,
        PairState.COLLISION: CollisionEvent.COLLISION_END}
-NAMES = {CollisionEvent.COLLISION_BEGIN: 'COLLISION_BEGIN',
-         CollisionEvent.COLLISION_END: 'COLLISION_END',
-         CollisionEvent.WARNING_BEGIN: 'WARNING_BEGIN', CollisionEvent.WARNING_END: 'WARNING_END',
-         CollisionEvent.UNKNOWN_BEGIN: 'UNKNOWN_BEGIN', CollisionEvent.UNKNOWN_END: 'UNKNOWN_END'}
 
 
 def key(a, b):

@@ -51,8 +51,8 @@ from scipy.spatial import QhullError
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import sweep_oracle  # noqa: E402
-from event_oracle import (CONTACT, HYSTERESIS, MAX_LAG, NAMES, WARNING, Timeline,  # noqa: E402
-                          key, run)
+from event_oracle import (CONTACT, HYSTERESIS, MAX_LAG, WARNING, Timeline, key,  # noqa: E402
+                          run)
 from sweep_oracle import (BOX, CYLINDER, MESH, SPHERE, ConvexHull, Tf, body_distance,  # noqa: E402
                           body_sdf, make_obody, read_stl)
 from urdf_kinematics import Kinematics, floats, origin_tf  # noqa: E402
@@ -65,7 +65,8 @@ from collision_monitor.msg import PairState  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from tf2_msgs.msg import TFMessage  # noqa: E402
 
-from cm_test_util import Monitor, pose, sphere_body, wait_for  # noqa: E402
+from cm_test_util import EVENT_NAMES as NAMES  # noqa: E402
+from cm_test_util import Monitor, point, pose, sphere_body, wait_for  # noqa: E402
 
 TOL = 1e-7       # distance, exact parts (m)
 SURFACE_TOL = 1e-6  # a witness point's distance to its link's surface (m)
@@ -181,8 +182,7 @@ class Robot:
         contacts = near = 0
         for i, a in enumerate(links):
             for b in links[i + 1:]:
-                (ca, ra), (cb, rb) = balls[a], balls[b]
-                if (a, b) in self.never or np.linalg.norm(ca - cb) - ra - rb >= WARNING:
+                if (a, b) in self.never or ball_gap(balls[a], balls[b]) >= WARNING:
                     continue
                 d = body_distance(bodies[a], bodies[b])[0]
                 contacts += d <= CONTACT
@@ -199,10 +199,6 @@ class Robot:
         return drawn[scores.index(max(scores))]
 
 
-def point(p):
-    return np.array([p.x, p.y, p.z])
-
-
 def as_tf(t):
     r, p = t.transform.rotation, t.transform.translation
     return Tf.from_xyz_q((p.x, p.y, p.z), (r.x, r.y, r.z, r.w))
@@ -214,6 +210,11 @@ def ball(body):
     centre = pts.mean(axis=0)
     return centre, max(float(np.linalg.norm(core - centre, axis=1).max()) + r
                        for core, r in body.outer)
+
+
+def ball_gap(a, b):
+    """The gap between two balls (centre, radius): a lower bound of their bodies' distance."""
+    return float(np.linalg.norm(a[0] - b[0])) - a[1] - b[1]
 
 
 def on_surface(body, x):
@@ -456,8 +457,7 @@ class RobotOracle(unittest.TestCase):
 
         def near_distance(pair, t):
             """distance(), or inf when the balls are far past every threshold."""
-            (ca, ra), (cb, rb) = balls[t][pair[0]], balls[t][pair[1]]
-            far = np.linalg.norm(ca - cb) - ra - rb > WARNING + HYSTERESIS + 1e-3
+            far = ball_gap(balls[t][pair[0]], balls[t][pair[1]]) > WARNING + HYSTERESIS + 1e-3
             return math.inf if far else distance(pair, t)
 
         predicted, status_at = [], {}

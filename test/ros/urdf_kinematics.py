@@ -48,6 +48,16 @@ class Kinematics:
         self.roots = [link.get('name') for link in root.findall('link')
                       if link.get('name') not in children]
         self.parent = {j['child']: j['parent'] for j in self.joints}
+        # The joints in an order that poses each one's parent link before it (self.joints keeps
+        # the URDF's order, which configuration() draws in).
+        self.chain, posed, pending = [], set(self.roots), self.joints
+        while pending:
+            ready = [j for j in pending if j['parent'] in posed]
+            if not ready:
+                raise ValueError("the URDF's joints do not form a tree")
+            pending = [j for j in pending if j['parent'] not in posed]
+            self.chain += ready
+            posed.update(j['child'] for j in ready)
 
     def position(self, joint, q):
         """The joint's position in q; a mimic joint q leaves out follows its joint (as
@@ -62,23 +72,15 @@ class Kinematics:
     def link_poses(self, q):
         """{link: Tf} in the root link's frame for joint positions q ({joint: position})."""
         poses = {link: Tf() for link in self.roots}
-        pending = list(self.joints)
-        while pending:
-            rest = [j for j in pending if j['parent'] not in poses]
-            if len(rest) == len(pending):
-                raise ValueError("the URDF's joints do not form a tree")
-            for j in pending:
-                if j['parent'] not in poses:
-                    continue
-                T = poses[j['parent']] * j['origin']
-                v = self.position(j, q)
-                if j['type'] in ('revolute', 'continuous'):
-                    s = math.sin(0.5 * v)
-                    T = T * Tf.from_xyz_q((0, 0, 0), tuple(j['axis'] * s) + (math.cos(0.5 * v),))
-                elif j['type'] == 'prismatic':
-                    T = T * Tf(t=j['axis'] * v)
-                poses[j['child']] = T
-            pending = rest
+        for j in self.chain:
+            T = poses[j['parent']] * j['origin']
+            v = self.position(j, q)
+            if j['type'] in ('revolute', 'continuous'):
+                s = math.sin(0.5 * v)
+                T = T * Tf.from_xyz_q((0, 0, 0), tuple(j['axis'] * s) + (math.cos(0.5 * v),))
+            elif j['type'] == 'prismatic':
+                T = T * Tf(t=j['axis'] * v)
+            poses[j['child']] = T
         return poses
 
     def configuration(self, rng):
