@@ -6,12 +6,17 @@ per pair the minimum distance and its events, counts per event type, and cycle s
 connected (the robot's pairs, known from its first poses) is counted, not printed, and a pair
 with no other event and never near is one count under the table, not a row.
 
-Parameters: ~monitor [/collision_monitor], ~duration [30 s; 0 = until shutdown]. Exits after
-printing when the duration is up (launch it with required="true" to end the demo).
+Parameters: ~monitor [/collision_monitor], ~duration [30 s; 0 = until shutdown]. When the
+duration is up it prints the table and ends the launch that started it as Ctrl-C would (SIGINT to
+its parent when that is a local roslaunch), then exits; started otherwise, it exits (launch it
+with required="true": roslaunch then ends the launch, and says so in red).
 """
 import math
+import os
+import signal
 import sys
 import threading
+import time
 
 import rospy
 
@@ -169,6 +174,25 @@ class Summary(object):
             sys.stdout.flush()
 
 
+LAUNCH_SHUTDOWN_WAIT = 30.0  # s: roslaunch gives each node 15 s after SIGINT, we come early
+
+
+def end_launch():
+    """Sends SIGINT to this process's parent when that is a local roslaunch (not a remote
+    machine's `roslaunch --child`, not rostest): True when sent."""
+    parent = os.getppid()
+    try:
+        with open("/proc/%d/cmdline" % parent, "rb") as f:
+            argv = f.read().split(b"\0")
+    except OSError:
+        return False
+    # argv: [python3,] /usr/bin/roslaunch, its arguments
+    if b"roslaunch" not in [os.path.basename(a) for a in argv[:2]] or b"--child" in argv:
+        return False
+    os.kill(parent, signal.SIGINT)
+    return True
+
+
 def main():
     rospy.init_node("demo_summary")
     s = Summary()
@@ -182,6 +206,12 @@ def main():
         while not rospy.is_shutdown() and rospy.get_time() < deadline:
             rospy.sleep(0.1)
         s.report()
+        if not rospy.is_shutdown() and end_launch():  # not after Ctrl-C
+            # roslaunch shuts down every node, this one with SIGINT; exiting first would be a
+            # required node's death, which roslaunch reports in red.
+            deadline = time.monotonic() + LAUNCH_SHUTDOWN_WAIT
+            while not rospy.is_shutdown() and time.monotonic() < deadline:
+                time.sleep(0.1)
         rospy.signal_shutdown("demo duration reached")
     else:
         rospy.spin()

@@ -3,9 +3,12 @@
 fake monitor's ~events and ~state published by this test, prints each event live except an
 UNKNOWN_END whose UNKNOWN_BEGIN it did not see (the robot's pairs, known from its first poses
 before it connected: 49 of the 71 lines of a 12 s Panda demo before); its table has a row for
-each pair with another event or near in ~state, and one line for the rest."""
+each pair with another event or near in ~state, and one line for the rest. After its duration it
+ends the roslaunch that started it as Ctrl-C would (the demo, launched here)."""
 import os
 import re
+import signal
+import socket
 import subprocess
 import sys
 import unittest
@@ -91,6 +94,32 @@ class DemoSummary(unittest.TestCase):
         self.assertIn('(UNKNOWN_END without their BEGINs: those came before this summary '
                       'connected; such UNKNOWN_ENDs are not printed above)', out)
         self.assertRegex(out, r'(?m)^cycles: 5 at [0-9.]+ Hz, 5 bodies, 3\.0 narrow-phase')
+        self.assertEqual(proc.returncode, 0)
+
+    def test_ends_the_demo_as_ctrl_c_would(self):
+        """The demo launched by roslaunch (on a master of its own) ends after `duration`: the
+        summary prints its table and sends roslaunch SIGINT, so roslaunch shuts every node down
+        as on Ctrl-C (the summary too) and exits 0, without the red "REQUIRED process ... has
+        died" of a required node that exits first."""
+        sock = socket.socket()
+        sock.bind(('', 0))
+        port = sock.getsockname()[1]
+        sock.close()
+        env = dict(os.environ, ROS_MASTER_URI='http://localhost:%d' % port)
+        proc = subprocess.Popen(['roslaunch', '-p', str(port), 'collision_monitor', 'demo.launch',
+                                 'duration:=3', 'monitor_output:=log'], env=env,
+                                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        try:
+            out, _ = proc.communicate(timeout=90.0)
+        finally:
+            if proc.poll() is None:
+                proc.send_signal(signal.SIGINT)
+                proc.communicate(timeout=30.0)
+        print(out)
+        self.assertIn('=== collision_monitor demo summary', out)
+        self.assertRegex(out, r'(?m)^cycles: [1-9]\d* at ')
+        self.assertNotIn('REQUIRED process', out)
+        self.assertIn('shutting down processing monitor complete', out)
         self.assertEqual(proc.returncode, 0)
 
 
