@@ -41,6 +41,41 @@ bool isBodyMarker(const std::string& ns) {
 /// Smallest drawn size (m): zero-thickness shapes (flat boxes, segments, flat hulls) stay visible.
 constexpr double kMinSize = 0.002;
 
+/// A label's lines are this many text heights apart, the first one above its witness segment.
+constexpr double kLabelLine = 1.2;
+/// Width of a label's character in text heights (rviz's font is narrower: a little to spare).
+constexpr double kLabelCharWidth = 0.65;
+
+/// A label is moved up in at most this many passes over the labels placed before it (a crowd of
+/// labels at one place is unreadable anyway; the bound keeps the placement linear in them).
+constexpr int kMaxLabelRise = 8;
+
+/// Where a label goes: on the first line above `anchor` where it meets none of the labels placed
+/// so far. Two labels meet when their lines overlap and they are closer sideways (in x-y, as seen
+/// from any side) than half the one's width plus half the other's: the labels of pairs that meet
+/// at one place (a ball between two fingers) are stacked, not printed over each other.
+struct LabelSlot {
+  Vec3 position;
+  double half_width;
+};
+Vec3 placeLabel(const Vec3& anchor, double half_width, double height,
+                std::vector<LabelSlot>* placed) {
+  Vec3 at = anchor + Vec3(0.0, 0.0, kLabelLine * height);
+  bool moved = true;
+  for (int rise = 0; moved && rise < kMaxLabelRise; ++rise) {
+    moved = false;
+    for (const LabelSlot& other : *placed) {
+      if (std::abs(other.position.z() - at.z()) < height &&
+          (other.position - at).head<2>().norm() < other.half_width + half_width) {
+        at.z() = other.position.z() + kLabelLine * height;
+        moved = true;
+      }
+    }
+  }
+  placed->push_back({at, half_width});
+  return at;
+}
+
 std_msgs::ColorRGBA rgba(double r, double g, double b, double a = 1.0) {
   std_msgs::ColorRGBA c;
   c.r = static_cast<float>(r);
@@ -489,6 +524,7 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
   }
 
   // Pairs in WARNING or COLLISION: witness segment, label, and the normal when penetrating.
+  std::vector<LabelSlot> labels;
   for (const auto& p : cycle.pairs) {
     if (p.status != PairStatus::Warning && p.status != PairStatus::Collision) continue;
     if (!p.point_a.allFinite() || !p.point_b.allFinite()) continue;
@@ -516,12 +552,14 @@ visualization_msgs::MarkerArray MarkerBuilder::build(const world::WorldModel& wo
     label.type = Marker::TEXT_VIEW_FACING;
     label.action = Marker::ADD;
     label.pose = identityPose();
-    label.pose.position =
-        toPointMsg(0.5 * (p.point_a + p.point_b) + Vec3(0.0, 0.0, 1.2 * options_.text_height));
+    label.text = distanceLabel(p.distance);
+    label.pose.position = toPointMsg(placeLabel(
+        0.5 * (p.point_a + p.point_b),
+        0.5 * kLabelCharWidth * options_.text_height * static_cast<double>(label.text.size()),
+        options_.text_height, &labels));
     label.scale.z = options_.text_height;
     // Lighter than the bodies so that the text stays readable in front of them.
     label.color = rgba(0.5 + 0.5 * color.r, 0.5 + 0.5 * color.g, 0.5 + 0.5 * color.b);
-    label.text = distanceLabel(p.distance);
     emit(std::move(label), key);
 
     if (p.distance < 0.0 && p.normal.allFinite() && p.normal.norm() > 0.5) {

@@ -436,6 +436,52 @@ TEST(MarkerBuilder, WitnessLabelAndNormal) {
   EXPECT_TRUE(isRed(arrows[0]->color));
 }
 
+// The labels of pairs that meet at one place (a ball between two fingers: the Panda demo's
+// screenshot) were printed over each other. Each now goes on the first line above its witness
+// segment's middle where it meets no label placed before it; a label elsewhere stays on its first.
+TEST(MarkerBuilder, LabelsOfPairsThatMeetAtOnePlaceAreStacked) {
+  cm::world::WorldModel world;
+  for (const char* id : {"ball", "finger_l", "finger_r", "lamp", "hand"})
+    addBody(world, boxBody(id), at(0.0, 0.0, 0.0));
+  auto witness = [](PairResult p, const Vec3& a, const Vec3& b) {
+    p.point_a = a;
+    p.point_b = b;
+    return p;
+  };
+  const Vec3 ball(0.3, 0.2, 0.5);
+  cm::world::CycleResult cycle;
+  cycle.stamp = 3.0;
+  // Sides of the ball 1 cm apart, two labels of 7 characters (0.14 m wide at 3 cm): they meet.
+  cycle.pairs.push_back(witness(pair("ball", "finger_l", PairStatus::Warning, 0.0367), ball,
+                                ball + Vec3(0.0, 0.0367, 0.0)));
+  cycle.pairs.push_back(witness(pair("ball", "finger_r", PairStatus::Warning, 0.0287),
+                                ball + Vec3(0.01, 0.0, 0.0), ball + Vec3(0.01, -0.0287, 0.0)));
+  // Below the ball by 2 cm: meets the first label's line, then the second's.
+  cycle.pairs.push_back(witness(pair("ball", "hand", PairStatus::Collision, -0.004),
+                                ball - Vec3(0.0, 0.0, 0.02), ball - Vec3(0.0, 0.0, 0.024)));
+  // 0.5 m away sideways at the same height: meets none.
+  cycle.pairs.push_back(witness(pair("hand", "lamp", PairStatus::Warning, 0.04),
+                                ball + Vec3(0.5, 0.0, 0.0), ball + Vec3(0.54, 0.0, 0.0)));
+  MarkerBuilder builder(everyCycle());
+  const MarkerArray out = builder.build(world, cycle, kFrame);
+  std::map<std::string, geometry_msgs::Point> at_text;
+  for (const Marker* m : find(out, "labels", Marker::ADD))
+    at_text[m->text] = m->pose.position;
+  ASSERT_EQ(at_text.size(), 4u);
+  const double h = MarkerOptions().text_height, line = 1.2 * h;
+  // x and y: the middle of each witness segment; z: 1.2 text heights a line.
+  const std::map<std::string, Vec3> expected{{"36.7 mm", ball + Vec3(0.0, 0.01835, line)},
+                                             {"28.7 mm", ball + Vec3(0.01, -0.01435, 2.0 * line)},
+                                             {"-4.0 mm", ball + Vec3(0.0, 0.0, 3.0 * line)},
+                                             {"40.0 mm", ball + Vec3(0.52, 0.0, line)}};
+  for (const auto& [text, where] : expected) {
+    ASSERT_EQ(at_text.count(text), 1u) << text;
+    EXPECT_NEAR(at_text[text].x, where.x(), 1e-12) << text;
+    EXPECT_NEAR(at_text[text].y, where.y(), 1e-12) << text;
+    EXPECT_NEAR(at_text[text].z, where.z(), 1e-12) << text;
+  }
+}
+
 // Bug: a pair's markers were keyed by its ids joined by a newline, which ids may contain: pairs
 // ("a\nb", "c") and ("a", "b\nc") shared one witness segment and one label.
 TEST(MarkerBuilder, PairsWhoseIdsJoinAlikeAreBothDrawn) {

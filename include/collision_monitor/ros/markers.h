@@ -16,7 +16,8 @@
 ///               by a topic is drawn in the fixed frame at its pose.
 ///  - "padding": a translucent shell per part of a padded body (the part inflated by the padding).
 ///  - "witness": LINE_LIST segment between the witness points of a WARNING/COLLISION pair.
-///  - "labels":  TEXT_VIEW_FACING with the signed distance in mm beside the witness segment.
+///  - "labels":  TEXT_VIEW_FACING with the signed distance in mm above the witness segment's
+///               middle, stacked a line apart where labels of several pairs would meet.
 ///  - "normals": ARROW along the normal (from a towards b) of a penetrating pair, as long as the
 ///               penetration depth (at least MarkerOptions::min_arrow_length, so it stays visible).
 /// The other markers are in the fixed frame. Markers are stamped with the cycle's stamp, the
