@@ -1,6 +1,7 @@
 #include "collision_monitor/ros/markers.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -46,8 +47,8 @@ constexpr double kLabelLine = 1.2;
 /// Width of a label's character in text heights (rviz's font is narrower: a little to spare).
 constexpr double kLabelCharWidth = 0.65;
 
-/// A label is moved up in at most this many passes over the labels placed before it (a crowd of
-/// labels at one place is unreadable anyway; the bound keeps the placement linear in them).
+/// A label with more than this many labels placed before it within its reach sideways is left on
+/// its first line: a crowd is unreadable anyway, and the bound keeps the placement cheap.
 constexpr int kMaxLabelRise = 8;
 
 /// Where a label goes: on the first line above `anchor` where it meets none of the labels placed
@@ -61,13 +62,22 @@ struct LabelSlot {
 Vec3 placeLabel(const Vec3& anchor, double half_width, double height,
                 std::vector<LabelSlot>* placed) {
   Vec3 at = anchor + Vec3(0.0, 0.0, kLabelLine * height);
-  bool moved = true;
-  for (int rise = 0; moved && rise < kMaxLabelRise; ++rise) {
+  std::array<double, kMaxLabelRise> near_z{};  // the lines of the labels within reach sideways
+  int near = 0;
+  for (const LabelSlot& other : *placed) {
+    if ((other.position - at).head<2>().norm() >= other.half_width + half_width) continue;
+    if (near == kMaxLabelRise) {  // a crowd
+      near = 0;
+      break;
+    }
+    near_z[near++] = other.position.z();
+  }
+  // Each move puts the label above one of them for good (it only rises): at most `near` moves.
+  for (bool moved = true; moved;) {
     moved = false;
-    for (const LabelSlot& other : *placed) {
-      if (std::abs(other.position.z() - at.z()) < height &&
-          (other.position - at).head<2>().norm() < other.half_width + half_width) {
-        at.z() = other.position.z() + kLabelLine * height;
+    for (int i = 0; i < near; ++i) {
+      if (std::abs(near_z[i] - at.z()) < height) {
+        at.z() = near_z[i] + kLabelLine * height;
         moved = true;
       }
     }

@@ -480,6 +480,29 @@ TEST(MarkerBuilder, LabelsOfPairsThatMeetAtOnePlaceAreStacked) {
     EXPECT_NEAR(at_text[text].y, where.y(), 1e-12) << text;
     EXPECT_NEAR(at_text[text].z, where.z(), 1e-12) << text;
   }
+
+  // A crowd: ten pairs at one place. The first nine go on lines 1 to 9, the tenth, with nine
+  // labels within reach before it (more than 8), stays on its first line.
+  cycle.pairs.clear();
+  for (int i = 0; i < 10; ++i) {
+    const std::string obstacle = "o" + std::to_string(i);
+    addBody(world, boxBody(obstacle), at(0.0, 0.0, 0.0));
+    const double d = 0.011 + 0.001 * i;
+    cycle.pairs.push_back(witness(pair("ball", obstacle, PairStatus::Warning, d),
+                                  ball - Vec3(0.0, 0.0, 0.5 * d), ball + Vec3(0.0, 0.0, 0.5 * d)));
+  }
+  MarkerBuilder crowd_builder(everyCycle());
+  const MarkerArray crowd = crowd_builder.build(world, cycle, kFrame);
+  at_text.clear();
+  for (const Marker* m : find(crowd, "labels", Marker::ADD))
+    at_text[m->text] = m->pose.position;
+  ASSERT_EQ(at_text.size(), 10u);
+  for (int i = 0; i < 10; ++i) {
+    const double d = 0.011 + 0.001 * i;
+    const std::string text = MarkerBuilder::distanceLabel(d);
+    ASSERT_EQ(at_text.count(text), 1u) << text;
+    EXPECT_NEAR(at_text[text].z, ball.z() + (i < 9 ? i + 1 : 1) * line, 1e-12) << text;
+  }
 }
 
 // Bug: a pair's markers were keyed by its ids joined by a newline, which ids may contain: pairs
