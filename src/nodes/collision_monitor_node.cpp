@@ -3,6 +3,7 @@
 /// nodes), so the node and the nodelet run the same code. Parameters and topics are private to
 /// the node name (default `collision_monitor`).
 #include <csignal>
+#include <cstdio>
 
 #include <nodelet/loader.h>
 #include <ros/callback_queue.h>
@@ -41,9 +42,13 @@ void onSigterm(int /*signal*/) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // Log lines on stdout as they come, also into a file or a pipe (roslaunch's output="screen"
+  // redirected, a container's log): fully buffered there, they came out at exit.
+  std::setvbuf(stdout, nullptr, _IOLBF, BUFSIZ);
   ros::init(argc, argv, "collision_monitor");
   std::signal(SIGTERM, onSigterm);
-  ros::NodeHandle nh;             // starts roscpp
+  ros::NodeHandle nh;  // starts roscpp
+  collision_monitor::ros_layer::waitForRosout(ros::WallDuration(2.0));
   nodelet::Loader loader(false);  // no manager services: this process hosts one nodelet
   const nodelet::M_string& remappings = ros::names::getRemappings();
   const nodelet::V_string my_argv(argv + 1, argv + argc);

@@ -13,6 +13,7 @@
 #include <ros/network.h>
 #include <ros/ros.h>
 #include <ros/service_manager.h>
+#include <ros/topic_manager.h>
 #include <ros/xmlrpc_manager.h>
 #include <xmlrpcpp/XmlRpc.h>
 
@@ -108,6 +109,25 @@ std::vector<std::pair<std::string, std::string>> topicsOf(const std::string& met
 }
 
 }  // namespace
+
+void waitForRosout(ros::WallDuration timeout) {
+  const std::string rosout = "/rosout";
+  Reply state = callMaster("getSystemState", {});
+  if (state.code != 1 || !isArray(state.value) || state.value.size() != 3 ||
+      !isArray(state.value[1]))
+    return;
+  bool listened = false;
+  for (int i = 0; i < state.value[1].size() && !listened; ++i) {
+    XmlRpc::XmlRpcValue& t = state.value[1][i];
+    listened = isArray(t) && t.size() == 2 && isString(t[0]) &&
+               static_cast<std::string>(t[0]) == rosout && isArray(t[1]) && t[1].size() > 0;
+  }
+  const ros::WallTime deadline = ros::WallTime::now() + timeout;
+  while (listened && ros::ok() && ros::TopicManager::instance()->getNumSubscribers(rosout) == 0 &&
+         ros::WallTime::now() < deadline) {
+    ros::WallDuration(0.005).sleep();
+  }
+}
 
 MasterWatch::MasterWatch(ros::WallDuration period) : period_(period) {
   readServices();

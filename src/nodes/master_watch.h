@@ -66,5 +66,11 @@ class MasterWatch {
   std::thread thread_;
 };
 
+/// Waits, at most `timeout`, until the node's log lines on /rosout reach a subscriber the master
+/// names (rosout): roscpp publishes them without a queue for subscribers yet to connect, so the
+/// node's start-up errors (an invalid parameter, a URDF's bad link) never reached /rosout,
+/// rosout.log or rqt_console, only the terminal. Returns at once when the master names none.
+void waitForRosout(ros::WallDuration timeout);
+
 }  // namespace ros_layer
 }  // namespace collision_monitor

@@ -15,6 +15,7 @@ import rostest
 from collision_monitor.msg import PairState
 from collision_monitor.srv import ListBodies
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from rosgraph_msgs.msg import Log
 from visualization_msgs.msg import MarkerArray
 
 from cm_test_util import Monitor, PoseStreamer, pose, sphere_body, wait_for, NS
@@ -246,6 +247,31 @@ class BadParams(unittest.TestCase):
         listed = rospy.ServiceProxy('/slow_checks/list_bodies', ListBodies)()
         self.assertEqual(list(listed.ids), ['l', 'post'])
 
+    def test_06_startup_errors_reach_rosout(self):
+        # roscpp publishes log lines to /rosout without a queue for subscribers yet to connect:
+        # the node's start-up lines, the invalid parameter's ERROR among them, reached the
+        # terminal only (not /rosout, rosout.log, rqt_console). The node now waits for the
+        # subscribers of /rosout the master names (rosout, one started by bad_params.test) first.
+        # Read from rosout's /rosout_agg: the old node's lines all missed rosout, while a rospy
+        # subscriber of /rosout missed only the first. After test_05 (15 s from start-up).
+        exe = roslib.packages.find_node('collision_monitor', 'collision_monitor_node')[0]
+        ns = '/rosout_check'
+        lines = []
+        sub = rospy.Subscriber('/rosout_agg', Log,
+                               lambda m: lines.append((m.level, m.msg)) if m.name == ns + '/cm'
+                               else None)
+        proc = subprocess.Popen([exe, '__ns:=' + ns, '__name:=cm', '_rate:=-5.0',
+                                 '_publish_markers:=false'],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            wait_for(lambda: any('monitoring 0 bodies' in m for _, m in list(lines)), 20.0)
+        finally:
+            sub.unregister()
+            proc.send_signal(signal.SIGINT)
+            proc.wait(timeout=30.0)
+        self.assertIn((Log.ERROR, ns + '/cm: invalid parameter rate = -5.000000 (must be > 0); '
+                       'using 50.000000'), lines)
+        self.assertIn(Log.INFO, [level for level, m in lines if 'monitoring 0 bodies' in m])
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'bad_params', BadParams, sys.argv)
