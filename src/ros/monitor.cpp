@@ -1246,6 +1246,40 @@ void Monitor::loopThread() {
   }
 }
 
+void Monitor::logUnresolved(const std::map<std::string, std::string>& unresolved_why,
+                            const std::set<std::string>& looked_up,
+                            std::chrono::steady_clock::time_point now) {
+  std::vector<std::string> warn, resolved;
+  for (auto it = unresolved_.begin(); it != unresolved_.end();) {
+    if (unresolved_why.count(it->first)) {
+      ++it;
+      continue;
+    }
+    // Resolved, or no longer looked up (its bodies removed): only the former is news.
+    if (it->second.warned && looked_up.count(it->first)) resolved.push_back(quoteInput(it->first));
+    it = unresolved_.erase(it);
+  }
+  for (const auto& [frame, why] : unresolved_why) {
+    Unresolved& u = unresolved_.try_emplace(frame, Unresolved{now, false}).first->second;
+    if (u.warned || std::chrono::duration<double>(now - u.since).count() < kUnresolvedWarnAfter)
+      continue;
+    u.warned = true;
+    warn.push_back(quoteInput(frame) + ": " + why);
+  }
+  if (!warn.empty()) {
+    ROS_WARN_STREAM(name_ << ": " << warn.size() << " TF frame" << (warn.size() > 1 ? "s" : "")
+                          << " cannot be looked up in " << quoteInput(fixed_frame_) << " for "
+                          << kUnresolvedWarnAfter << " s, the bodies on "
+                          << (warn.size() > 1 ? "them" : "it")
+                          << " are UNKNOWN: " << joined(warn, kUnresolvedNamed));
+  }
+  if (!resolved.empty()) {
+    ROS_INFO_STREAM(name_ << ": TF frame" << (resolved.size() > 1 ? "s " : " ")
+                          << joined(resolved, kUnresolvedNamed) << " resolved in "
+                          << quoteInput(fixed_frame_));
+  }
+}
+
 void Monitor::runCycle() {
   const ros::Time stamp_now = ros::Time::now();
   const double now = stamp_now.toSec();
@@ -1404,6 +1438,7 @@ void Monitor::runCycle() {
     }
   }
   tf_snapshot.unlock();
+  logUnresolved(unresolved_why, tf_frames, steady_now);
   // What each body on such a frame says, made once a frame (not once a body, every check).
   std::map<std::string, std::string> body_why;
   for (const auto& [frame, why] : unresolved_why) {

@@ -12,13 +12,14 @@ import rosgraph
 import roslib.packages
 import rospy
 import rostest
+import tf2_ros
 from collision_monitor.msg import PairState
 from collision_monitor.srv import ListBodies
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rosgraph_msgs.msg import Log
 from visualization_msgs.msg import MarkerArray
 
-from cm_test_util import Monitor, PoseStreamer, pose, sphere_body, wait_for, NS
+from cm_test_util import Monitor, PoseStreamer, pose, sphere_body, tf_transform, wait_for, NS
 
 STARTED = time.monotonic()
 
@@ -272,6 +273,40 @@ class BadParams(unittest.TestCase):
         self.assertIn((Log.ERROR, ns + '/cm: invalid parameter rate = -5.000000 (must be > 0); '
                        'using 50.000000'), lines)
         self.assertIn(Log.INFO, [level for level, m in lines if 'monitoring 0 bodies' in m])
+
+    def test_07_unresolved_frame_logged_once_then_resolved(self):
+        # A body on a misspelled frame was UNKNOWN with no log line (only /diagnostics and
+        # stale_bodies said so): after 5 s unresolved, one WARN names the frame and why, and an
+        # INFO when it resolves.
+        node = self.m.node
+        lines = []
+        sub = rospy.Subscriber('/rosout_agg', Log,
+                               lambda m: lines.append((time.monotonic(), m.level, m.msg))
+                               if m.name == node and 'shelf_typo' in m.msg else None)
+        body = sphere_body('shelf', 0.1, frame='shelf_typo', pose_from_topic=False)
+        try:
+            self.m.add(body)
+            added = time.monotonic()
+            self.assertTrue(self.m.wait_listed('shelf'))
+            self.assertTrue(wait_for(lambda: lines, 15.0), 'no line naming shelf_typo')
+            at, level, msg = lines[0]
+            self.assertGreaterEqual(at - added, 5.0)
+            self.assertEqual(level, Log.WARN)
+            # No TF at all in this test: tf2 names the fixed frame.
+            self.assertEqual(msg, node + ": 1 TF frame cannot be looked up in 'world' for 5 s, "
+                             "the bodies on it are UNKNOWN: 'shelf_typo': \"world\" passed to "
+                             "lookupTransform argument target_frame does not exist. ")
+            time.sleep(2.0)
+            self.assertEqual(len(lines), 1, lines)  # once, not every check
+            static_tf = tf2_ros.StaticTransformBroadcaster()
+            static_tf.sendTransform(tf_transform('shelf_typo', 'world'))
+            self.assertTrue(wait_for(lambda: len(lines) > 1, 10.0), 'no line when resolved')
+            self.assertEqual(lines[1][1:], (Log.INFO, node + ": TF frame 'shelf_typo' resolved "
+                                            "in 'world'"))
+        finally:
+            sub.unregister()
+            body.operation = body.REMOVE
+            self.m.add(body)
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'bad_params', BadParams, sys.argv)

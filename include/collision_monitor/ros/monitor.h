@@ -269,6 +269,24 @@ class Monitor {
     ros::Time at;
   };
   std::map<std::string, TfSeen> tf_seen_;
+  /// runCycle(): per attached frame that cannot be looked up, since when (steady clock), and
+  /// whether its WARN went out (kUnresolvedWarnAfter). Loop thread only.
+  struct Unresolved {
+    std::chrono::steady_clock::time_point since;
+    bool warned = false;
+  };
+  std::map<std::string, Unresolved> unresolved_;
+  /// A frame unresolved this long (s) is logged (WARN, once, with the reason; INFO when it
+  /// resolves): a typo in a frame name said nothing but /diagnostics. Long enough for the TF of
+  /// a robot that starts with the monitor.
+  static constexpr double kUnresolvedWarnAfter = 5.0;
+  /// logUnresolved(): frames named in one line at most.
+  static constexpr std::size_t kUnresolvedNamed = 5;
+  /// runCycle(): logs the frames unresolved for kUnresolvedWarnAfter, and those that resolved
+  /// after such a line; `unresolved_why` this cycle's failed lookups, `looked_up` every frame.
+  void logUnresolved(const std::map<std::string, std::string>& unresolved_why,
+                     const std::set<std::string>& looked_up,
+                     std::chrono::steady_clock::time_point now);
   bool clock_started_ = false;  ///< runCycle() has seen a ROS time other than 0. Loop thread only.
   // Pose input vs. checks (guarded by world_mutex_): messages that set at least one pose, and
   // checks that saw at least one such message since the previous check. The difference is the
