@@ -426,6 +426,16 @@ void Monitor::loadRobot() {
   if (!nh_.getParam(key, urdf) || urdf.empty()) {
     ROS_INFO_STREAM(name_ << ": no URDF on parameter '" << robot_description_param_
                           << "': no robot bodies");
+    // A parameter named or remapped on purpose that holds no URDF is a mistake (a typo watched
+    // nothing of the robot, /diagnostics saying OK); the default one missing is a monitor of
+    // obstacles only.
+    if (robot_description_param_ != "robot_description" ||
+        nh_.resolveName(robot_description_param_, true) !=
+            nh_.resolveName(robot_description_param_, false)) {
+      param_errors_.push_back("robot_description_param: no URDF on parameter '" +
+                              robot_description_param_ + "' (looked up as '" + key +
+                              "'): no robot bodies");
+    }
     const auto unused = [this](const char* param, bool given) {
       if (given) {
         param_errors_.push_back(std::string(param) + ": no URDF on parameter '" +
@@ -1639,20 +1649,24 @@ void Monitor::setupDiagnostics() {
       add("robot geometry not monitored: ", robot_errors_);
       add("bodies of ~bodies not monitored: ", body_errors_);
       s.summary(diagnostic_msgs::DiagnosticStatus::ERROR, what);
-    } else if (rejected > 0) {
-      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu inputs rejected: %s", rejected,
-                 now.last_rejection.c_str());
-    } else if (now.stale > 0) {
+    } else {
+      s.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
+    }
+    // Each after the errors, as merged (the ERROR's message hid the stale bodies and the
+    // unresolved frames, the likelier mistake).
+    if (rejected > 0) {
+      s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu inputs rejected: %s", rejected,
+                      now.last_rejection.c_str());
+    }
+    if (now.stale > 0) {
       std::string frames;  // the likely reason: a frame name that TF does not know
       if (!now.unresolved_frames.empty()) {
         frames = "; " + std::to_string(now.unresolved_frames.size()) +
                  " TF frames cannot be looked up in " + quoteInput(fixed_frame_) +
                  " (see unresolved TF frames)";
       }
-      s.summaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu stale bodies: %s%s", now.stale,
-                 joined(now.stale_ids).c_str(), frames.c_str());
-    } else {
-      s.summary(diagnostic_msgs::DiagnosticStatus::OK, "ok");
+      s.mergeSummaryf(diagnostic_msgs::DiagnosticStatus::WARN, "%zu stale bodies: %s%s", now.stale,
+                      joined(now.stale_ids).c_str(), frames.c_str());
     }
     const double rate = rate_;
     const std::size_t cycles = now.cycles - before.cycles;

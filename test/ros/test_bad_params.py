@@ -261,8 +261,10 @@ class BadParams(unittest.TestCase):
         sub = rospy.Subscriber('/rosout_agg', Log,
                                lambda m: lines.append((m.level, m.msg)) if m.name == ns + '/cm'
                                else None)
+        # A robot_description_param given with a typo: an INFO, and /diagnostics OK, before.
         proc = subprocess.Popen([exe, '__ns:=' + ns, '__name:=cm', '_rate:=-5.0',
-                                 '_publish_markers:=false'],
+                                 '_publish_markers:=false',
+                                 '_robot_description_param:=robot_descripton'],
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         try:
             wait_for(lambda: any('monitoring 0 bodies' in m for _, m in list(lines)), 20.0)
@@ -272,6 +274,9 @@ class BadParams(unittest.TestCase):
             proc.wait(timeout=30.0)
         self.assertIn((Log.ERROR, ns + '/cm: invalid parameter rate = -5.000000 (must be > 0); '
                        'using 50.000000'), lines)
+        self.assertIn((Log.ERROR, ns + "/cm: invalid parameter robot_description_param: no URDF "
+                       "on parameter 'robot_descripton' (looked up as "
+                       "'/rosout_check/robot_descripton'): no robot bodies"), lines)
         self.assertIn(Log.INFO, [level for level, m in lines if 'monitoring 0 bodies' in m])
 
     def test_07_unresolved_frame_logged_once_then_resolved(self):
