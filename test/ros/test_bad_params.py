@@ -303,6 +303,13 @@ class BadParams(unittest.TestCase):
                              "lookupTransform argument target_frame does not exist. ")
             time.sleep(2.0)
             self.assertEqual(len(lines), 1, lines)  # once, not every check
+            # /diagnostics: ERROR for the invalid parameters, the stale body after them (the
+            # ERROR's message hid it before).
+            d = self.m.diagnostics
+            self.assertEqual(d.level, DiagnosticStatus.ERROR)
+            self.assertTrue(d.message.startswith('invalid parameters: '), d.message)
+            self.assertRegex(d.message, r"; \d+ stale bodies: ([a-z]+, )*shelf; 1 TF frames "
+                             r"cannot be looked up in 'world' \(see unresolved TF frames\)$")
             static_tf = tf2_ros.StaticTransformBroadcaster()
             static_tf.sendTransform(tf_transform('shelf_typo', 'world'))
             self.assertTrue(wait_for(lambda: len(lines) > 1, 10.0), 'no line when resolved')
