@@ -403,7 +403,18 @@ MeshCache::MeshCache(std::vector<std::string> mesh_roots, std::size_t max_vertic
                      std::string log_name)
     : mesh_roots_(std::move(mesh_roots)),
       max_vertices_(max_vertices),
-      resolve_package_(std::move(resolve_package)),
+      resolve_package_([this, resolve = std::move(resolve_package)](const std::string& package) {
+        {
+          std::lock_guard<std::mutex> lock(mutex_);
+          if (missing_packages_.count(package)) return std::string();
+        }
+        std::string dir = resolve ? resolve(package) : std::string();
+        if (dir.empty()) {
+          std::lock_guard<std::mutex> lock(mutex_);
+          if (missing_packages_.size() < kMaxEntries) missing_packages_.insert(package);
+        }
+        return dir;
+      }),
       mode_(mode),
       max_parts_(max_parts),
       log_name_(std::move(log_name)) {}

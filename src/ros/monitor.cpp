@@ -459,20 +459,25 @@ void Monitor::loadRobot() {
       }
       for (const auto& [a, b] : robot->adjacent)
         disablePair(a, b, "adjacent links");
-      std::size_t added = 0;
+      std::set<std::string> added;
       for (auto& spec : robot->bodies) {
         const std::string id = spec.id;
         links.insert(id);
         const std::string err = addBody(std::move(spec));
         if (err.empty()) {
-          ++added;
+          added.insert(id);
         } else {
           robot_errors_.push_back("URDF link '" + id + "' refused: " + err);
           rejectAtStartup(robot_errors_.back());
         }
       }
-      ROS_INFO_STREAM(name_ << ": robot '" << robot->robot_name << "': " << added
-                            << " links with collision geometry, " << robot->adjacent.size()
+      // Adjacent pairs of the links monitored (one whose every <collision> was left out is
+      // not: "1 links ..., 1 adjacent pairs disabled").
+      const auto adjacent = std::count_if(
+          robot->adjacent.begin(), robot->adjacent.end(),
+          [&added](const auto& p) { return added.count(p.first) && added.count(p.second); });
+      ROS_INFO_STREAM(name_ << ": robot '" << robot->robot_name << "': " << added.size()
+                            << " links with collision geometry, " << adjacent
                             << " adjacent pairs disabled"
                             << (robot_errors_.empty()
                                     ? std::string()

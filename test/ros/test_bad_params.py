@@ -320,5 +320,31 @@ class BadParams(unittest.TestCase):
             body.operation = body.REMOVE
             self.m.add(body)
 
+    def test_08_adjacent_pairs_counted_among_the_links_monitored(self):
+        # A parent link whose only <collision> is a missing mesh is left out: its pair with the
+        # child is no pair of the monitor ("1 links ..., 1 adjacent pairs disabled" before).
+        exe = roslib.packages.find_node('collision_monitor', 'collision_monitor_node')[0]
+        ns = '/adjacent_check'
+        rospy.set_param(ns + '/robot_description', """<robot name="r2">
+          <link name="base"><collision><geometry><mesh filename="file:///nowhere/b.stl"/>
+          </geometry></collision></link>
+          <link name="arm"><collision><geometry><box size="0.1 0.1 0.1"/></geometry>
+          </collision></link>
+          <joint name="j" type="fixed"><parent link="base"/><child link="arm"/></joint>
+        </robot>""")
+        lines = []
+        sub = rospy.Subscriber('/rosout_agg', Log,
+                               lambda m: lines.append(m.msg) if m.name == ns + '/cm' else None)
+        proc = subprocess.Popen([exe, '__ns:=' + ns, '__name:=cm', '_publish_markers:=false'],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            wait_for(lambda: any('monitoring ' in m for m in list(lines)), 20.0)
+        finally:
+            sub.unregister()
+            proc.send_signal(signal.SIGINT)
+            proc.wait(timeout=30.0)
+        self.assertIn(ns + "/cm: robot 'r2': 1 links with collision geometry, 0 adjacent pairs "
+                      "disabled, 1 links or collision elements left out (errors above)", lines)
+
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'bad_params', BadParams, sys.argv)

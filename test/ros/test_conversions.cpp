@@ -796,6 +796,25 @@ TEST_F(MeshUris, RefusesEscapes) {
       "outside mesh_roots"));
 }
 
+// rospack printed two lines on stderr for every lookup of a package it does not find: 31 pairs
+// for the PR2 with its mesh package missing. The cache asks for a missing package once.
+TEST_F(MeshUris, AMissingPackageIsAskedOnce) {
+  std::vector<std::string> asked;
+  MeshCache cache(roots_, 1000, [&asked, this](const std::string& pkg) {
+    asked.push_back(pkg);
+    return resolver_(pkg);
+  });
+  for (const char* uri : {"package://gone/a.stl", "package://gone/b.stl", "package://pkg/x.stl",
+                          "package://pkg/y.stl", "package://gone/c.stl"}) {
+    auto r = cache.load(uri, core::Vec3(1, 1, 1));
+    ASSERT_FALSE(r) << uri;  // neither x.stl nor y.stl exists
+    EXPECT_EQ(contains(r.error(), "unknown package 'gone' (not on ROS_PACKAGE_PATH)"),
+              std::string(uri).find("gone") != std::string::npos)
+        << r.error();
+  }
+  EXPECT_EQ(asked, (std::vector<std::string>{"gone", "pkg", "pkg"}));
+}
+
 TEST_F(MeshUris, UnreadableMeshIsRefused) {
   std::ofstream(dir_ + "/root/garbage.stl") << "this is not a mesh";
   MeshCache cache(roots_, 1000, resolver_);

@@ -18,6 +18,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -113,6 +114,10 @@ class MeshCache {
   std::string log_name_;
   mutable std::mutex mutex_;
   std::map<std::tuple<std::string, double, double, double>, std::vector<core::ConvexShape>> cache_;
+  /// Packages the resolver did not find (at most kMaxEntries), not asked again: rospack prints
+  /// two lines on stderr for each such lookup (the PR2 with its mesh package missing: 31 pairs
+  /// beside the node's own errors).
+  std::set<std::string> missing_packages_;
 };
 
 }  // namespace ros_layer
