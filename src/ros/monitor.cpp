@@ -169,6 +169,12 @@ Monitor::Monitor(const ros::NodeHandle& nh, const ros::NodeHandle& pnh, const st
   if (std::string e = checkDiagnosticPeriod(); !e.empty()) param_errors_.push_back(e);
   for (const auto& e : param_errors_)
     ROS_ERROR_STREAM(name_ << ": invalid parameter " << e);
+  findUnknownParameters();
+  if (!unknown_params_.empty()) {
+    ROS_WARN_STREAM(name_ << ": " << unknown_params_.size() << " unknown private parameter"
+                          << (unknown_params_.size() > 1 ? "s" : "")
+                          << ", ignored: " << joined(unknown_params_));
+  }
 
   // One check may send a transition per pair at once (a pile landing on a robot, TF stopping:
   // every pair UNKNOWN), back to back; roscpp drops the oldest beyond the queue of a subscriber
@@ -284,6 +290,73 @@ T Monitor::typedParam(const std::string& key, T fallback, const char* type) {
     param_errors_.push_back(key + ": not " + type + hint + "; default used");
   }
   return fallback;
+}
+
+namespace {
+
+/// Levenshtein distance of `a` and `b`, at most `bound` + 1 (a "did you mean" needs no more).
+std::size_t editDistance(const std::string& a, const std::string& b, std::size_t bound) {
+  if (a.size() > b.size() + bound || b.size() > a.size() + bound) return bound + 1;
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j)
+    row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t diagonal = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return std::min(row[b.size()], bound + 1);
+}
+
+}  // namespace
+
+void Monitor::findUnknownParameters() {
+  // Every private parameter the node reads (docs/node.md, Parameters).
+  static const std::set<std::string> known = {
+#define CM_NAME(field) #field,
+      CM_TUNABLES(CM_NAME)
+#undef CM_NAME
+          "fixed_frame",
+      "robot_description_param",
+      "robot_padding",
+      "robot_link_padding",
+      "robot_link_groups",
+      "disabled_pairs",
+      "max_bodies",
+      "max_vertices_per_part",
+      "max_parts_per_body",
+      "max_unknown_pairs",
+      "mesh_roots",
+      "mesh_decomposition",
+      "bodies",
+      "diagnostic_period"};
+  std::vector<std::string> names;
+  if (!ros::param::getParamNames(names)) return;
+  const std::string prefix = pnh_.getNamespace() + "/";
+  std::set<std::string> unknown;
+  for (const std::string& n : names) {
+    if (n.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string first = n.substr(prefix.size(), n.find('/', prefix.size()) - prefix.size());
+    if (!known.count(first)) unknown.insert(first);
+  }
+  unknown_params_.clear();
+  for (const std::string& u : unknown) {
+    std::string meant;
+    std::size_t best = 3;  // at most 2 edits apart
+    for (const std::string& k : known) {
+      const std::size_t d = editDistance(u, k, 2);
+      if (d < best) {
+        best = d;
+        meant = k;
+      }
+    }
+    unknown_params_.push_back(quoteInput(u) +
+                              (meant.empty() ? "" : " (did you mean " + meant + "?)"));
+  }
 }
 
 void Monitor::readParameters() {
@@ -1722,6 +1795,7 @@ void Monitor::setupDiagnostics() {
     s.add("stale bodies", now.stale);
     s.add("stale body ids", joined(now.stale_ids));
     s.add("unresolved TF frames", joined(now.unresolved_frames));
+    if (!unknown_params_.empty()) s.add("unknown parameters", joined(unknown_params_));
     s.addf("~bodies rate (Hz)", "%.1f", (now.bodies_msgs - before.bodies_msgs) / dt);
     s.addf("~body_poses rate (Hz)", "%.1f", (now.poses_msgs - before.poses_msgs) / dt);
     s.addf("pose_topic rate (Hz)", "%.1f", (now.pose_topic_msgs - before.pose_topic_msgs) / dt);

@@ -72,6 +72,10 @@ class BadParams(unittest.TestCase):
         self.assertIn("mesh_decomposition = 'convex' (must be hull or pieces); using hull", errors)
         self.assertEqual(self.m.diag_value('mesh decomposition', d), 'hull')
         self.assertEqual(self.m.state.header.frame_id, 'world')  # fixed_frame's default
+        # Every parameter above is known but three names of bad_params.test (sorted).
+        self.assertEqual(self.m.diag_value('unknown parameters', d),
+                         "'disabled_pair' (did you mean disabled_pairs?), 'robot_description', "
+                         "'warning_distanse' (did you mean warning_distance?)")
 
     def test_01b_checked_values_on_the_server_once_services_exist(self):
         # A client that waits for a service and then reads the parameters gets the checked

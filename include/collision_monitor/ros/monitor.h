@@ -240,6 +240,12 @@ class Monitor {
   std::string robot_description_param_ = "robot_description";
   MeshDecomposition mesh_decomposition_ = MeshDecomposition::Hull;  ///< start-up only
   std::vector<std::string> param_errors_;  ///< invalid parameters (fell back to defaults)
+  /// Private parameters the node does not read, each with the one meant when it is near one
+  /// (findUnknownParameters; logged at start-up, a /diagnostics value).
+  std::vector<std::string> unknown_params_;
+  /// The names under the node's private namespace on the parameter server that are none of its
+  /// parameters (a typo: `disabled_pair` was ignored without a word).
+  void findUnknownParameters();
   /// Robot geometry left out at start-up (the URDF, a link, a <collision> element): not watched
   /// for as long as the node runs, so /diagnostics says so in every report (ERROR).
   std::vector<std::string> robot_errors_;
