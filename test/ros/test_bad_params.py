@@ -2,6 +2,8 @@
 """rostest: every invalid or wrongly typed parameter is reported once by name on /diagnostics
 (level ERROR) and the monitor runs with that parameter's default: warning_distance 0.05, the
 fixed frame world, markers published, min_distance beyond reach, the 50 Hz heartbeat."""
+import os
+import re
 import signal
 import subprocess
 import sys
@@ -349,6 +351,32 @@ class BadParams(unittest.TestCase):
             proc.wait(timeout=30.0)
         self.assertIn(ns + "/cm: robot 'r2': 1 links with collision geometry, 0 adjacent pairs "
                       "disabled, 1 links or collision elements left out (errors above)", lines)
+
+    def test_09_every_documented_parameter_is_known(self):
+        # The node's list of its parameters against docs/node.md's table: a fresh node given
+        # each of them (any value: an invalid one is an ERROR, not an unknown name) names none as
+        # unknown; one more name is.
+        doc = open(os.path.join(os.path.dirname(os.path.abspath(__file__)), '..', '..', 'docs',
+                                'node.md')).read()
+        table = doc[doc.index('\n## Parameters\n'):doc.index('\n### Changing parameters')]
+        names = re.findall(r'(?m)^\| `([a-z_]+)` \|', table)
+        self.assertGreaterEqual(len(names), 29, names)
+        exe = roslib.packages.find_node('collision_monitor', 'collision_monitor_node')[0]
+        ns = '/every_param'
+        for name in names + ['not_a_parameter']:
+            rospy.set_param(ns + '/cm/' + name, 1.0)
+        mon = Monitor.__new__(Monitor)  # only its diagnostics
+        mon.node, mon.diagnostics = ns + '/cm', None
+        sub = rospy.Subscriber('/diagnostics', DiagnosticArray, mon._on_diag)
+        proc = subprocess.Popen([exe, '__ns:=' + ns, '__name:=cm'],
+                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        try:
+            self.assertTrue(wait_for(lambda: mon.diagnostics is not None, 20.0))
+        finally:
+            sub.unregister()
+            proc.send_signal(signal.SIGINT)
+            proc.wait(timeout=30.0)
+        self.assertEqual(mon.diag_value('unknown parameters'), "'not_a_parameter'")
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'bad_params', BadParams, sys.argv)
