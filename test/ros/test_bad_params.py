@@ -26,6 +26,25 @@ from cm_test_util import Monitor, PoseStreamer, pose, sphere_body, tf_transform,
 STARTED = time.monotonic()
 
 
+def fresh_node_lines(ns, args, until):
+    """Starts a monitor /<ns>/cm with `args`, collects its lines from rosout's /rosout_agg until
+    one contains `until` (at most 20 s), stops it; the lines' (level, text)."""
+    exe = roslib.packages.find_node('collision_monitor', 'collision_monitor_node')[0]
+    lines = []
+    sub = rospy.Subscriber('/rosout_agg', Log,
+                           lambda m: lines.append((m.level, m.msg)) if m.name == ns + '/cm'
+                           else None)
+    proc = subprocess.Popen([exe, '__ns:=' + ns, '__name:=cm'] + args,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        wait_for(lambda: any(until in m for _, m in list(lines)), 20.0)
+    finally:
+        sub.unregister()
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=30.0)
+    return lines
+
+
 class BadParams(unittest.TestCase):
     @classmethod
     def setUpClass(cls):
@@ -261,23 +280,11 @@ class BadParams(unittest.TestCase):
         # subscribers of /rosout the master names (rosout, one started by bad_params.test) first.
         # Read from rosout's /rosout_agg: the old node's lines all missed rosout, while a rospy
         # subscriber of /rosout missed only the first. After test_05 (15 s from start-up).
-        exe = roslib.packages.find_node('collision_monitor', 'collision_monitor_node')[0]
         ns = '/rosout_check'
-        lines = []
-        sub = rospy.Subscriber('/rosout_agg', Log,
-                               lambda m: lines.append((m.level, m.msg)) if m.name == ns + '/cm'
-                               else None)
         # A robot_description_param given with a typo: an INFO, and /diagnostics OK, before.
-        proc = subprocess.Popen([exe, '__ns:=' + ns, '__name:=cm', '_rate:=-5.0',
-                                 '_publish_markers:=false',
-                                 '_robot_description_param:=robot_descripton'],
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        try:
-            wait_for(lambda: any('monitoring 0 bodies' in m for _, m in list(lines)), 20.0)
-        finally:
-            sub.unregister()
-            proc.send_signal(signal.SIGINT)
-            proc.wait(timeout=30.0)
+        lines = fresh_node_lines(ns, ['_rate:=-5.0', '_publish_markers:=false',
+                                      '_robot_description_param:=robot_descripton'],
+                                 'monitoring 0 bodies')
         self.assertIn((Log.ERROR, ns + '/cm: invalid parameter rate = -5.000000 (must be > 0); '
                        'using 50.000000'), lines)
         self.assertIn((Log.ERROR, ns + "/cm: invalid parameter robot_description_param: no URDF "
@@ -329,7 +336,6 @@ class BadParams(unittest.TestCase):
     def test_08_adjacent_pairs_counted_among_the_links_monitored(self):
         # A parent link whose only <collision> is a missing mesh is left out: its pair with the
         # child is no pair of the monitor ("1 links ..., 1 adjacent pairs disabled" before).
-        exe = roslib.packages.find_node('collision_monitor', 'collision_monitor_node')[0]
         ns = '/adjacent_check'
         rospy.set_param(ns + '/robot_description', """<robot name="r2">
           <link name="base"><collision><geometry><mesh filename="file:///nowhere/b.stl"/>
@@ -338,17 +344,7 @@ class BadParams(unittest.TestCase):
           </collision></link>
           <joint name="j" type="fixed"><parent link="base"/><child link="arm"/></joint>
         </robot>""")
-        lines = []
-        sub = rospy.Subscriber('/rosout_agg', Log,
-                               lambda m: lines.append(m.msg) if m.name == ns + '/cm' else None)
-        proc = subprocess.Popen([exe, '__ns:=' + ns, '__name:=cm', '_publish_markers:=false'],
-                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        try:
-            wait_for(lambda: any('monitoring ' in m for m in list(lines)), 20.0)
-        finally:
-            sub.unregister()
-            proc.send_signal(signal.SIGINT)
-            proc.wait(timeout=30.0)
+        lines = [m for _, m in fresh_node_lines(ns, ['_publish_markers:=false'], 'monitoring ')]
         self.assertIn(ns + "/cm: robot 'r2': 1 links with collision geometry, 0 adjacent pairs "
                       "disabled, 1 links or collision elements left out (errors above)", lines)
 
