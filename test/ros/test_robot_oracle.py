@@ -14,13 +14,14 @@ reads the STL files and splits them into pieces itself, and takes each link's po
 the monitor attaches the link to); its distances are sweep_oracle.py's (numpy + qhull: the
 origin's signed distance to the hull of the difference of two parts' points, exact also when they
 overlap; a cylinder bracketed between its inner and outer prisms of ~ngon sides, 512 by
-default).
+default; a cylinder with spheres of its radius on its end caps, the Panda's, is exactly a capsule
+with them, which the oracle has exactly too).
 
 Checked at every configuration, for every pair of links with collision geometry:
   - a pair joined by a joint (links without geometry skipped over) or disabled by the SRDF is
     refused by ~get_distance as never checked, naming that reason;
   - every other pair's ~get_distance distance equals the oracle's (1e-7 m; a cylinder's within
-    its bracket), its witness points lie on their links and are that distance apart, its normal
+    its bracket, and where its link is capsules and apart, within 1e-7 m of theirs), its witness points lie on their links and are that distance apart, its normal
     is a unit vector from point_a towards point_b;
   - ~check_collision with sphere probes near random links (every other one named after a link:
     that link moved there, its never-checked pairs left out) lists every link within the margin,
@@ -32,7 +33,8 @@ With ~move_time, the events of each move: each is one the oracle's status machin
 every /tf stamp of the move, from the statuses ~state had before) gives on that pair, at that
 stamp or at most a monitor's max_lag stamps later (MAX_LAG by default; 0 for a monitor that
 checks slower than TF, whose catch-up goes over every stamp), at the oracle's distance there;
-each of the oracle's transitions is sent (pairs with a cylinder left out).
+each of the oracle's transitions is sent (pairs of a link with a cylinder that is not a capsule's
+left out).
 A configuration counts only once ~state is stamped after the joint state that set it and no
 link is stale. The share of pairs in COLLISION and WARNING is asserted, so the sample means
 something.
@@ -53,8 +55,8 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import sweep_oracle  # noqa: E402
 from event_oracle import (CONTACT, HYSTERESIS, MAX_LAG, WARNING, Timeline, key,  # noqa: E402
                           run)
-from sweep_oracle import (BOX, CYLINDER, MESH, SPHERE, ConvexHull, Tf, body_distance,  # noqa: E402
-                          body_sdf, make_obody, read_stl)
+from sweep_oracle import (BOX, CAPSULE, CYLINDER, MESH, SPHERE, ConvexHull, Tf,  # noqa: E402
+                          body_distance, body_sdf, make_obody, read_stl)
 from urdf_kinematics import Kinematics, floats, origin_tf  # noqa: E402
 
 import rospkg  # noqa: E402
@@ -70,6 +72,7 @@ from cm_test_util import Monitor, point, pose, sphere_body, wait_for  # noqa: E4
 
 TOL = 1e-7       # distance, exact parts (m)
 SURFACE_TOL = 1e-6  # a witness point's distance to its link's surface (m)
+CAP_TOL = 1e-12  # a sphere's centre off a cylinder's end cap's, and their radii's difference (m)
 SEED = 20261202
 PROBES = 6          # ~check_collision probes a configuration
 PROBE_RADIUS = 0.05
@@ -103,6 +106,30 @@ def closed_pieces(tri):
     return [pos[roots == r] for r in np.unique(roots)]
 
 
+def capsules(parts):
+    """A link's parts with every cylinder merged with the spheres of its radius centred on its
+    end caps (within CAP_TOL), as a capsule of its length and radius: their union is exactly that
+    capsule, whose distances the oracle's sphere-swept cores give exactly. None when a cylinder is
+    left (the Panda's hand: its cylinder is turned 1.57 rad, not pi/2, and its caps are 6e-5 m
+    off its spheres' centres). Parts without a cylinder come back as they are (the same list)."""
+    if not any(p[0] == CYLINDER for p in parts):
+        return parts
+    out, covered = [], set()
+    for kind, dims, verts, T, *_ in parts:
+        if kind != CYLINDER:
+            continue
+        h, r = dims[0] / 2.0, dims[1]
+        for cap in T.apply([[0.0, 0.0, -h], [0.0, 0.0, h]]):
+            j = next((j for j, p in enumerate(parts) if p[0] == SPHERE and
+                      abs(p[1][0] - r) <= CAP_TOL and np.linalg.norm(p[3].t - cap) <= CAP_TOL),
+                     None)
+            if j is None:
+                return None
+            covered.add(j)
+        out.append((CAPSULE, [2.0 * h, r], None, T))
+    return out + [p for j, p in enumerate(parts) if p[0] != CYLINDER and j not in covered]
+
+
 def hull_points(v):
     """The hull's vertices (all the points when they are flat: the oracle takes any set)."""
     try:
@@ -123,7 +150,9 @@ def resolve(uri):
 class Robot:
     """The URDF's links with collision geometry (their parts as sweep_oracle takes them), its
     joints, and the pairs never checked (adjacent or SRDF-disabled) with the reason. With
-    `pieces`, a mesh is one part per closed piece (mesh_decomposition "pieces")."""
+    `pieces`, a mesh is one part per closed piece (mesh_decomposition "pieces"). `exact` holds
+    the links whose union of parts the oracle has exactly (no cylinder, or each one a capsule's
+    with its end spheres: capsules()), as those parts."""
 
     def __init__(self, urdf, srdf, pieces=False):
         root = ET.fromstring(urdf)
@@ -153,6 +182,9 @@ class Robot:
                     raise ValueError('geometry the oracle does not know: ' + g.tag)
             if parts:
                 self.parts[link.get('name')] = parts
+        self.exact = {link: merged for link, merged in
+                      ((link, capsules(parts)) for link, parts in self.parts.items())
+                      if merged is not None}
         self.kinematics = Kinematics(root)
         self.never = {}
         # Joined by a joint, links without geometry skipped over: each link's nearest ancestor
@@ -175,7 +207,7 @@ class Robot:
         """The pairs checked in contact and within WARNING at joint positions q, by the URDF's
         forward kinematics (in its root link's frame) and the oracle: (contacts, near)."""
         poses = self.kinematics.link_poses(q)
-        bodies = {link: make_obody(link, poses[link], parts, 0.0)
+        bodies = {link: make_obody(link, poses[link], self.exact.get(link, parts), 0.0)
                   for link, parts in self.parts.items()}
         balls = {link: ball(b) for link, b in bodies.items()}
         links = sorted(self.parts)
@@ -326,7 +358,7 @@ class RobotOracle(unittest.TestCase):
         links = sorted(self.robot.parts)
         pairs = [(a, b) for i, a in enumerate(links) for b in links[i + 1:]]
         counts = {ns: {'checked': 0, 'never': 0, 'collision': 0, 'warning': 0, 'curved': 0,
-                       'configs in contact': 0, 'move events': 0, 'move stamps': 0, 'late': []}
+                       'curved, exact': 0, 'configs in contact': 0, 'move events': 0, 'move stamps': 0, 'late': []}
                   for ns, _, _ in self.monitors}
         worst = 0.0
         contacts = set()  # 'configuration: pair distance', all monitors'
@@ -369,6 +401,8 @@ class RobotOracle(unittest.TestCase):
         worst = 0.0
         bodies = self.oracle(robot, ('config', c), 'bodies', lambda: {
             link: make_obody(link, poses[link], parts, 0.0) for link, parts in robot.parts.items()})
+        exact = self.oracle(robot, ('config', c), 'exact bodies', lambda: {
+            link: make_obody(link, poses[link], parts, 0.0) for link, parts in robot.exact.items()})
         state = m.state
         listed = {key(p.body_a, p.body_b): p for p in state.pairs}
         min_distance = math.inf
@@ -392,6 +426,18 @@ class RobotOracle(unittest.TestCase):
                 counts['curved'] += 1
                 self.assertTrue(lo - TOL <= d <= hi + TOL, '%s: %.9f not in [%.9f, %.9f]' %
                                 (where, d, lo, hi))
+                if a in exact and b in exact:
+                    # Capsules: their distance is the links' when apart; when they overlap, the
+                    # links' (the deepest of their parts' overlaps) is at most theirs.
+                    x = self.oracle(robot, ('config', c), ('exact', a, b),
+                                    lambda: body_distance(exact[a], exact[b])[0])
+                    counts['curved, exact'] += 1
+                    if x > CONTACT:
+                        self.assertAlmostEqual(d, x, delta=TOL, msg=where + ' (capsules)')
+                        worst = max(worst, abs(d - x))
+                    else:
+                        self.assertTrue(x - TOL <= d <= CONTACT + TOL, '%s: %.9f not in '
+                                        '[%.9f, 0] (capsules)' % (where, d, x))
             else:
                 self.assertAlmostEqual(d, hi, delta=TOL, msg=where)
                 worst = max(worst, abs(d - hi))
@@ -437,17 +483,24 @@ class RobotOracle(unittest.TestCase):
         had before it (~state): each event is one the oracle gives on that pair, at the same stamp
         or at most max_lag stamps later (a check that comes late may pass over a stamp), at the
         oracle's distance there, leaving the pair in the oracle's status; and each of the
-        oracle's transitions is sent. Pairs with a cylinder (bracketed) are left out."""
+        oracle's transitions is sent. Pairs of links the oracle has exactly (robot.exact: meshes,
+        boxes, spheres, cylinders as capsules with their end spheres) are checked; a link with a
+        cylinder of its own is left out. Every threshold is at or above 0, where the capsules'
+        distance is the links'; an overlap's depth is the links' parts' deepest, bracketed."""
         start, end = move
         with self.lock:
             timeline = Timeline(t for t in self.tf_stamps if start < t <= end + int(0.2e9))
         stamps = timeline.stamps
-        links = sorted(robot.parts)
+        links = sorted(robot.exact)
+
+        def poses(t):
+            return self.oracle(robot, ('stamp', t), 'poses', lambda: {
+                link: as_tf(self.tf.lookup_transform(self.fixed, link, rospy.Time(0, t)))
+                for link in links})
+
         bodies = {t: self.oracle(robot, ('stamp', t), 'bodies', lambda: {
-            link: make_obody(link, as_tf(self.tf.lookup_transform(
-                self.fixed, link, rospy.Time(0, t))), robot.parts[link], 0.0) for link in links})
+            link: make_obody(link, poses(t)[link], robot.exact[link], 0.0) for link in links})
             for t in stamps}
-        exact = {link for link in links if not bodies[stamps[0]][link].approx}
         # A ball about each link (its parts' points and radii) for a cheap lower bound.
         balls = {t: {link: ball(b) for link, b in by_link.items()} for t, by_link in bodies.items()}
 
@@ -460,18 +513,27 @@ class RobotOracle(unittest.TestCase):
             far = ball_gap(balls[t][pair[0]], balls[t][pair[1]]) > WARNING + HYSTERESIS + 1e-3
             return math.inf if far else distance(pair, t)
 
+        def overlap(pair, t):
+            """[lower, upper] bound of the links' distance where their exact forms overlap."""
+            x = distance(pair, t)
+            if all(robot.exact[link] is robot.parts[link] for link in pair):
+                return x, x
+            hi, _, _, lo = self.oracle(robot, ('stamp', t), ('parts', pair), lambda: body_distance(
+                *(make_obody(link, poses(t)[link], robot.parts[link], 0.0) for link in pair)))
+            return max(x, lo), min(hi, CONTACT)
+
         predicted, status_at = [], {}
         for pair in pairs:
-            if pair in robot.never or not set(pair) <= exact:
+            if pair in robot.never or not set(pair) <= robot.exact.keys():
                 continue
             given, at = run(pair, before.get(pair, PairState.CLEAR), stamps,
-                             lambda t: near_distance(pair, t))
+                            lambda t: near_distance(pair, t))
             predicted += given
             status_at.update(((pair, t), status) for t, status in at.items())
         with m.lock:
             events = [e for _, e in m.events if start < e.header.stamp.to_nsec() <= stamps[-1]]
         actual = [(e.header.stamp.to_nsec(), key(e.pair.body_a, e.pair.body_b), e.type, e)
-                  for e in events if set((e.pair.body_a, e.pair.body_b)) <= exact]
+                  for e in events if set((e.pair.body_a, e.pair.body_b)) <= robot.exact.keys()]
         for t, pair, etype, e in actual:
             where = '%s, move to configuration %d: %s on %s at %.3f' % (
                 ns, c, NAMES[etype], pair, t * 1e-9)
@@ -484,7 +546,12 @@ class RobotOracle(unittest.TestCase):
                 counts['late'].append('%s %s at %.3f: %d late (%.6f m there, %.6f m at %.3f)' % (
                     NAMES[etype], '/'.join(pair), t * 1e-9, n, distance(pair, t0),
                     distance(pair, t), t0 * 1e-9))
-            self.assertAlmostEqual(e.pair.distance, distance(pair, t), delta=TOL, msg=where)
+            if distance(pair, t) > CONTACT:
+                self.assertAlmostEqual(e.pair.distance, distance(pair, t), delta=TOL, msg=where)
+            else:
+                lo, hi = overlap(pair, t)
+                self.assertTrue(lo - TOL <= e.pair.distance <= hi + TOL, '%s: %.9f not in '
+                                '[%.9f, %.9f]' % (where, e.pair.distance, lo, hi))
             self.assertEqual(e.pair.status, status_at[(pair, t)], where)
         for p in predicted:
             self.assertTrue(timeline.sent(p, actual, m.max_lag),
@@ -492,6 +559,8 @@ class RobotOracle(unittest.TestCase):
                             'monitor did not send it' % (ns, c, NAMES[p[2]], p[1], p[0] * 1e-9))
         counts['move events'] += len(actual)
         counts['move stamps'] += len(stamps)
+        counts['move pairs'] = counts.get('move pairs', 0) + len(
+            {p for p in pairs if p not in robot.never and set(p) <= robot.exact.keys()})
 
     def probe(self, c, poses, ns, m, robot, bodies, counts):
         """~check_collision: spheres near random links, every other one named after a link
