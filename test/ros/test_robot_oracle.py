@@ -21,8 +21,9 @@ Checked at every configuration, for every pair of links with collision geometry:
   - a pair joined by a joint (links without geometry skipped over) or disabled by the SRDF is
     refused by ~get_distance as never checked, naming that reason;
   - every other pair's ~get_distance distance equals the oracle's (1e-7 m; a cylinder's within
-    its bracket, and where its link is capsules and apart, within 1e-7 m of theirs), its witness points lie on their links and are that distance apart, its normal
-    is a unit vector from point_a towards point_b;
+    its bracket, and where its links are capsules and apart, within 1e-7 m of theirs), its
+    witness points lie on their links and are that distance apart, its normal is a unit vector
+    from point_a towards point_b;
   - ~check_collision with sphere probes near random links (every other one named after a link:
     that link moved there, its never-checked pairs left out) lists every link within the margin,
     sorted, at the oracle's distances, and in_collision when one is in contact;
@@ -358,7 +359,8 @@ class RobotOracle(unittest.TestCase):
         links = sorted(self.robot.parts)
         pairs = [(a, b) for i, a in enumerate(links) for b in links[i + 1:]]
         counts = {ns: {'checked': 0, 'never': 0, 'collision': 0, 'warning': 0, 'curved': 0,
-                       'curved, exact': 0, 'configs in contact': 0, 'move events': 0, 'move stamps': 0, 'late': []}
+                       'curved, exact': 0, 'configs in contact': 0, 'move events': 0,
+                       'move stamps': 0, 'late': []}
                   for ns, _, _ in self.monitors}
         worst = 0.0
         contacts = set()  # 'configuration: pair distance', all monitors'
