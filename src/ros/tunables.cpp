@@ -45,6 +45,7 @@ world::Settings worldSettings(const Tunables& t, world::Settings limits) {
   limits.ttc_horizon = t.ttc_horizon;
   limits.exact_min_distance = t.exact_min_distance;
   limits.align_poses = t.align_poses;
+  limits.estimate_twists = t.estimate_twists;
   limits.backend = core::parseBackend(t.backend).value_or(core::BackendType::Gjk);
   return limits;
 }

@@ -250,6 +250,21 @@ double pointShift(const Transform3& a, const Transform3& b, double r) {
   return (b.t - a.t).norm() + (b.R - a.R).norm() * r;
 }
 
+/// Settings::estimate_twists: the twist that takes pose `a` to pose `b` in `dt` seconds (linear:
+/// the origin's displacement over dt; angular: the rotation b.R a.R^T over dt, in the fixed frame,
+/// as MovedParts applies it). None when dt is not in (0, timeout], or the two are the same.
+std::optional<Twist> twistBetween(const Transform3& a, const Transform3& b, double dt,
+                                  double timeout) {
+  if (!(dt > 0.0 && dt <= timeout)) return std::nullopt;
+  const Eigen::AngleAxisd turn(Eigen::Quaterniond(b.R * a.R.transpose()).normalized());
+  Twist out;
+  out.linear = (b.t - a.t) / dt;
+  out.angular = turn.axis() * (turn.angle() / dt);
+  if (!core::allFinite(out.linear) || !core::allFinite(out.angular)) return std::nullopt;
+  if (out.linear.isZero(0.0) && out.angular.isZero(0.0)) return std::nullopt;
+  return out;
+}
+
 /// A body in its slot, with its placement in the fixed frame.
 struct BodyState {
   // Hot fields first (read for every slot each cycle), the rest after.
@@ -1583,6 +1598,14 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
   // Out of order: only between two timed stamps. A static pose (stamp <= 0) always applies,
   // and any timed pose may follow a static one.
   if (b.has_pose && !stamp.isStatic() && !b.stamp.isStatic() && stamp < b.stamp) return false;
+  // Settings::estimate_twists: from the held pose to this one (at the held stamp: as it was).
+  const bool estimate = !twist && m.settings.estimate_twists && b.has_pose && !stamp.isStatic() &&
+                        !b.stamp.isStatic();
+  const bool keep_twist = estimate && stamp == b.stamp;
+  const std::optional<Twist> estimated =
+      estimate && !keep_twist
+          ? twistBetween(b.at.pose, pose, stamp - b.stamp, m.settings.pose_timeout)
+          : std::nullopt;
   if (!stamp.isStatic() && stamp != b.stamp && b.new_stamps < 255) ++b.new_stamps;
   if (b.new_stamps >= 2) m.outran = true;
   const bool moved = !b.has_pose || !(b.at.pose.R == pose.R) || !(b.at.pose.t == pose.t);
@@ -1596,8 +1619,11 @@ bool WorldModel::setPose(const std::string& id, const Transform3& pose, Stamp st
   b.unresolved = false;
   b.stamp = stamp;
   b.fresh_from = received && !received->isStatic() && *received < stamp ? *received : stamp;
-  b.has_twist = twist.has_value();
-  b.twist = twist ? *twist : Twist();
+  if (!keep_twist) {
+    const std::optional<Twist>& motion = twist ? twist : estimated;
+    b.has_twist = motion.has_value();
+    b.twist = motion ? *motion : Twist();
+  }
   if (moved) {
     ++b.version;
     b.at.place(b.spec, pose);  // the broad phase's box follows in check()

@@ -3417,6 +3417,93 @@ TEST(WorldModel, TimeToCollisionOfTranslatingBodiesIsExact) {
   EXPECT_NEAR(r.pairs[0].time_to_collision, 3.0, 1e-12);
 }
 
+// Settings::estimate_twists: bodies posed without twists (TF, PoseStamped) move as their last two
+// poses say. Spheres of 0.5 m; b comes at 1 m/s (dyadic steps: exact).
+TEST(WorldModel, EstimatedTwistsComeFromTheLastTwoPoses) {
+  const double inf = std::numeric_limits<double>::infinity();
+  Settings s = dyadic();
+  s.warning_distance = 5.0;
+  s.estimate_twists = true;
+  WorldModel w(s);
+  addSpheres(w, {"a", "b"}, 0.5);
+  const auto ttc = [&](double t) {
+    const CycleResult r = w.check(t);
+    EXPECT_EQ(r.pairs.size(), 1u);
+    return r.pairs.empty() ? -1.0 : r.pairs[0].time_to_collision;
+  };
+  ASSERT_TRUE(w.setPose("a", at(0), 1.0));
+  ASSERT_TRUE(w.setPose("b", at(4), 1.0));
+  EXPECT_EQ(ttc(1.0), inf);  // first poses: at rest
+  ASSERT_TRUE(w.setPose("a", at(0), 1.25));
+  ASSERT_TRUE(w.setPose("b", at(3.75), 1.25));
+  EXPECT_EQ(ttc(1.25), 2.75);  // 2.75 m at 1 m/s
+  // The same stamp again (a check that found no newer TF): the body keeps its twist.
+  ASSERT_TRUE(w.setPose("b", at(3.75), 1.25));
+  EXPECT_EQ(ttc(1.25), 2.75);
+  // Both move: only the relative velocity counts (a at 1 m/s, b at -1 m/s).
+  ASSERT_TRUE(w.setPose("a", at(0.25), 1.5));
+  ASSERT_TRUE(w.setPose("b", at(3.5), 1.5));
+  EXPECT_EQ(ttc(1.5), 1.125);  // 2.25 m at 2 m/s
+  // A twist given wins over the estimate.
+  Twist slow;
+  slow.linear = Vec3(-0.25, 0, 0);
+  ASSERT_TRUE(w.setPose("a", at(0.25), 1.75));
+  ASSERT_TRUE(w.setPose("b", at(3.375), 1.75, slow));
+  EXPECT_EQ(ttc(1.75), 8.5);  // 2.125 m at 0.25 m/s (a still)
+  // Still again: at rest.
+  ASSERT_TRUE(w.setPose("b", at(3.375), 2.0));
+  ASSERT_TRUE(w.setPose("a", at(0.25), 2.0));
+  EXPECT_EQ(ttc(2.0), inf);
+  // After a gap longer than pose_timeout (0.5 s) the last pose tells nothing: at rest.
+  ASSERT_TRUE(w.setPose("a", at(0.25), 2.75));
+  ASSERT_TRUE(w.setPose("b", at(2.375), 2.75));
+  EXPECT_EQ(ttc(2.75), inf);
+  // Static poses move nowhere.
+  ASSERT_TRUE(w.setPose("b", at(2), 0.0));
+  ASSERT_TRUE(w.setPose("a", at(0.25), 3.0));
+  EXPECT_EQ(ttc(3.0), inf);
+  // Off: every body without a twist is at rest.
+  s.estimate_twists = false;
+  w.setSettings(s);
+  ASSERT_TRUE(w.setPose("b", at(3), 3.0));
+  ASSERT_TRUE(w.setPose("b", at(2.75), 3.25));
+  ASSERT_TRUE(w.setPose("a", at(0.25), 3.25));
+  EXPECT_EQ(ttc(3.25), inf);
+}
+
+// A turn: an arm, a 0.5 m sphere on a 2 m lever about its body origin, posed 0.25 rad further
+// about z each 0.25 s, against a 0.5 m sphere b at (0, 2, 0). Oracle: the centres are 1 m apart
+// when |(2 cos phi, 2 sin phi) - (0, 2)| = 1, sin phi = 7/8, reached at 1 rad/s from phi = 0.25.
+TEST(WorldModel, EstimatedTwistsTurn) {
+  Settings s = dyadic();
+  s.warning_distance = 5.0;
+  s.estimate_twists = true;
+  WorldModel w(s);
+  Transform3 lever = Transform3::Identity();
+  lever.t = Vec3(2, 0, 0);
+  ASSERT_EQ(w.addBody(body("arm", {Part{ConvexShape::sphere(0.5), lever}})), "");
+  ASSERT_EQ(w.addBody(sphere("b", 0.5)), "");
+  ASSERT_TRUE(w.setPose("b", at(0, 2, 0), 0.0));
+  // The body tilted about x (the lever's axis) first: a twist taken in the body frame turns
+  // about another axis.
+  const auto turned = [](double phi) {
+    Transform3 T = Transform3::Identity();
+    T.R = (Eigen::AngleAxisd(phi, Vec3::UnitZ()) * Eigen::AngleAxisd(0.5, Vec3::UnitX()))
+              .toRotationMatrix();
+    return T;
+  };
+  ASSERT_TRUE(w.setPose("arm", turned(0.0), 1.0));
+  ASSERT_TRUE(w.setPose("arm", turned(0.25), 1.25));
+  CycleResult r = w.check(1.25);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_NEAR(r.pairs[0].time_to_collision, std::asin(0.875) - 0.25, 1e-6);
+  // Turning back (-1 rad/s) from phi = 0: the long way round, to phi = asin(7/8) - pi.
+  ASSERT_TRUE(w.setPose("arm", turned(0.0), 1.5));
+  r = w.check(1.5);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_NEAR(r.pairs[0].time_to_collision, M_PI + std::asin(0.875), 1e-6);
+}
+
 TEST(WorldModel, TimeToCollisionOfABodyOfSeveralParts) {
   // A: spheres of radius 0.5 at (0, 1.2) and (-2, 0); b, radius 0.5 from (0.5, 0) at -1 m/s
   // along x, passes the first (nearest, 0.3 m) at 1.2 m and meets the second head-on when

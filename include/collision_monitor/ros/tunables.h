@@ -26,6 +26,7 @@ struct Tunables {
   double ttc_horizon = world::Settings().ttc_horizon;            ///< s, > 0
   bool exact_min_distance = world::Settings().exact_min_distance;
   bool align_poses = world::Settings().align_poses;
+  bool estimate_twists = world::Settings().estimate_twists;
   std::string backend = "gjk";  ///< gjk or libccd
   bool publish_markers = true;
   double marker_rate = MarkerOptions().max_rate;  ///< Hz, > 0
@@ -39,8 +40,8 @@ struct Tunables {
 #define CM_TUNABLES(X)                                                                    \
   X(rate) X(min_check_interval) X(check_on_pose) X(check_on_tf)                           \
   X(warning_distance) X(contact_distance) X(hysteresis) X(pose_timeout) X(ttc_horizon)    \
-  X(exact_min_distance) X(align_poses) X(backend) X(publish_markers) X(marker_rate)         \
-  X(marker_frame_locked)
+  X(exact_min_distance) X(align_poses) X(estimate_twists) X(backend) X(publish_markers)     \
+  X(marker_rate) X(marker_frame_locked)
 // clang-format on
 
 /// Checks `*value` (parameter `key`) by `valid` (`rule` says it in words): a non-finite or

@@ -126,6 +126,14 @@ struct Settings {
   /// of a body of it that moved (catch-up): a pass between two poses of the slower body gets its
   /// events, stamped when it happened.
   bool align_poses = true;
+  /// A timed pose given without a twist (setPose()) whose body's held pose is timed, older and
+  /// within pose_timeout moves as the two say: linear velocity the origin's displacement over the
+  /// time between them, angular the rotation from one to the other over that time (the twist
+  /// that takes the older pose to the newer one, as time_to_collision reads a twist). Again at the
+  /// held stamp, the body keeps the twist it has. Without the two (its first pose, a static
+  /// one, a gap longer than pose_timeout) or where they are the same, the body is at rest. For
+  /// sources that give no twist (TF, PoseStamped): false, such a body is always at rest.
+  bool estimate_twists = false;
 };
 
 /// Everything one check cycle produced.
@@ -223,7 +231,9 @@ class WorldModel {
   bool isPairDisabled(const std::string& a, const std::string& b) const;
 
   /// Sets a body's pose (body frame -> fixed frame) valid at `stamp` (s). A stamp older than the
-  /// one held is ignored (returns false): out-of-order input never replaces newer data.
+  /// one held is ignored (returns false): out-of-order input never replaces newer data. `twist`:
+  /// its velocity, for time_to_collision; without one the body is at rest, or moves as its last
+  /// two poses say (Settings::estimate_twists).
   /// `stamp` <= 0 means static (never stale). `received`: when the pose came, if that was before
   /// `stamp` (a publisher whose clock runs ahead): the pose ages from then, not from its stamp,
   /// which is kept for everything else (ordering, the verdict's time). A static `received` (0:
