@@ -1385,6 +1385,61 @@ class TopicBodies(unittest.TestCase):
             self.m.add(Body(id='ahead', operation=Body.REMOVE))
         self.assertTrue(self.m.wait_listed('ahead', present=False))
 
+    def test_37_time_to_collision_estimated_from_tf_and_pose_topic(self):
+        # estimate_twists (dynamic_reconfigure): 'tfmover' (0.25 m) on a TF frame coming at 1 m/s
+        # along x towards 'wall' (0.25 m, on ~body_poses, still), 'ptmover' (0.25 m) on its
+        # pose_topic at 0.5 m/s along y towards it. Neither source has a twist: each pair's time
+        # to collision is its distance over the speed the last two poses give (the frame's
+        # stamps 20 ms apart). Off: +inf, as for every body without a twist.
+        client = Client(NS.rstrip('/'), timeout=10.0)
+        br = tf2_ros.TransformBroadcaster()
+        t0 = rospy.Time.now()
+
+        def send(stamp):
+            dt = (stamp - t0).to_sec()
+            br.sendTransform(tf_transform('mover_frame', stamp=stamp, xyz=(-8.0 + dt, 0.0, 30.0)))
+            p = PoseStamped()
+            p.header.frame_id = 'world'
+            p.header.stamp = stamp
+            p.pose = pose(0.0, -6.0 + 0.5 * dt, 30.0)
+            pt.publish(p)
+        pt = self.add_pose_topic_body('ptmover', 0.25, '/ptmover/pose')
+        send(t0)
+        self.m.add(sphere_body('tfmover', 0.25, frame='mover_frame', pose_from_topic=False))
+        self.m.add(sphere_body('wall', 0.25))
+        self.assertTrue(self.m.wait_listed('tfmover') and self.m.wait_listed('wall'))
+        self.poses.set('wall', pose(0.0, 0.0, 30.0))
+        samples = {'tfmover': [], 'ptmover': []}
+        try:
+            for estimate in (True, False):
+                client.update_configuration({'estimate_twists': estimate})
+                start = time.monotonic()
+                for k in range(100):  # 2 s at 50 Hz
+                    send(rospy.Time.now())
+                    if k >= 50 and k % 5 == 0:
+                        for mover, speed in (('tfmover', 1.0), ('ptmover', 0.5)):
+                            r = self.distance(mover, 'wall')
+                            self.assertTrue(r.success, r.message)
+                            samples[mover].append((estimate, r.result.distance, speed,
+                                                   r.result.time_to_collision))
+                    time.sleep(max(0.0, start + (k + 1) * 0.02 - time.monotonic()))
+        finally:
+            client.update_configuration({'estimate_twists': False})
+            for i in ('tfmover', 'ptmover', 'wall'):
+                self.m.add(Body(id=i, operation=Body.REMOVE))
+            with self.poses.lock:
+                self.poses.poses.pop('wall', None)
+        for mover, got in samples.items():
+            self.assertEqual(len(got), 20, got)
+            for estimate, d, speed, ttc in got:
+                self.assertGreater(d, 0.5, (mover, got))  # still coming
+                if estimate:
+                    self.assertAlmostEqual(ttc, d / speed, delta=1e-6, msg=(mover, d, ttc))
+                else:
+                    self.assertTrue(math.isinf(ttc) and ttc > 0, (mover, d, ttc))
+        for i in ('tfmover', 'ptmover', 'wall'):
+            self.assertTrue(self.m.wait_listed(i, present=False), i)
+
 
 if __name__ == '__main__':
     rostest.rosrun('collision_monitor', 'topic_bodies', TopicBodies, sys.argv)
