@@ -26,7 +26,8 @@
 ///   off, or in frames, with or without rates), every time_to_collision given (listed pairs,
 ///   events, distance(), checkHypothetical()) against the first time the exact distance under
 ///   the twists comes within 1e-7 m of contact_distance and the first time it passes it by more
-///   (checkTtc()).
+///   (checkTtc()); in half of those cases (bit 7 of the second settings byte) with
+///   estimate_twists, a body posed without a twist under the one its last two poses give.
 /// A failure is returned as text with the operations so far.
 #pragma once
 
@@ -71,11 +72,13 @@ struct Outcome {
   bool boxes = false;       ///< some parts boxes (a twists case)
   bool hulls = false;       ///< some parts convex hulls (a case of boxes)
   bool twists = false;      ///< poses with twists: times to collision held to the reference
+  bool estimated = false;   ///< a twists case with estimate_twists
   int checks = 0;
   int events = 0;
   int collisions = 0;       ///< COLLISION_BEGIN events
   int ttc_checked = 0;      ///< times to collision held to the reference
   int ttc_finite = 0;       ///< of them, finite and not 0 (the bodies approach)
+  int ttc_estimated = 0;    ///< of them, finite with a body under an estimated twist
   int ttc_rotating = 0;     ///< of them, with a body turning
   int ttc_lower_bound = 0;  ///< of those, a lower bound short of the contact (128 steps ran out)
   int ttc_skipped = 0;      ///< left unjudged: the reference's search ran out of evaluations
@@ -291,6 +294,7 @@ struct RefBody {
   /// The twist of its latest pose (a twists case): linear velocity in the fixed frame, and a
   /// turn about its own axis (RefBody::axis, through its origin) at `rate` rad/s.
   bool has_twist = false;
+  bool estimated = false;  ///< the twist is estimate_twists' (poseTwist())
   Vec3 linear = Vec3::Zero();
   double rate = 0.0;
   /// Frames mode: its poses since the last check that found it stale (or since it came), and
@@ -435,6 +439,7 @@ class Run {
       boxes_ = (more >> 3) % 4 == 3;
       hulls_ = boxes_ && (more & 0x40) != 0;
       rates_ = frames_ && (more & 0x20) != 0;
+      s_.estimate_twists = (more & 0x80) != 0;
     }
     out_.exact = exact_ || frames_;
     out_.frames = frames_;
@@ -444,13 +449,14 @@ class Run {
     out_.boxes = boxes_;
     out_.hulls = hulls_;
     out_.twists = twists_;
+    out_.estimated = twists_ && s_.estimate_twists;
     world_.emplace(s_);
     log_ << "settings: w " << s_.warning_distance << " c " << s_.contact_distance << " h "
          << s_.hysteresis << " timeout " << s_.pose_timeout << " align " << s_.align_poses
          << " exact_min " << s_.exact_min_distance << " frames " << frames_ << " rates " << rates_
          << " turns " << turns_ << " clock back " << clock_back_ << " capsules " << capsules_
          << " boxes " << boxes_ << " hulls " << hulls_ << " twists " << twists_ << " horizon "
-         << s_.ttc_horizon << " backend "
+         << s_.ttc_horizon << " estimate twists " << s_.estimate_twists << " backend "
          << (s_.backend == collision_monitor::core::BackendType::Gjk ? "gjk" : "libccd") << "\n";
     const int n = 2 + in_.byte() % 5;
     bodies_.resize(n);
@@ -643,19 +649,37 @@ class Run {
                   " (out of order only between timed stamps: a stamp older than the one held)");
     }
     if (!ok) return;
+    poseTwist(&b, p, stamp, twist);
     b.has_pose = true;
     b.unresolved = false;
     b.stamp = stamp;
     b.fresh_from = std::min(stamp, came);
     b.pose = p;
-    setTwist(&b, twist);
   }
 
   /// Body b's twist from its latest pose's (none: at rest).
   static void setTwist(RefBody* b, const std::optional<cw::Twist>& twist) {
     b->has_twist = twist.has_value();
+    b->estimated = false;
     b->linear = twist ? twist->linear : Vec3::Zero();
     b->rate = twist ? twist->angular.dot(b->axis) : 0.0;
+  }
+
+  /// Body b's twist once posed at `p`, `stamp` (before b takes them): the one given, or with
+  /// estimate_twists (node.md) the motion from its held pose to this one when both are timed and
+  /// 0 < their gap <= pose_timeout (the same stamp again: the twist it has), else at rest. The
+  /// turn is about the body's own axis: the angle between the two, the shorter way round.
+  void poseTwist(RefBody* b, const RefPose& p, Stamp stamp,
+                 const std::optional<cw::Twist>& twist) const {
+    if (twist || !s_.estimate_twists || !b->has_pose || stamp.isStatic() || b->stamp.isStatic())
+      return setTwist(b, twist);
+    if (stamp == b->stamp) return;
+    const double dt = stamp - b->stamp;
+    if (!(dt > 0.0 && dt <= s_.pose_timeout)) return setTwist(b, std::nullopt);
+    b->linear = (p.position - b->pose.position) / dt;
+    b->rate = std::remainder(p.angle - b->pose.angle, 2.0 * M_PI) / dt;
+    b->has_twist = !b->linear.isZero(0.0) || b->rate != 0.0;
+    b->estimated = b->has_twist;
   }
 
   /// A twists case: none, or a linear velocity of up to 3 m/s (0 too) and, when bodies turn, a
@@ -739,7 +763,7 @@ class Run {
       if (!world_->setPose(id(i), transform(b, p), Stamp::fromNanoseconds(stamp), twist)) {
         return fail("setPose of a frame refused");
       }
-      setTwist(&b, twist);
+      poseTwist(&b, p, Stamp::fromNanoseconds(stamp), twist);
       b.has_pose = true;
       b.stamp = Stamp::fromNanoseconds(stamp);
       b.fresh_from = b.stamp;
@@ -985,11 +1009,28 @@ class Run {
     const double L =
         ((vb - va).norm() + std::abs(ra) * reach_a + std::abs(rb) * reach_b) * (1.0 + 1e-9);
     int distances = 0;
+    // Translating, only the relative motion counts: B moves by it, A stays (each at its own
+    // velocity, a late time would place them where doubles are coarse).
+    const Vec3 ua = rotating ? va : Vec3::Zero(), ub = rotating ? vb : Vec3(vb - va);
     const auto D = [&](double t) {
       ++distances;
-      return bodyDistance(A, {pa.position + t * va, pa.angle + t * ra}, B,
-                          {pb.position + t * vb, pb.angle + t * rb});
+      return bodyDistance(A, {pa.position + t * ua, pa.angle + t * ra}, B,
+                          {pb.position + t * ub, pb.angle + t * rb});
     };
+    // Translating together (node.md): velocities within 1e-9 of the faster one's speed of each
+    // other are equal ones rounded (estimated from poses): never, once apart.
+    if (!rotating && (vb - va).norm() <= 1e-9 * std::max(va.norm(), vb.norm()) &&
+        D(0.0) > s_.contact_distance + kBand) {
+      if (!(std::isinf(got) && got > 0.0)) {
+        std::ostringstream why;
+        why.precision(12);
+        why << what << ": time_to_collision " << got << " s of bodies moving together ("
+            << va.transpose() << ") and (" << vb.transpose() << ") m/s; the reference: +inf";
+        fail(why.str());
+      }
+      ++out_.ttc_checked;
+      return;
+    }
     // Translating: after T the relative motion has taken them more than contact_distance + 1 m
     // apart, however near they started (their distance, cores' reach and radii).
     double radii = 0.0;
@@ -1019,6 +1060,7 @@ class Run {
     }
     ++out_.ttc_checked;
     if (got > 0.0 && std::isfinite(got)) ++out_.ttc_finite;
+    if (got > 0.0 && std::isfinite(got) && (A.estimated || B.estimated)) ++out_.ttc_estimated;
     if (rotating) ++out_.ttc_rotating;
     const double tol = 2.0 * kTimeTol + 1e-12 * (std::isfinite(got) ? got : 0.0);
     const bool early = got < *lo - tol;

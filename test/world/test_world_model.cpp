@@ -3417,6 +3417,25 @@ TEST(WorldModel, TimeToCollisionOfTranslatingBodiesIsExact) {
   EXPECT_NEAR(r.pairs[0].time_to_collision, 3.0, 1e-12);
 }
 
+// Translating bodies whose velocities differ by less than 1e-9 of their speed move together
+// (rounding of equal velocities, as two estimated ones give): never. A slow relative motion is
+// followed in the bodies' own coordinates, however late the contact.
+TEST(WorldModel, TimeToCollisionOfBodiesMovingTogetherIsNever) {
+  const auto w = twoSpheresInWarningReach(0.5);
+  const auto ttc = [&](double vb, double t) {
+    Twist ta, tb;
+    ta.linear = Vec3(3, 0, 0);
+    tb.linear = Vec3(vb, 0, 0);
+    EXPECT_TRUE(w->setPose("a", at(0), t, ta));
+    EXPECT_TRUE(w->setPose("b", at(4), t, tb));
+    const CycleResult r = w->check(t);
+    EXPECT_EQ(r.pairs.size(), 1u);
+    return r.pairs.empty() ? -1.0 : r.pairs[0].time_to_collision;
+  };
+  EXPECT_EQ(ttc(3.0 * (1.0 - 1e-10), 1.0), std::numeric_limits<double>::infinity());
+  EXPECT_NEAR(ttc(3.0 - 3e-6, 1.1), 1e6, 1e-3);  // 3 m at 3e-6 m/s
+}
+
 // Settings::estimate_twists: bodies posed without twists (TF, PoseStamped) move as their last two
 // poses say. Spheres of 0.5 m; b comes at 1 m/s (dyadic steps: exact).
 TEST(WorldModel, EstimatedTwistsComeFromTheLastTwoPoses) {
@@ -3469,6 +3488,25 @@ TEST(WorldModel, EstimatedTwistsComeFromTheLastTwoPoses) {
   ASSERT_TRUE(w.setPose("b", at(2.75), 3.25));
   ASSERT_TRUE(w.setPose("a", at(0.25), 3.25));
   EXPECT_EQ(ttc(3.25), inf);
+}
+
+// A body that keeps its orientation only translates: R R^T of a turned R rounds to a turn of
+// ~1e-17 rad, which counted as turning would put a contact beyond ttc_horizon (10 s) at +inf.
+TEST(WorldModel, EstimatedTwistOfATurnedBodyThatOnlyTranslatesIsExact) {
+  Settings s = dyadic();
+  s.warning_distance = 5.0;
+  s.estimate_twists = true;
+  WorldModel w(s);
+  addSpheres(w, {"a", "b"}, 0.5);
+  ASSERT_TRUE(w.setPose("a", at(0), 0.0));
+  Transform3 T = at(4);
+  T.R = Eigen::AngleAxisd(0.7, Vec3(1, 2, 3).normalized()).toRotationMatrix();
+  ASSERT_TRUE(w.setPose("b", T, 1.0));
+  T.t.x() -= 0.03125;  // 0.125 m/s
+  ASSERT_TRUE(w.setPose("b", T, 1.25));
+  const CycleResult r = w.check(1.25);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  EXPECT_EQ(r.pairs[0].time_to_collision, (4.0 - 0.03125 - 1.0) / 0.125);  // 23.75 s
 }
 
 // A turn: an arm, a 0.5 m sphere on a 2 m lever about its body origin, posed 0.25 rad further
