@@ -132,7 +132,7 @@ struct Settings {
   /// that takes the older pose to the newer one, as time_to_collision reads a twist). Again at the
   /// held stamp, the body keeps the twist it has. Without the two (its first pose, a static
   /// one, a gap longer than pose_timeout) or where they are the same, the body is at rest. For
-  /// sources that give no twist (TF, PoseStamped): false, such a body is always at rest.
+  /// the sources that give no twist (TF, PoseStamped). false: a pose without a twist is at rest.
   bool estimate_twists = false;
 };
 
