@@ -3422,18 +3422,21 @@ TEST(WorldModel, TimeToCollisionOfTranslatingBodiesIsExact) {
 // followed in the bodies' own coordinates, however late the contact.
 TEST(WorldModel, TimeToCollisionOfBodiesMovingTogetherIsNever) {
   const auto w = twoSpheresInWarningReach(0.5);
-  const auto ttc = [&](double vb, double t) {
+  const auto ttc = [&](double vb, double t, double xb = 4.0) {
     Twist ta, tb;
     ta.linear = Vec3(3, 0, 0);
     tb.linear = Vec3(vb, 0, 0);
     EXPECT_TRUE(w->setPose("a", at(0), t, ta));
-    EXPECT_TRUE(w->setPose("b", at(4), t, tb));
+    EXPECT_TRUE(w->setPose("b", at(xb), t, tb));
     const CycleResult r = w->check(t);
     EXPECT_EQ(r.pairs.size(), 1u);
     return r.pairs.empty() ? -1.0 : r.pairs[0].time_to_collision;
   };
   EXPECT_EQ(ttc(3.0 * (1.0 - 1e-10), 1.0), std::numeric_limits<double>::infinity());
   EXPECT_NEAR(ttc(3.0 - 3e-6, 1.1), 1e6, 1e-3);  // 3 m at 3e-6 m/s
+  // 3.1 m at 2^-27 m/s (7.5e-9 m/s, 2.5e-9 of the speed): 4.2e8 s, B moved 3.1 m (each body
+  // moved by its own velocity would be 1.2e9 m out, where doubles are 2.4e-7 m apart).
+  EXPECT_NEAR(ttc(3.0 - std::ldexp(1.0, -27), 1.2, 4.1), 3.1 * std::ldexp(1.0, 27), 1e-3);
 }
 
 // Settings::estimate_twists: bodies posed without twists (TF, PoseStamped) move as their last two
