@@ -216,13 +216,15 @@ class Load:
             got.clear()
 
     def reconfigure(self):
-        """dynamic_reconfigure every 0.25 s: thresholds, align_poses, the rate, the backend."""
+        """dynamic_reconfigure every 0.25 s: thresholds, align_poses, estimate_twists, the rate,
+        the backend."""
         client = Client(self.m.node, timeout=30.0)
         k = 0
         while not self.stop.is_set():
             client.update_configuration({
                 'warning_distance': 0.05 + 0.05 * (k % 2), 'align_poses': k % 3 != 0,
-                'rate': 20.0 + 10.0 * (k % 2), 'backend': 'libccd' if k % 5 == 4 else 'gjk'})
+                'estimate_twists': k % 4 >= 2, 'rate': 20.0 + 10.0 * (k % 2),
+                'backend': 'libccd' if k % 5 == 4 else 'gjk'})
             self.count('reconfigurations')
             k += 1
             self.stop.wait(0.25)
