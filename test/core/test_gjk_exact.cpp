@@ -450,6 +450,48 @@ TEST(ExactCurved, CylinderAgainstBoxFace) {
   expectVecNear(p.normal, Vec3::UnitX(), 1e-5);  // curved side: see PointInsideSphereAndCylinder
 }
 
+TEST(ExactCurved, CylinderThroughABoxFaceHasWitnessesOnBoth) {
+  // fuzz_world's certificate of curved parts: a 0.01 m cylinder parallel to a box's faces, through
+  // its -z face. A - B's face along the normal is made of coplanar triangles; EPA's nearest was
+  // one that does not hold d n, and its extrapolated weights put the witness 6 mm off the box.
+  // In the box's frame (half sides 0.08, 0.2, 0.2) the cylinder (half height 0.08) stands at
+  // (-0.0505, -0.01625, -0.2125): x in [-0.0605, -0.0405], y in [-0.02625, -0.00625], z in
+  // [-0.2925, -0.1325]. Exits: -x 0.08 - 0.0405 = 0.0395, -z 0.2 - 0.1325 = 0.0675, +x 0.1405,
+  // -y 0.19375, +y 0.22625: depth 0.0395, B moved along -x. Witnesses: on the box's face x = -0.08
+  // and the cylinder's line x = -0.0405, y = -0.01625, at one z where both are: [-0.2, -0.1325].
+  const ConvexShape box = ConvexShape::box(Vec3(0.16, 0.4, 0.4));
+  const ConvexShape cyl = ConvexShape::cylinder(0.16, 0.01);
+  const Vec3 local(-0.0505, -0.01625, -0.2125);
+  int n = 0;
+  for (const double angle : {0.0, 0.7, 2.1, -0.4, 1.3}) {
+    for (const Vec3& axis : {Vec3(1.0, -1.0, 0.5), Vec3(0.2, 1.0, 0.0), Vec3(0.0, 0.3, 1.0)}) {
+      const Transform3 A = rotAt(angle, axis, Vec3(-0.3675, 0.5325, 0.16725));
+      Transform3 B = A;
+      B.t = A * local;
+      for (const bool swap : {false, true}) {
+        const ContactResult r =
+            swap ? cm::signedDistance(cyl, B, box, A) : cm::signedDistance(box, A, cyl, B);
+        EXPECT_NEAR(r.distance, -0.0395, 1e-9);
+        expectConsistent(r, 1e-6);
+        expectVecNear(A.R.transpose() * r.normal, Vec3(swap ? 1.0 : -1.0, 0.0, 0.0), 1e-9);
+        const Vec3 on_box = A.inverse() * (swap ? r.point_b : r.point_a);
+        const Vec3 on_cyl = A.inverse() * (swap ? r.point_a : r.point_b);
+        // Across the cylinder's curved side its line is found to the square root of EPA's
+        // tolerance (2.8e-8 m off y = -0.01625 here): 1e-6.
+        EXPECT_NEAR(on_box.x(), -0.08, 1e-9);
+        EXPECT_NEAR(on_box.y(), -0.01625, 1e-6);
+        EXPECT_GE(on_box.z(), -0.2 - 1e-9) << "angle " << angle << " swap " << swap;
+        EXPECT_LE(on_box.z(), -0.1325 + 1e-9) << "angle " << angle << " swap " << swap;
+        EXPECT_NEAR(on_cyl.x(), -0.0405, 1e-9);
+        EXPECT_NEAR(on_cyl.y(), on_box.y(), 1e-9);
+        EXPECT_NEAR(on_cyl.z(), on_box.z(), 1e-9);
+        ++n;
+      }
+    }
+  }
+  EXPECT_EQ(n, 30);
+}
+
 TEST(ExactCurved, ConeApexBaseAndRimAgainstBoxFaces) {
   const ConvexShape cone = ConvexShape::cone(2.0, 1.0);  // apex z = 1, base z = -1, radius 1
   const ConvexShape box = ConvexShape::box(Vec3(2, 2, 2));

@@ -708,8 +708,34 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
   if (have_best) {
     r.depth = best.d;
     r.normal = best.n;
-    detail::epaWitness3(verts[best.v[0]], verts[best.v[1]], verts[best.v[2]], best.d * best.n,
-                        r.point_a, r.point_b);
+    const Vec3 p = best.d * best.n;
+    // The witnesses come from the face that holds p = d n. Faces tied with the nearest one
+    // (coplanar faces of A - B, as a box's face and a cylinder's side parallel to it make) may
+    // hold it where the nearest does not: p's weights there are negative and give witness points
+    // off the shapes (a 0.01 m cylinder through a box's face: 6 mm off the box; found by
+    // fuzz_world's certificate of curved parts, test
+    // EpaTest.WitnessesFromTheTiedFaceThatHoldsThem). So, converged, walk across the edge of the
+    // most negative weight to a face as near (within the convergence tolerance), a few steps at
+    // most.
+    Face at = best;
+    if (r.status == EpaStatus::Converged) {
+      const double slack = st.rel_tolerance * std::abs(best.d) + tol;
+      for (int step = 0; step < 8; ++step) {
+        const Vec3 &w0 = verts[at.v[0]].w, &w1 = verts[at.v[1]].w, &w2 = verts[at.v[2]].w;
+        const Vec3 n = (w1 - w0).cross(w2 - w0);
+        const double nn = n.squaredNorm();
+        if (!(nn > 0.0)) break;
+        const double l0 = n.dot((w1 - p).cross(w2 - p)) / nn;
+        const double l1 = n.dot((w2 - p).cross(w0 - p)) / nn;
+        const double l[3] = {l0, l1, 1.0 - l0 - l1};
+        const int k = static_cast<int>(std::min_element(l, l + 3) - l);
+        if (!(l[k] < -1e-12)) break;
+        const int g = at.adj[(k + 1) % 3];  // across the edge (v[k + 1], v[k + 2])
+        if (g < 0 || !faces[g].alive || !(faces[g].d <= best.d + slack)) break;
+        at = faces[g];
+      }
+    }
+    detail::epaWitness3(verts[at.v[0]], verts[at.v[1]], verts[at.v[2]], p, r.point_a, r.point_b);
     progress.settle(md, upper, best.d, st.rel_tolerance * std::abs(best.d) + tol, r.status);
   }
   upper.applyTo(r);
