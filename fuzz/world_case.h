@@ -42,6 +42,7 @@
 #include <optional>
 #include <set>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <tuple>
 #include <utility>
@@ -82,6 +83,8 @@ struct Outcome {
   int ttc_rotating = 0;     ///< of them, with a body turning
   int ttc_lower_bound = 0;  ///< of those, a lower bound short of the contact (128 steps ran out)
   int ttc_skipped = 0;      ///< left unjudged: the reference's search ran out of evaluations
+  bool curved = false;      ///< some parts cylinders, cones or ellipsoids (a case of boxes)
+  int certified = 0;        ///< distances of curved parts certified (certifiedDistance())
   /// The least of those lower bounds as a fraction of the time the bodies come within 1e-7 m of
   /// contact_distance (1 without one; a later contact than the horizon counts as the horizon).
   double ttc_least_fraction = 1.0;
@@ -138,7 +141,193 @@ struct RefPart {
   /// as (oracle::makeHull(), which keeps them as `points`), about the centre before `turn`: its
   /// faces, edges and facet planes, moved to each pose as they are.
   std::shared_ptr<const oracle::Hull> hull;
+  /// A curved part (rounded by the radius, 0 or more), about the centre, its axes `turn`: a
+  /// cylinder or a cone (the cone centred like shape_msgs: base at -z, apex at +z), `size` its
+  /// (radius, radius, half height), or an ellipsoid, `size` its semi-axes.
+  enum class Curved { None, Cylinder, Cone, Ellipsoid };
+  Curved curved = Curved::None;
+  Vec3 size = Vec3::Zero();
+  /// Its core as the core library has it (coreShape()), placed at the centre, turned by `turn`:
+  /// for the distances of curved parts, which the reference takes from the core and certifies
+  /// (certifiedDistance()).
+  std::shared_ptr<const ConvexShape> shape;
 };
+
+/// Part x's core as a ConvexShape in the part's frame (about its centre, before `turn`).
+inline std::shared_ptr<const ConvexShape> coreShape(const RefPart& x) {
+  using C = RefPart::Curved;
+  const double r = x.size.x(), h = 2.0 * x.size.z();
+  if (x.curved == C::Cylinder) return std::make_shared<ConvexShape>(ConvexShape::cylinder(h, r));
+  if (x.curved == C::Cone) return std::make_shared<ConvexShape>(ConvexShape::cone(h, r));
+  if (x.curved == C::Ellipsoid)
+    return std::make_shared<ConvexShape>(ConvexShape::ellipsoid(x.size));
+  if (x.hull) return std::make_shared<ConvexShape>(ConvexShape::convexHull(x.hull->points));
+  if (x.box) return std::make_shared<ConvexShape>(ConvexShape::box(2.0 * x.box_half));
+  if (x.half.isZero(0.0)) return std::make_shared<ConvexShape>(ConvexShape::point(Vec3::Zero()));
+  return std::make_shared<ConvexShape>(ConvexShape::segment(-x.half, x.half));
+}
+
+/// A part's core placed in the fixed frame: its axes and centre.
+struct PlacedPart {
+  const RefPart* x;
+  Eigen::Matrix3d axes;
+  Vec3 centre;
+
+  /// Its support point along u (fixed frame): the point of the core farthest along u, from the
+  /// shape's definition (written apart from the core's support mappings, which it checks).
+  Vec3 support(const Vec3& u) const {
+    using C = RefPart::Curved;
+    const Vec3 l = axes.transpose() * u;  // u in the part's frame
+    const Vec3& a = x->size;
+    const double xy = std::hypot(l.x(), l.y());
+    const auto rim = [&](double z) {  // the point of the rim at height z farthest along l
+      return xy > 0.0 ? Vec3(a.x() * l.x() / xy, a.x() * l.y() / xy, z) : Vec3(0.0, 0.0, z);
+    };
+    Vec3 p;
+    if (x->curved == C::Cylinder) {
+      p = rim(l.z() >= 0.0 ? a.z() : -a.z());
+    } else if (x->curved == C::Cone) {
+      const Vec3 apex(0.0, 0.0, a.z()), base = rim(-a.z());
+      p = l.dot(apex) >= l.dot(base) ? apex : base;
+    } else if (x->curved == C::Ellipsoid) {
+      const Vec3 s = a.cwiseProduct(l);  // D l, D = diag(semi-axes): the point is D^2 l / |D l|
+      p = s.norm() > 0.0 ? Vec3(a.cwiseProduct(s) / s.norm()) : Vec3::Zero();
+    } else if (x->hull) {
+      p = x->hull->points.front();
+      for (const Vec3& v : x->hull->points)
+        if (l.dot(v) > l.dot(p)) p = v;
+    } else if (x->box) {
+      p = Vec3(l.x() >= 0.0 ? 1.0 : -1.0, l.y() >= 0.0 ? 1.0 : -1.0, l.z() >= 0.0 ? 1.0 : -1.0)
+              .cwiseProduct(x->box_half);
+    } else {
+      p = l.dot(x->half) >= 0.0 ? x->half : Vec3(-x->half);
+    }
+    return centre + axes * p;
+  }
+  std::string describe() const {
+    static const char* const curved[] = {"", "cylinder", "cone", "ellipsoid"};
+    std::ostringstream out;
+    out.precision(17);
+    out << (x->curved != RefPart::Curved::None ? curved[static_cast<int>(x->curved)]
+            : x->hull                          ? "hull"
+            : x->box                           ? "box"
+                                               : "segment")
+        << " ("
+        << (x->curved != RefPart::Curved::None ? x->size
+            : x->box                           ? x->box_half
+                                               : x->half)
+               .transpose()
+        << ") at (" << centre.transpose() << ") axes (" << axes.row(0) << "; " << axes.row(1)
+        << "; " << axes.row(2) << ")";
+    return out.str();
+  }
+  /// How far the point q (fixed frame) is outside the core: 0 inside, else its distance, or
+  /// for a cone or an ellipsoid a bound of the same order (a cone's: the larger of the two
+  /// planes' excess and the slant's; an ellipsoid's: |D^-1 q| - 1 times its largest semi-axis).
+  double outside(const Vec3& q) const {
+    using C = RefPart::Curved;
+    const Vec3 l = axes.transpose() * (q - centre);
+    const Vec3& a = x->size;
+    const double xy = std::hypot(l.x(), l.y());
+    if (x->curved == C::Cylinder) return std::max({0.0, std::abs(l.z()) - a.z(), xy - a.x()});
+    if (x->curved == C::Cone) {
+      // Its radius at height z is a.x() (a.z() - z) / (2 a.z()); the slant's excess measured
+      // across it.
+      const double slant =
+          (xy - a.x() * (a.z() - l.z()) / (2.0 * a.z())) / std::hypot(1.0, a.x() / (2.0 * a.z()));
+      return std::max({0.0, std::abs(l.z()) - a.z(), slant});
+    }
+    if (x->curved == C::Ellipsoid)
+      return std::max(0.0, (l.cwiseQuotient(a).norm() - 1.0) * a.maxCoeff());
+    if (x->hull) return std::max(0.0, oracle::signedDistance(*x->hull, l));
+    if (x->box) return (l.cwiseAbs() - x->box_half).cwiseMax(0.0).norm();
+    return (l - oracle::closestPointSegment(l, -x->half, x->half)).norm();
+  }
+};
+
+/// A certificate that failed: certifiedDistance() throws it, Run::go() reports it.
+struct Uncertified : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// The cores' directions the certificate of an overlap tries against its depth: the axes, the
+/// cube's diagonals and the edges' midpoints (26), and each part's axes.
+inline const std::vector<Vec3>& probeDirections() {
+  static const std::vector<Vec3> dirs = [] {
+    std::vector<Vec3> d;
+    for (int i = -1; i <= 1; ++i)
+      for (int j = -1; j <= 1; ++j)
+        for (int k = -1; k <= 1; ++k)
+          if (i || j || k) d.push_back(Vec3(i, j, k).normalized());
+    return d;
+  }();
+  return dirs;
+}
+
+/// The signed distance of two part cores (at least one curved: no closed form), by the core
+/// library (core::signedDistance()), certified from the shapes' own definitions
+/// (PlacedPart::support(), outside()): apart, its witness points lie on the cores and the
+/// supports along its normal leave no more than kCertTol between the witness points' distance
+/// and the separating planes' (a lower bound of the distance): the distance is exact to
+/// kCertTol. Overlapping, the cores overlap along its normal by its depth, and along no probe
+/// direction (probeDirections(), the parts' axes) by less (the depth is the least overlap over
+/// every direction): an upper bound, and a falsification test. Throws Uncertified. The
+/// tolerance grows by 1e-11 of the distance and the cores' distances from the origin.
+inline constexpr double kCertTol = 1e-9;
+inline double certifiedDistance(const PlacedPart& p, const PlacedPart& q, int* certified) {
+  namespace cc = collision_monitor::core;
+  const cc::ContactResult c = cc::signedDistance(*p.x->shape, cc::Transform3{p.axes, p.centre},
+                                                 *q.x->shape, cc::Transform3{q.axes, q.centre});
+  // The overlap of the cores along u: > 0 overlapping that far, < 0 a separating gap.
+  const auto overlap = [&](const Vec3& u) { return u.dot(p.support(u)) - u.dot(q.support(-u)); };
+  // Far out (a time-to-collision search places bodies hundreds of metres away) GJK converges
+  // to its relative tolerance and rounding grows with the coordinates.
+  const double tol = kCertTol + 1e-11 * (std::abs(c.distance) + p.centre.norm() + q.centre.norm());
+  std::ostringstream why;
+  why.precision(17);
+  const Vec3& n = c.normal;
+  if (!std::isfinite(c.distance) || !(std::abs(n.norm() - 1.0) <= 1e-12)) {
+    why << "signed distance " << c.distance << ", normal (" << n.transpose() << ")";
+  } else if (p.outside(c.point_a) > tol || q.outside(c.point_b) > tol) {
+    why << "witness points " << p.outside(c.point_a) << " and " << q.outside(c.point_b)
+        << " m off the cores";
+  } else if (c.distance > 0.0) {
+    const double upper = (c.point_b - c.point_a).norm(), lower = -overlap(n);
+    if (!(upper - c.distance <= tol && c.distance - upper <= tol && c.distance - lower <= tol)) {
+      why << "distance " << c.distance << " between the separating planes' " << lower
+          << " and the witness points' " << upper;
+    }
+  } else {
+    const double depth = -c.distance;
+    if (!(std::abs(overlap(n) - depth) <= tol)) {
+      why << "depth " << depth << " where the cores overlap " << overlap(n) << " along the normal";
+    } else {
+      std::vector<Vec3> dirs = probeDirections();
+      for (const PlacedPart* x : {&p, &q})
+        for (int k = 0; k < 3; ++k)
+          dirs.push_back(x->axes.col(k));
+      for (const Vec3& u : dirs) {
+        for (const Vec3& v : {u, Vec3(-u)}) {
+          if (overlap(v) < depth - tol) {
+            why << "depth " << depth << " where the cores overlap only " << overlap(v) << " along ("
+                << v.transpose() << ")";
+            break;
+          }
+        }
+        if (why.tellp() > 0) break;
+      }
+    }
+  }
+  if (why.tellp() > 0) {
+    why << " (status " << cc::toString(c.status) << ", distance " << c.distance
+        << ", witness points (" << c.point_a.transpose() << ") and (" << c.point_b.transpose()
+        << "), normal (" << n.transpose() << "); cores " << p.describe() << " and " << q.describe()
+        << ")";
+    throw Uncertified("the core's distance of two parts not certified: " + why.str());
+  }
+  ++*certified;
+  return c.distance;
+}
 
 /// A part's core in the fixed frame as coreDistance() takes it: a box (its centre, axes and half
 /// sides), a convex hull (qhull's, placed), or a segment from a to b (a point when they are
@@ -392,10 +581,15 @@ class Run {
 
   Outcome go() {
     const auto t0 = std::chrono::steady_clock::now();
-    setUp();
-    for (int op = 0; op < 200 && !in_.done() && out_.failure.empty(); ++op)
-      step();
-    if (out_.failure.empty()) check();  // the state the last operations left
+    try {
+      setUp();
+      for (int op = 0; op < 200 && !in_.done() && out_.failure.empty(); ++op)
+        step();
+      if (out_.failure.empty()) check();  // the state the last operations left
+    } catch (const Uncertified& e) {
+      fail(e.what());
+    }
+    out_.certified = certified_;
     out_.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     return out_;
   }
@@ -524,7 +718,17 @@ class Run {
           const std::uint8_t t = in_.byte();
           part.turn = turn[t % 4].toRotationMatrix();
           part.box = true;
-          if (hulls_ && (t & 4)) {
+          if (t & 16) {
+            using C = RefPart::Curved;
+            static const C kinds[] = {C::Cylinder, C::Cone, C::Ellipsoid, C::Cylinder};
+            part.curved = kinds[(t >> 5) % 4];
+            part.size = part.curved == C::Ellipsoid
+                            ? part.box_half
+                            : Vec3(part.box_half.x(), part.box_half.x(), part.box_half.z());
+            part.box = false;
+            part.box_half = Vec3::Zero();
+            out_.curved = true;
+          } else if (hulls_ && (t & 4)) {
             part.hull = std::make_shared<const oracle::Hull>(
                 oracle::makeHull(hullPoints(part.box_half, (t & 8) != 0, in_.byte())));
             part.box = false;
@@ -532,6 +736,7 @@ class Run {
           }
         }
       }
+      part.shape = coreShape(part);
     }
     b.group = (k & 0x80) && (k & 0x40) ? "g" : "";
     cw::BodySpec spec;
@@ -544,9 +749,8 @@ class Run {
                               : ConvexShape::sphere(x.radius),
                     cw::Transform3::Identity()};
       part.pose.t = x.centre;
-      if (x.box || x.hull) {
-        part.shape =
-            x.box ? ConvexShape::box(2.0 * x.box_half) : ConvexShape::convexHull(x.hull->points);
+      if (x.box || x.hull || x.curved != RefPart::Curved::None) {
+        part.shape = *x.shape;
         if (x.radius > 0.0) part.shape = part.shape.padded(x.radius);
         part.pose.R = x.turn;
       } else if (x.half != Vec3::Zero()) {
@@ -560,6 +764,11 @@ class Run {
       log_ << " r " << x.radius << " at (" << x.centre.transpose() << ") half ("
            << x.half.transpose() << ")";
       if (x.box) log_ << " box (" << x.box_half.transpose() << ") turned " << x.turn.row(0);
+      if (x.curved != RefPart::Curved::None) {
+        static const char* const names[] = {"", "cylinder", "cone", "ellipsoid"};
+        log_ << " " << names[static_cast<int>(x.curved)] << " (" << x.size.transpose()
+             << ") turned " << x.turn.row(0);
+      }
       if (x.hull) {
         log_ << " hull of";
         for (const Vec3& v : x.hull->points)
@@ -890,14 +1099,25 @@ class Run {
     }
     return core;
   }
+  /// Part x of body b at pose p, placed.
+  static PlacedPart placedPart(const RefBody& b, const RefPose& p, const RefPart& x) {
+    return {&x, Eigen::AngleAxisd(p.angle, b.axis).toRotationMatrix() * x.turn,
+            pointAt(b, p, x.centre)};
+  }
   /// Exact signed distance of bodies A and B at poses pa and pb: closed form between segments
   /// (spheres and capsules), separating axes and closest features with a box or a hull
-  /// (coreDistance()).
-  static double bodyDistance(const RefBody& A, const RefPose& pa, const RefBody& B,
-                             const RefPose& pb) {
+  /// (coreDistance()), the core's distance certified with a curved part (certifiedDistance()).
+  double bodyDistance(const RefBody& A, const RefPose& pa, const RefBody& B,
+                      const RefPose& pb) const {
     double best = kInf;
     for (const RefPart& x : A.parts) {
       for (const RefPart& y : B.parts) {
+        if (x.curved != RefPart::Curved::None || y.curved != RefPart::Curved::None) {
+          const double apart =
+              certifiedDistance(placedPart(A, pa, x), placedPart(B, pb, y), &certified_);
+          best = std::min(best, apart - x.radius - y.radius);
+          continue;
+        }
         if (x.box || y.box || x.hull || y.hull) {
           const double apart = coreDistance(placedCore(A, pa, x), placedCore(B, pb, y));
           best = std::min(best, apart - x.radius - y.radius);
@@ -932,10 +1152,16 @@ class Run {
   /// of two hulls and 120 of a hull and a box (coreDistance() took 26.2 and 8.5 us where two
   /// boxes took 1.83 us), 20 of a hull and a capsule or sphere (3.9 us where a box and a segment
   /// took 0.79 us).
+  /// With a curved part, 30 (the core's distance and its certificate: about 3 us apart,
+  /// EPA's overlaps longer).
   static double distanceWork(const RefBody& A, const RefBody& B) {
     double work = 0.0;
     for (const RefPart& x : A.parts) {
       for (const RefPart& y : B.parts) {
+        if (x.curved != RefPart::Curved::None || y.curved != RefPart::Curved::None) {
+          work += 30.0;
+          continue;
+        }
         if (x.hull || y.hull) {
           work += x.hull && y.hull ? 360.0 : x.box || y.box ? 120.0 : 20.0;
           continue;
@@ -981,6 +1207,9 @@ class Run {
     double r = 0.0;
     for (const RefPart& x : b.parts) {
       double out = x.half.norm() + x.box_half.norm();
+      if (x.curved == RefPart::Curved::Ellipsoid) out = x.size.maxCoeff();
+      if (x.curved == RefPart::Curved::Cylinder || x.curved == RefPart::Curved::Cone)
+        out = std::hypot(x.size.x(), x.size.z());
       if (x.hull)
         for (const Vec3& v : x.hull->points)
           out = std::max(out, v.norm());
@@ -1548,6 +1777,7 @@ class Run {
     static const RefBody probe = [] {
       RefBody b;
       b.parts.push_back({Vec3::Zero(), Vec3::Zero(), kProbeRadius});
+      b.parts.back().shape = coreShape(b.parts.back());
       return b;
     }();
     return probe;
@@ -1670,15 +1900,16 @@ class Run {
   Outcome out_;
   cw::Settings s_;
   bool exact_ = false;
-  bool frames_ = false;      ///< align_poses, every body posed at each frame's stamp
-  bool rates_ = false;       ///< frames: only some bodies posed at a frame
-  bool turns_ = false;       ///< bodies turn (each about its own axis), not only move
-  bool clock_back_ = false;  ///< frames: the clock may go back, a check at once
-  bool capsules_ = false;    ///< bodies of capsules (segments swept by a radius), not spheres
-  bool boxes_ = false;       ///< some parts boxes (rounded or not), the others as they would be
-  bool hulls_ = false;       ///< boxes: some of them convex hulls instead (rounded or not)
-  double ttc_work_ = 0.0;    ///< the time-to-collision searches' work so far (kCaseBudget)
-  bool twists_ = false;      ///< align_poses off: poses with twists (times to collision)
+  bool frames_ = false;        ///< align_poses, every body posed at each frame's stamp
+  bool rates_ = false;         ///< frames: only some bodies posed at a frame
+  bool turns_ = false;         ///< bodies turn (each about its own axis), not only move
+  bool clock_back_ = false;    ///< frames: the clock may go back, a check at once
+  bool capsules_ = false;      ///< bodies of capsules (segments swept by a radius), not spheres
+  bool boxes_ = false;         ///< some parts boxes (rounded or not), the others as they would be
+  bool hulls_ = false;         ///< boxes: some of them convex hulls instead (rounded or not)
+  double ttc_work_ = 0.0;      ///< the time-to-collision searches' work so far (kCaseBudget)
+  mutable int certified_ = 0;  ///< Outcome::certified (the reference's distances are const)
+  bool twists_ = false;        ///< align_poses off: poses with twists (times to collision)
   std::int64_t frame_ns_ = 0;
   std::optional<std::int64_t> span_from_;       ///< the first frame's stamp since the last check
   std::optional<std::int64_t> oldest_checked_;  ///< the oldest stamp of a fresh body then

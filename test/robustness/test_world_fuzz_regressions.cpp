@@ -25,9 +25,9 @@ using cm_fuzz_inputs::inputs;
 
 struct Tally {
   int files = 0, exact = 0, frames = 0, turns = 0, clock_back = 0, capsules = 0, boxes = 0,
-      hulls = 0, twists = 0, estimated = 0, rates_twists = 0, checks = 0, events = 0,
-      collisions = 0, ttc_checked = 0, ttc_finite = 0, ttc_estimated = 0, ttc_rotating = 0,
-      ttc_lower_bound = 0, ttc_skipped = 0;
+      hulls = 0, curved = 0, certified = 0, twists = 0, estimated = 0, rates_twists = 0, checks = 0,
+      events = 0, collisions = 0, ttc_checked = 0, ttc_finite = 0, ttc_estimated = 0,
+      ttc_rotating = 0, ttc_lower_bound = 0, ttc_skipped = 0;
   double ttc_least_fraction = 1.0, slowest = 0.0;
 };
 
@@ -45,6 +45,8 @@ Tally replay(const std::string& dir) {
     t.capsules += out.capsules && out.exact;
     t.boxes += out.boxes && out.exact;
     t.hulls += out.hulls && out.exact;
+    t.curved += out.curved && out.exact;
+    t.certified += out.certified;
     t.twists += out.twists && out.exact;
     t.estimated += out.estimated && out.exact;
     t.rates_twists += out.twists && out.rates;
@@ -62,16 +64,17 @@ Tally replay(const std::string& dir) {
   }
   std::printf(
       "%s: %d inputs (%d against the reference model, %d of them in frames, %d of those with the "
-      "clock going back, %d with bodies that turn, %d of capsules, %d with boxes (%d with hulls), "
+      "clock going back, %d with bodies that turn, %d of capsules, %d with boxes (%d with hulls, "
+      "%d with cylinders, cones or ellipsoids: %d of their distances certified), "
       "%d with twists (%d with estimate_twists), "
       "%d of those in frames with rates), %d checks, %d events (%d COLLISION_BEGIN), %d times to "
       "collision held to the reference (%d finite and not 0, %d of them with an estimated twist; "
       "%d of a turning body, %d of those a lower bound, the least %.4f of the time to the "
       "contact; %d left unjudged), slowest %.1f ms\n",
       dir.c_str(), t.files, t.exact, t.frames, t.clock_back, t.turns, t.capsules, t.boxes, t.hulls,
-      t.twists, t.estimated, t.rates_twists, t.checks, t.events, t.collisions, t.ttc_checked,
-      t.ttc_finite, t.ttc_estimated, t.ttc_rotating, t.ttc_lower_bound, t.ttc_least_fraction,
-      t.ttc_skipped, 1e3 * t.slowest);
+      t.curved, t.certified, t.twists, t.estimated, t.rates_twists, t.checks, t.events,
+      t.collisions, t.ttc_checked, t.ttc_finite, t.ttc_estimated, t.ttc_rotating, t.ttc_lower_bound,
+      t.ttc_least_fraction, t.ttc_skipped, 1e3 * t.slowest);
   return t;
 }
 
@@ -99,6 +102,9 @@ TEST(WorldFuzzRegressions, SeedCorpusPassesAndIsMeaningful) {
   EXPECT_GE(t.twists, t.files / 40);
   EXPECT_GE(t.boxes, t.files / 40);
   EXPECT_GE(t.hulls, t.files / 40);
+  // Cylinders, cones and ellipsoids: the core's distances of them certified (237 a seed).
+  EXPECT_GE(t.curved, t.files / 40);
+  EXPECT_GE(t.certified, 50 * t.files);
   EXPECT_GE(t.rates_twists, t.files / 40);
   EXPECT_GE(t.ttc_checked, 4 * t.files);
   EXPECT_GE(t.ttc_finite, t.files / 4);
