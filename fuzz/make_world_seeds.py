@@ -9,7 +9,9 @@ them turning: 32 with align_poses off, one in eight of those with libccd, and 32
 without rates; the 64 after those the same with boxes: their sixth byte, the second settings
 byte of a case with twists, has bits 3 and 4; the 32 after those with boxes and hulls, bit 6 of
 that byte too, half with align_poses off and half in frames without rates; bit 7 of that byte,
-random, turns estimate_twists on in about half of the cases with twists), then random bytes: world_case.h decodes any bytes, so random ones are a fair
+random, turns estimate_twists on in about half of the cases with twists; in every case of boxes
+about half the boxes are cylinders, cones or ellipsoids, by a random bit of their turn's byte),
+then random bytes: world_case.h decodes any bytes, so random ones are a fair
 sample of its operations (poses, checks, replacements, removals, queries). Lengths from 40 to
 1,200 bytes (600 at least with twists: times to collision are held to the reference only at
 pairs near enough to be listed, at their events and at queries).

@@ -5,8 +5,9 @@
 #                                       # (scripts/test.sh, the CI run: a fixed seed and input count)
 # Targets: fuzz_core (fuzz/fuzz_core.cpp: two shapes, two poses, every query, against an oracle),
 # fuzz_world (fuzz/fuzz_world.cpp: sequences of poses, checks, body changes and queries on bodies
-# of spheres, capsules, boxes or convex hulls that move, and turn in some cases, every check held
-# to the contract and, with align_poses off or bodies posed in frames, to a reference model) and
+# of spheres, capsules, boxes, convex hulls, cylinders, cones or ellipsoids that move, and turn in
+# some cases, every check held to the contract and, with align_poses off or bodies posed in
+# frames, to a reference model) and
 # fuzz_ros_input (fuzz/fuzz_ros_input.cpp: ~bodies, ~body_poses and ~check_collision on the wire,
 # URDF, SRDF and the ~bodies parameter through the node's own functions). fuzz_ros_input needs the
 # message headers of a main build ($CM_BUILD/devel/include); without them only fuzz_core and
