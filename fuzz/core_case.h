@@ -418,9 +418,11 @@ inline std::optional<double> outsideOf(const ShapeSpec& s, const Vec3& x) {
       break;
     }
     case ShapeSpec::Ellipsoid:
-      // Flatter than kMaxCurvedAspect (a 4.9e-324 m semi-axis): S^-1 x overflows.
+      // (|S^-1 x| - 1) m as |x m S^-1| - m (m the least semi-axis): S^-1 x overflowed on
+      // semi-axes of 4.9e-324 m. Flatter than kMaxCurvedAspect (a semi-axis 0): not checked.
       if (!(s.dims.minCoeff() * kMaxCurvedAspect >= s.dims.maxCoeff())) return std::nullopt;
-      core = std::max(0.0, (x.cwiseQuotient(s.dims).stableNorm() - 1.0) * s.dims.minCoeff());
+      core = std::max(0.0, x.cwiseProduct(Vec3(s.dims.minCoeff() / s.dims.array())).stableNorm() -
+                               s.dims.minCoeff());
       break;
     case ShapeSpec::Point:
       core = (x - s.pts[0]).norm();

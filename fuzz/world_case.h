@@ -255,7 +255,7 @@ struct PlacedPart {
       return std::max({0.0, std::abs(l.z()) - a.z(), slant});
     }
     if (x->curved == C::Ellipsoid)
-      return std::max(0.0, (l.cwiseQuotient(a).norm() - 1.0) * a.minCoeff());
+      return std::max(0.0, l.cwiseProduct(Vec3(a.minCoeff() / a.array())).norm() - a.minCoeff());
     if (x->hull) return std::max(0.0, oracle::signedDistance(*x->hull, l));
     if (x->box) return (l.cwiseAbs() - x->box_half).cwiseMax(0.0).norm();
     return (l - oracle::closestPointSegment(l, -x->half, x->half)).norm();
