@@ -97,25 +97,29 @@ bool contains(const std::array<int, N>& ids, int n, int id) {
 /// a jittered 5281 m cube holding a point put the witness on the cube 4.9e-4 m off its face,
 /// weighting the cube's points (fuzz/regressions/core/epa-witness-off-face-jittered-2640m-cube-
 /// holding-point); the point's own witness is now the point, and the cube's is it plus p.
+/// Barycentric weights of p's projection on the plane of the triangle w0, w1, w2 (a third each
+/// for a triangle without area).
+inline std::array<double, 3> faceWeights(const Vec3& w0, const Vec3& w1, const Vec3& w2,
+                                         const Vec3& p) {
+  const Vec3 n = (w1 - w0).cross(w2 - w0);
+  const double nn = n.squaredNorm();
+  if (!(nn > 0.0)) return {1.0 / 3.0, 1.0 / 3.0, 1.0 / 3.0};
+  const double l0 = n.dot((w1 - p).cross(w2 - p)) / nn;
+  const double l1 = n.dot((w2 - p).cross(w0 - p)) / nn;
+  return {l0, l1, 1.0 - l0 - l1};
+}
+
 inline void epaWitness3(const SupportPoint<3>& p0, const SupportPoint<3>& p1,
                         const SupportPoint<3>& p2, const Vec3& p, Vec3& a, Vec3& b) {
-  const Vec3 n = (p1.w - p0.w).cross(p2.w - p0.w);
-  const double nn = n.squaredNorm();
-  double l0 = 1.0 / 3.0;
-  double l1 = 1.0 / 3.0;
-  if (nn > 0.0) {
-    l0 = n.dot((p1.w - p).cross(p2.w - p)) / nn;
-    l1 = n.dot((p2.w - p).cross(p0.w - p)) / nn;
-  }
-  const double l2 = 1.0 - l0 - l1;
+  const std::array<double, 3> l = faceWeights(p0.w, p1.w, p2.w, p);
   const Vec3 da1 = p1.a - p0.a, da2 = p2.a - p0.a;
   const Vec3 db1 = p1.b - p0.b, db2 = p2.b - p0.b;
   if (std::max(db1.squaredNorm(), db2.squaredNorm()) <=
       std::max(da1.squaredNorm(), da2.squaredNorm())) {
-    b = p0.b + l1 * db1 + l2 * db2;
+    b = p0.b + l[1] * db1 + l[2] * db2;
     a = b + p;
   } else {
-    a = p0.a + l1 * da1 + l2 * da2;
+    a = p0.a + l[1] * da1 + l[2] * da2;
     b = a - p;
   }
 }
@@ -713,22 +717,17 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
     // (coplanar faces of A - B, as a box's face and a cylinder's side parallel to it make) may
     // hold it where the nearest does not: p's weights there are negative and give witness points
     // off the shapes (a 0.01 m cylinder through a box's face: 6 mm off the box; found by
-    // fuzz_world's certificate of curved parts, test
-    // EpaTest.WitnessesFromTheTiedFaceThatHoldsThem). So, converged, walk across the edge of the
-    // most negative weight to a face as near (within the convergence tolerance), a few steps at
-    // most.
+    // fuzz_world's certificate of curved parts; test ExactCurved.CylinderThroughABoxFaceHas-
+    // WitnessesOnBoth, fuzz/regressions/core/epa-witness-off-cylinder-segment-in-mid-plane). So,
+    // converged, walk across the edge of the most negative weight to a face as near (within the
+    // convergence tolerance), a few steps at most.
     Face at = best;
     if (r.status == EpaStatus::Converged) {
       const double slack = st.rel_tolerance * std::abs(best.d) + tol;
       for (int step = 0; step < 8; ++step) {
-        const Vec3 &w0 = verts[at.v[0]].w, &w1 = verts[at.v[1]].w, &w2 = verts[at.v[2]].w;
-        const Vec3 n = (w1 - w0).cross(w2 - w0);
-        const double nn = n.squaredNorm();
-        if (!(nn > 0.0)) break;
-        const double l0 = n.dot((w1 - p).cross(w2 - p)) / nn;
-        const double l1 = n.dot((w2 - p).cross(w0 - p)) / nn;
-        const double l[3] = {l0, l1, 1.0 - l0 - l1};
-        const int k = static_cast<int>(std::min_element(l, l + 3) - l);
+        const std::array<double, 3> l =
+            detail::faceWeights(verts[at.v[0]].w, verts[at.v[1]].w, verts[at.v[2]].w, p);
+        const int k = static_cast<int>(std::min_element(l.begin(), l.end()) - l.begin());
         if (!(l[k] < -1e-12)) break;
         const int g = at.adj[(k + 1) % 3];  // across the edge (v[k + 1], v[k + 2])
         if (g < 0 || !faces[g].alive || !(faces[g].d <= best.d + slack)) break;
