@@ -90,13 +90,6 @@ bool contains(const std::array<int, N>& ids, int n, int id) {
   return u.cross(p - a).squaredNorm() <= noise * noise * u.squaredNorm();
 }
 
-/// Witness points of the point p = d n on a face of the expanded polytope: barycentric weights of
-/// the face's support points, applied to the shape whose points on the face lie closer together
-/// (as its first point plus weighted differences), the other witness that one plus or minus p, so
-/// that a - b = p. On a needle face the weights lose eps times the coordinates over its width:
-/// a jittered 5281 m cube holding a point put the witness on the cube 4.9e-4 m off its face,
-/// weighting the cube's points (fuzz/regressions/core/epa-witness-off-face-jittered-2640m-cube-
-/// holding-point); the point's own witness is now the point, and the cube's is it plus p.
 /// Barycentric weights of p's projection on the plane of the triangle w0, w1, w2 (a third each
 /// for a triangle without area).
 inline std::array<double, 3> faceWeights(const Vec3& w0, const Vec3& w1, const Vec3& w2,
@@ -109,9 +102,17 @@ inline std::array<double, 3> faceWeights(const Vec3& w0, const Vec3& w1, const V
   return {l0, l1, 1.0 - l0 - l1};
 }
 
+/// Witness points of the point p = d n on a face of the expanded polytope: barycentric weights
+/// `l` of the face's support points (faceWeights()), applied to the shape whose points on the
+/// face lie closer together (as its first point plus weighted differences), the other witness
+/// that one plus or minus p, so that a - b = p. On a needle face the weights lose eps times the
+/// coordinates over its width: a jittered 5281 m cube holding a point put the witness on the
+/// cube 4.9e-4 m off its face, weighting the cube's points (fuzz/regressions/core/epa-witness-
+/// off-face-jittered-2640m-cube-holding-point); the point's own witness is now the point, and
+/// the cube's is it plus p.
 inline void epaWitness3(const SupportPoint<3>& p0, const SupportPoint<3>& p1,
-                        const SupportPoint<3>& p2, const Vec3& p, Vec3& a, Vec3& b) {
-  const std::array<double, 3> l = faceWeights(p0.w, p1.w, p2.w, p);
+                        const SupportPoint<3>& p2, const std::array<double, 3>& l, const Vec3& p,
+                        Vec3& a, Vec3& b) {
   const Vec3 da1 = p1.a - p0.a, da2 = p2.a - p0.a;
   const Vec3 db1 = p1.b - p0.b, db2 = p2.b - p0.b;
   if (std::max(db1.squaredNorm(), db2.squaredNorm()) <=
@@ -721,20 +722,20 @@ EpaResult<3> epa3(const MD& md, const Simplex<3>& simplex, const EpaSettings& st
     // WitnessesOnBoth, fuzz/regressions/core/epa-witness-off-cylinder-segment-in-mid-plane). So,
     // converged, walk across the edge of the most negative weight to a face as near (within the
     // convergence tolerance), a few steps at most.
-    Face at = best;
-    if (r.status == EpaStatus::Converged) {
-      const double slack = st.rel_tolerance * std::abs(best.d) + tol;
-      for (int step = 0; step < 8; ++step) {
-        const std::array<double, 3> l =
-            detail::faceWeights(verts[at.v[0]].w, verts[at.v[1]].w, verts[at.v[2]].w, p);
-        const int k = static_cast<int>(std::min_element(l.begin(), l.end()) - l.begin());
-        if (!(l[k] < -1e-12)) break;
-        const int g = at.adj[(k + 1) % 3];  // across the edge (v[k + 1], v[k + 2])
-        if (g < 0 || !faces[g].alive || !(faces[g].d <= best.d + slack)) break;
-        at = faces[g];
-      }
+    const Face* at = &best;
+    std::array<double, 3> l =
+        detail::faceWeights(verts[best.v[0]].w, verts[best.v[1]].w, verts[best.v[2]].w, p);
+    const double slack = st.rel_tolerance * std::abs(best.d) + tol;
+    for (int step = 0; step < 8 && r.status == EpaStatus::Converged; ++step) {
+      const int k = static_cast<int>(std::min_element(l.begin(), l.end()) - l.begin());
+      if (!(l[k] < -1e-12)) break;
+      const int g = at->adj[(k + 1) % 3];  // across the edge (v[k + 1], v[k + 2])
+      if (g < 0 || !faces[g].alive || !(faces[g].d <= best.d + slack)) break;
+      at = &faces[g];
+      l = detail::faceWeights(verts[at->v[0]].w, verts[at->v[1]].w, verts[at->v[2]].w, p);
     }
-    detail::epaWitness3(verts[at.v[0]], verts[at.v[1]], verts[at.v[2]], p, r.point_a, r.point_b);
+    detail::epaWitness3(verts[at->v[0]], verts[at->v[1]], verts[at->v[2]], l, p, r.point_a,
+                        r.point_b);
     progress.settle(md, upper, best.d, st.rel_tolerance * std::abs(best.d) + tol, r.status);
   }
   upper.applyTo(r);
