@@ -401,7 +401,6 @@ inline double supportValue(const ShapeSpec& s, const Vec3& n) {
 /// than kMaxCurvedAspect: nullopt (their witnesses are held to the supporting planes only; hulls'
 /// distances to the exact oracle).
 inline std::optional<double> outsideOf(const ShapeSpec& s, const Vec3& x) {
-  const double rho = std::hypot(x.x(), x.y());
   double core = 0.0;  // the distance to the core
   switch (s.kind) {
     case ShapeSpec::Sphere:
@@ -417,24 +416,15 @@ inline std::optional<double> outsideOf(const ShapeSpec& s, const Vec3& x) {
       break;
     }
     case ShapeSpec::Cylinder:
-      core = std::hypot(std::max(0.0, rho - s.dims[1]),
-                        std::max(0.0, std::abs(x.z()) - 0.5 * s.dims[0]));
+      core = oracle::outsideCylinder(x, s.dims[1], 0.5 * s.dims[0]);
       break;
-    case ShapeSpec::Cone: {
-      // The section through the axis: the triangle (0, -h/2), (r, -h/2), (0, h/2) in (rho, z).
-      const double hh = 0.5 * s.dims[0], r = s.dims[1];
-      if (std::abs(x.z()) <= hh && rho * 2.0 * hh <= r * (hh - x.z())) break;
-      const Vec3 q(rho, x.z(), 0.0), base(0.0, -hh, 0.0), rim(r, -hh, 0.0), apex(0.0, hh, 0.0);
-      core = std::min((q - oracle::closestPointSegment(q, base, rim)).norm(),
-                      (q - oracle::closestPointSegment(q, rim, apex)).norm());
+    case ShapeSpec::Cone:
+      core = oracle::outsideCone(x, s.dims[1], 0.5 * s.dims[0]);
       break;
-    }
     case ShapeSpec::Ellipsoid:
-      // (|S^-1 x| - 1) m as |x m S^-1| - m (m the least semi-axis): S^-1 x overflowed on
-      // semi-axes of 4.9e-324 m. Flatter than kMaxCurvedAspect (a semi-axis 0): not checked.
+      // Flatter than kMaxCurvedAspect (a semi-axis 0): not checked.
       if (!(s.dims.minCoeff() * kMaxCurvedAspect >= s.dims.maxCoeff())) return std::nullopt;
-      core = std::max(0.0, x.cwiseProduct(Vec3(s.dims.minCoeff() / s.dims.array())).stableNorm() -
-                               s.dims.minCoeff());
+      core = oracle::outsideEllipsoid(x, s.dims);
       break;
     case ShapeSpec::Point:
       core = (x - s.pts[0]).norm();

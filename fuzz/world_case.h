@@ -237,25 +237,15 @@ struct PlacedPart {
         << "; " << axes.row(2) << ")";
     return out.str();
   }
-  /// How far the point q (fixed frame) is outside the core: 0 inside, else its distance, or
-  /// for a curved core a lower bound of it (a cylinder's or a cone's: the most it is beyond one
-  /// of the planes and the slant that bound the section through the axis; an ellipsoid's:
-  /// |D^-1 q| - 1 times its least semi-axis, D^-1 shrinking lengths by at most that).
+  /// How far the point q (fixed frame) is outside the core: 0 inside, else its distance (an
+  /// ellipsoid's: a lower bound of it; oracle::outsideEllipsoid()).
   double outside(const Vec3& q) const {
     using C = RefPart::Curved;
     const Vec3 l = axes.transpose() * (q - centre);
     const Vec3& a = x->size;
-    const double xy = std::hypot(l.x(), l.y());
-    if (x->curved == C::Cylinder) return std::max({0.0, std::abs(l.z()) - a.z(), xy - a.x()});
-    if (x->curved == C::Cone) {
-      // Its radius at height z is a.x() (a.z() - z) / (2 a.z()); the slant's excess measured
-      // across it.
-      const double slant =
-          (xy - a.x() * (a.z() - l.z()) / (2.0 * a.z())) / std::hypot(1.0, a.x() / (2.0 * a.z()));
-      return std::max({0.0, std::abs(l.z()) - a.z(), slant});
-    }
-    if (x->curved == C::Ellipsoid)
-      return std::max(0.0, l.cwiseProduct(Vec3(a.minCoeff() / a.array())).norm() - a.minCoeff());
+    if (x->curved == C::Cylinder) return oracle::outsideCylinder(l, a.x(), a.z());
+    if (x->curved == C::Cone) return oracle::outsideCone(l, a.x(), a.z());
+    if (x->curved == C::Ellipsoid) return oracle::outsideEllipsoid(l, a);
     if (x->hull) return std::max(0.0, oracle::signedDistance(*x->hull, l));
     if (x->box) return (l.cwiseAbs() - x->box_half).cwiseMax(0.0).norm();
     return (l - oracle::closestPointSegment(l, -x->half, x->half)).norm();

@@ -69,6 +69,30 @@ inline V3 closestPointSegment(const V3& p, const V3& a, const V3& b) {
   return a + clamp01((p - a).dot(ab) / den) * ab;
 }
 
+/// Distances of a point x (in the solid's frame, its axis z) to curved solids, 0 inside: for the
+/// fuzzers' checks that witness points lie on their shapes. A cylinder of radius r, z in
+/// [-hh, hh]: exact.
+inline double outsideCylinder(const V3& x, double r, double hh) {
+  return std::hypot(std::max(0.0, std::hypot(x.x(), x.y()) - r),
+                    std::max(0.0, std::abs(x.z()) - hh));
+}
+/// A cone centred like shape_msgs (base of radius r at z = -hh, apex at z = hh): exact, in the
+/// section through its axis (the triangle (0, -hh), (r, -hh), (0, hh) in (rho, z)).
+inline double outsideCone(const V3& x, double r, double hh) {
+  const double rho = std::hypot(x.x(), x.y());
+  if (std::abs(x.z()) <= hh && rho * 2.0 * hh <= r * (hh - x.z())) return 0.0;
+  const V3 q(rho, x.z(), 0.0), base(0.0, -hh, 0.0), rim(r, -hh, 0.0), apex(0.0, hh, 0.0);
+  return std::min((q - closestPointSegment(q, base, rim)).norm(),
+                  (q - closestPointSegment(q, rim, apex)).norm());
+}
+/// An ellipsoid of semi-axes `semi` (all > 0): a lower bound, (|S^-1 x| - 1) m with m the least
+/// semi-axis (S^-1 shrinks lengths by at most 1 / m), computed as |x m S^-1| - m (ratios of at
+/// most 1: S^-1 x overflows on semi-axes of 4.9e-324 m).
+inline double outsideEllipsoid(const V3& x, const V3& semi) {
+  const double m = semi.minCoeff();
+  return std::max(0.0, x.cwiseProduct(V3(m / semi.array())).stableNorm() - m);
+}
+
 /// Closest point to p on triangle abc: the projection of p onto the plane when it lies inside
 /// (signs of the three sub-triangle areas, long double) and is nearer than the nearest point of
 /// the three edges (closestPointSegment), else that point. On a triangle flat to rounding (1e-17
