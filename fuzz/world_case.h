@@ -154,6 +154,17 @@ struct RefPart {
   /// for the distances of curved parts, which the reference takes from the core and certifies
   /// (certifiedDistance()).
   std::shared_ptr<const ConvexShape> shape;
+
+  /// The farthest a point of its core is from its centre.
+  double reach() const {
+    if (curved == Curved::Ellipsoid) return size.maxCoeff();
+    if (curved != Curved::None) return std::hypot(size.x(), size.z());
+    double r = box ? box_half.norm() : half.norm();
+    if (hull)
+      for (const Vec3& v : hull->points)
+        r = std::max(r, v.norm());
+    return r;
+  }
 };
 
 /// Part x's core as a ConvexShape in the part's frame (about its centre, before `turn`).
@@ -206,19 +217,6 @@ struct PlacedPart {
       p = l.dot(x->half) >= 0.0 ? x->half : Vec3(-x->half);
     }
     return centre + axes * p;
-  }
-  /// The farthest a point of the core is from its centre.
-  double reach() const {
-    using C = RefPart::Curved;
-    if (x->curved == C::Ellipsoid) return x->size.maxCoeff();
-    if (x->curved != C::None) return std::hypot(x->size.x(), x->size.z());
-    if (x->hull) {
-      double r = 0.0;
-      for (const Vec3& v : x->hull->points)
-        r = std::max(r, v.norm());
-      return r;
-    }
-    return x->box ? x->box_half.norm() : x->half.norm();
   }
   std::string describe() const {
     static const char* const curved[] = {"", "cylinder", "cone", "ellipsoid"};
@@ -294,7 +292,7 @@ inline double certifiedDistance(const PlacedPart& p, const PlacedPart& q, int* c
   // Witness points, as the core's fuzzer holds them (fuzz/core_case.h): to 1e-7 of the size
   // (EPA's upper bound on a point at an ellipsoid's centre put the point's witness 6.7e-9 m off
   // it, its normal 2.7e-9 rad off the axis).
-  const double size = p.reach() + q.reach() + (q.centre - p.centre).norm();
+  const double size = p.x->reach() + q.x->reach() + (q.centre - p.centre).norm();
   const double tol_w = tol + 1e-7 * size;
   std::ostringstream why;
   why.precision(17);
@@ -1217,19 +1215,12 @@ class Run {
     return kInf;
   }
 
-  /// The farthest a point of a part's core (segment, box or hull) reaches from its body's origin.
+  /// The farthest a point of a part's core (any kind: RefPart::reach()) reaches from its body's
+  /// origin.
   static double coreReach(const RefBody& b) {
     double r = 0.0;
-    for (const RefPart& x : b.parts) {
-      double out = x.half.norm() + x.box_half.norm();
-      if (x.curved == RefPart::Curved::Ellipsoid) out = x.size.maxCoeff();
-      if (x.curved == RefPart::Curved::Cylinder || x.curved == RefPart::Curved::Cone)
-        out = std::hypot(x.size.x(), x.size.z());
-      if (x.hull)
-        for (const Vec3& v : x.hull->points)
-          out = std::max(out, v.norm());
-      r = std::max(r, x.centre.norm() + out);
-    }
+    for (const RefPart& x : b.parts)
+      r = std::max(r, x.centre.norm() + x.reach());
     return r;
   }
 
