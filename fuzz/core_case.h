@@ -27,7 +27,8 @@
 ///   5. every pair: the normal certifies the answer through independent support functions
 ///      (written here, not taken from the core): gap(n) = distance; no sampled direction gives
 ///      a larger gap (separated) or a smaller overlap (penetrating); witness points lie on the
-///      supporting planes, and on the shapes (outsideOf(), every kind but hulls).
+///      supporting planes, and on the shapes (outsideOf(), every kind but hulls; curved cores
+///      of aspect ratio up to kMaxWitnessAspect).
 /// Outside the domain (huge raw doubles), only "no crash, no hang, no exception" is required.
 #pragma once
 
@@ -300,10 +301,7 @@ inline bool curved(const ShapeSpec& s) {
 /// False for a curved core (cylinder, cone, ellipsoid) whose aspect ratio is beyond `aspect`;
 /// dimensions below 1e-9 of the largest count as flat (exact), not as a ratio.
 inline bool aspectWithin(const ShapeSpec& s, double aspect) {
-  if (s.kind != ShapeSpec::Cylinder && s.kind != ShapeSpec::Cone &&
-      s.kind != ShapeSpec::Ellipsoid) {
-    return true;
-  }
+  if (!curved(s)) return true;
   const int n = s.kind == ShapeSpec::Ellipsoid ? 3 : 2;
   const double big = s.dims.head(n).cwiseAbs().maxCoeff();
   for (int k = 0; k < n; ++k) {

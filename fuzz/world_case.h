@@ -128,7 +128,7 @@ struct RefPose {
 
 /// A part of a body as the reference knows it: a sphere, or in a case of capsules a capsule (a
 /// segment swept by the radius; a sphere when the segment is a point), or in a case of boxes a
-/// box rounded by the radius (0 or more).
+/// box, a hull, a cylinder, a cone or an ellipsoid, rounded by the radius (0 or more).
 struct RefPart {
   RefPart(const Vec3& c, const Vec3& h, double r) : centre(c), half(h), radius(r) {}
   Vec3 centre;  ///< in the body frame
@@ -166,6 +166,11 @@ struct RefPart {
     return r;
   }
 };
+
+inline const char* name(RefPart::Curved c) {
+  static const char* const names[] = {"", "cylinder", "cone", "ellipsoid"};
+  return names[static_cast<int>(c)];
+}
 
 /// Part x's core as a ConvexShape in the part's frame (about its centre, before `turn`).
 inline std::shared_ptr<const ConvexShape> coreShape(const RefPart& x) {
@@ -219,10 +224,9 @@ struct PlacedPart {
     return centre + axes * p;
   }
   std::string describe() const {
-    static const char* const curved[] = {"", "cylinder", "cone", "ellipsoid"};
     std::ostringstream out;
     out.precision(17);
-    out << (x->curved != RefPart::Curved::None ? curved[static_cast<int>(x->curved)]
+    out << (x->curved != RefPart::Curved::None ? name(x->curved)
             : x->hull                          ? "hull"
             : x->box                           ? "box"
                                                : "segment")
@@ -777,11 +781,8 @@ class Run {
       log_ << " r " << x.radius << " at (" << x.centre.transpose() << ") half ("
            << x.half.transpose() << ")";
       if (x.box) log_ << " box (" << x.box_half.transpose() << ") turned " << x.turn.row(0);
-      if (x.curved != RefPart::Curved::None) {
-        static const char* const names[] = {"", "cylinder", "cone", "ellipsoid"};
-        log_ << " " << names[static_cast<int>(x.curved)] << " (" << x.size.transpose()
-             << ") turned " << x.turn.row(0);
-      }
+      if (x.curved != RefPart::Curved::None)
+        log_ << " " << name(x.curved) << " (" << x.size.transpose() << ") turned " << x.turn.row(0);
       if (x.hull) {
         log_ << " hull of";
         for (const Vec3& v : x.hull->points)
