@@ -53,6 +53,11 @@ class CatchUp(unittest.TestCase):
         for i, (x, y) in enumerate(TARGETS):
             m.add(fixed_body('t%d' % i, 0.1, x, y))
         br = tf2_ros.TransformBroadcaster()
+        # The node's /tf subscriber connects to this new publisher first: on a loaded CI machine
+        # it took longer than the run's first 0.3 s once, and the dart's WARNING_END of t1 there
+        # was never seen (its poses before it were lost).
+        self.assertTrue(wait_for(lambda: br.pub_tf.get_num_connections() > 0, 10.0),
+                        'no /tf subscriber')
         br.sendTransform(tf_transform('dart', xyz=(0.0, 0.0, 0.0)))
         m.add(sphere_body('dart', 0.1, frame='dart', pose_from_topic=False))
         self.assertTrue(wait_for(lambda: len(m.list_bodies().ids) == EXTRAS + 4, 20.0),
