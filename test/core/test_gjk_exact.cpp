@@ -339,7 +339,7 @@ TEST(ExactBox, BoxesOnOneGridHaveWitnessesOnBoth) {
     const Vec3 on_b = Mi * (swap ? r.point_a : r.point_b);
     const double err = std::max({std::abs(r.distance - truth), (on_a.cwiseAbs() - a).maxCoeff(),
                                  ((on_b - pb.t).cwiseAbs() - bw).maxCoeff(),
-                                 std::abs((on_a - on_b).norm() - std::abs(r.distance))});
+                                 (r.point_b - r.point_a - r.distance * r.normal).norm()});
     const bool right_status = r.status == (truth > 0.0 ? Status::Separated : Status::Penetrating);
     ++(truth > 0.0 ? separated : overlapping);
     if ((!(err <= tol) || !right_status) && ++failures <= 3) {
