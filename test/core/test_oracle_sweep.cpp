@@ -363,16 +363,17 @@ TEST(OracleFar, HullsGivenFarFromTheirOrigin) {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Shapes on one grid: faces and axes parallel to the last bit, as a robot's boxes and cylinders
-// and the boxes of a room often are. B is turned by one of the 24 rotations that map axes onto axes
+// Shapes on one grid: faces and axes parallel to the last bit, as a robot's boxes and cylinders and
+// the boxes of a room often are. B is turned by one of the 24 rotations that map axes onto axes
 // (entries 0 and +-1: exact) and offset by up to 1.5 x the size along each axis, each coordinate on
 // a 1/8 grid of the size for 1 in 2 pairs (A - B's vertices then line up to the last bit). A - B
-// then has a closed-form signed distance, and each witness point is checked against its own shape.
-// For 1 in 4 pairs both shapes are moved alike by a generic pose, and the order is swapped for 1
-// in 2. These are the configurations where EPA's nearest face need not hold d n (coplanar faces of
-// A - B): on the EPA before the fifty-seventh session's walk (epa.h; 7b6df5d) 155 of the boxes'
-// pairs below and 398 of the curved ones fail, a witness point up to 1.4 and 2.2 times the size off
-// its shape, while depths and normals were right.
+// then has a closed-form signed distance, and each witness point is checked against its own shape;
+// intersect() and the warm-started query must agree. For 1 in 4 pairs both shapes are moved alike
+// by a generic pose, and the order is swapped for 1 in 2. These are the configurations where EPA's
+// nearest face need not hold d n (coplanar faces of A - B): on the EPA before the fifty-seventh
+// session's walk (epa.h; 7b6df5d) 155 of the boxes' pairs below and 398 of the curved ones fail, a
+// witness point up to 1.4 and 2.2 times the size off its shape, while depths and normals were
+// right.
 // ---------------------------------------------------------------------------------------------
 
 namespace {
@@ -443,8 +444,16 @@ class GridSweep {
           10.0 * size * cm::Vec3(u(), u(), u()));
     }
     const bool swap = draw() % 2 == 0;
-    const cm::ContactResult r =
-        swap ? cm::signedDistance(b, M * pb, a, M) : cm::signedDistance(a, M, b, M * pb);
+    const auto query = [&](cm::PairCache* cache) {
+      return swap ? cm::signedDistance(b, M * pb, a, M, cache)
+                  : cm::signedDistance(a, M, b, M * pb, cache);
+    };
+    const cm::ContactResult r = query(nullptr);
+    // The boolean query, and the query warm-started from its own last simplex, agree.
+    const bool hit = swap ? cm::intersect(b, M * pb, a, M) : cm::intersect(a, M, b, M * pb);
+    cm::PairCache cache;
+    query(&cache);
+    const cm::ContactResult warm = query(&cache);
     const cm::Transform3 back = M.inverse();
     const cm::Vec3 on_a = back * (swap ? r.point_b : r.point_a);
     const cm::Vec3 on_b = back * (swap ? r.point_a : r.point_b);
@@ -454,11 +463,16 @@ class GridSweep {
     const bool upper_bound = circle && r.status == cm::Status::FailedToConverge;
     unconverged += upper_bound ? 1 : 0;
     const bool right_status =
-        upper_bound || r.status == (truth > 0.0 ? cm::Status::Separated : cm::Status::Penetrating);
+        (upper_bound ||
+         r.status == (truth > 0.0 ? cm::Status::Separated : cm::Status::Penetrating)) &&
+        hit == (truth < 0.0) && warm.status == r.status &&
+        std::abs(warm.distance - r.distance) <= tol;
     ++(truth > 0.0 ? separated : overlapping);
     if ((!(err <= tol) || !right_status) && ++failures <= 3) {
       ADD_FAILURE() << what << " (swap " << swap << "): " << cm::toString(r.status) << " "
-                    << r.distance << " want " << truth << ", witnesses off their shapes or the "
+                    << r.distance << " (warm " << cm::toString(warm.status) << " " << warm.distance
+                    << ", intersect " << hit << ") want " << truth
+                    << ", witnesses off their shapes or the "
                     << "answer by " << err << " (tol " << tol << "); B at " << vec(pb.t)
                     << ", its z axis " << vec(pb.R.col(2));
     }
