@@ -472,9 +472,8 @@ class GridSweep {
       ADD_FAILURE() << what << " (swap " << swap << "): " << cm::toString(r.status) << " "
                     << r.distance << " (warm " << cm::toString(warm.status) << " " << warm.distance
                     << ", intersect " << hit << ") want " << truth
-                    << ", witnesses off their shapes or the "
-                    << "answer by " << err << " (tol " << tol << "); B at " << vec(pb.t)
-                    << ", its z axis " << vec(pb.R.col(2));
+                    << ", witnesses off their shapes or the answer by " << err << " (tol " << tol
+                    << "); B at " << vec(pb.t) << ", its z axis " << vec(pb.R.col(2));
     }
   }
 
@@ -543,13 +542,12 @@ TEST(OracleGrid, BoxesOnOneGridHaveWitnessesOnBoth) {
 
 TEST(OracleGrid, CylindersAndCapsulesOnOneGridHaveWitnessesOnBoth) {
   // B a cylinder, capsule or sphere (radius r, half height h, axis along A's axis k), A a box of
-  // half sides a or a cylinder along z with B's axis parallel. With p = |t| (by symmetry), A - B is
-  //   box - cylinder: (the rectangle a_i, a_j (+) a disc r) x [-(a_k + h), a_k + h]: a prism times
-  //   a
-  //     slab, whose signed distance combines the rounded rectangle's (its rectangle's minus r) and
-  //     the slab's (productSigned());
-  //   box - capsule or sphere: the box a + h e_k (+) a ball r: the box's signed distance minus r;
-  //   cylinder - cylinder: a disc r_A + r times [-(h_A + h), h_A + h].
+  // half sides a or a cylinder along z with B's axis parallel. With p = |t| (by symmetry), A - B:
+  // - box and cylinder: the rectangle (a_i, a_j) inflated by a disc r, times [-(a_k + h),
+  //   a_k + h]: a prism times a slab, whose signed distance combines the rounded rectangle's (its
+  //   rectangle's minus r) and the slab's (productSigned());
+  // - box and capsule or sphere: the box a + h e_k inflated by a ball r: the box's minus r;
+  // - two cylinders: a disc of radius r_A + r times [-(h_A + h), h_A + h].
   GridSweep g(20261204);
   const int kPairs = scaled(100000);
   for (int i = 0; i < kPairs; ++i) {
