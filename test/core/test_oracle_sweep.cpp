@@ -448,11 +448,10 @@ class GridSweep {
       return swap ? cm::signedDistance(b, M * pb, a, M, cache)
                   : cm::signedDistance(a, M, b, M * pb, cache);
     };
-    const cm::ContactResult r = query(nullptr);
+    cm::PairCache cache;  // empty: the first query runs cold and fills it
+    const cm::ContactResult r = query(&cache);
     // The boolean query, and the query warm-started from its own last simplex, agree.
     const bool hit = swap ? cm::intersect(b, M * pb, a, M) : cm::intersect(a, M, b, M * pb);
-    cm::PairCache cache;
-    query(&cache);
     const cm::ContactResult warm = query(&cache);
     const cm::Transform3 back = M.inverse();
     const cm::Vec3 on_a = back * (swap ? r.point_b : r.point_a);
