@@ -1430,6 +1430,15 @@ std::string WorldModel::checkSpec(const BodySpec& spec) const {
       return name + " refused: part " + std::to_string(i) +
              " has a non-finite or non-rigid pose in the body frame";
     }
+    // Its farthest point from the body origin a double: a 2.7e303 m box 1.797e308 m out (its
+    // end past 1.7977e308), or a unit ball at (1.7e308, 1.7e308, 0), has no distance to anything
+    // near the body (fuzz/regressions/ros/body-box-past-the-largest-double).
+    const double reach =
+        (p.pose * p.shape.offset()).stableNorm() + p.shape.localRadius();  // norm() squares
+    if (!std::isfinite(reach)) {
+      return name + " refused: part " + std::to_string(i) +
+             " reaches beyond the largest double (1.8e308 m) from the body origin";
+    }
     using PolyPtr = std::shared_ptr<const core::Polytope<3>>;
     if (const PolyPtr* poly = std::get_if<PolyPtr>(&p.shape.core())) {
       const std::size_t nv = *poly ? static_cast<std::size_t>((*poly)->size()) : 0;

@@ -39,6 +39,11 @@ TEST(RosFuzzRegressions, EveryFailedInputPasses) {
   // query failed on an infinite support point); now checked.
   EXPECT_EQ(notes.at("body-ellipsoid-5e180m-support-overflow"),
             "body e added and checked: 1 pair(s)");
+  // A 2.7e303 m box 1.797e308 m out, its end past the largest double: accepted, and its pair
+  // with the unit box UNKNOWN for good; now refused at the door with the reason.
+  EXPECT_EQ(notes.at("body-box-past-the-largest-double"),
+            "addBody refused: body 'b' refused: part 0 reaches beyond the largest double (1.8e308 "
+            "m) from the body origin");
 }
 
 TEST(RosFuzzRegressions, SeedCorpusReachesEveryInputKind) {

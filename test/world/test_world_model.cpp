@@ -3061,6 +3061,38 @@ TEST(WorldModel, RefusalsNameTheBodyAndReasonAndChangeNothing) {
   EXPECT_EQ(w.addBody(urdf), "");
 }
 
+// A part whose farthest point from the body origin is no double has no distance to anything near
+// the body: refused with its reason (fuzz/regressions/ros/body-box-past-the-largest-double: a
+// 2.7e303 m box 1.797e308 m out was accepted, and its pair with a unit box stayed UNKNOWN). One
+// that ends within the doubles is a body like any other.
+TEST(WorldModel, APartPastTheLargestDoubleIsRefusedOneWithinIsChecked) {
+  WorldModel w;
+  const auto box = [](const std::string& id, const Vec3& sides) {
+    return body(id, {Part{ConvexShape::box(sides), Transform3::Identity()}});
+  };
+  ASSERT_EQ(w.addBody(box("unit", Vec3(1.0, 1.0, 1.0))), "");
+  BodySpec ball = sphere("far", 1.0);  // each coordinate finite, 2.4e308 m out
+  ball.parts[0].pose.t = Vec3(1.7e308, 1.7e308, 0.0);
+  EXPECT_EQ(w.addBody(ball),
+            "body 'far' refused: part 0 reaches beyond the largest double "
+            "(1.8e308 m) from the body origin");
+  BodySpec slab = box("far", Vec3(1e303, 1.0, 1.0));  // sides
+  slab.parts.insert(slab.parts.begin(), sphere("far", 0.5).parts[0]);
+  slab.parts[1].pose.t = Vec3(-1.7976931e308, 0.0, 0.0);  // its end at -1.7976936e308
+  EXPECT_EQ(w.addBody(slab),
+            "body 'far' refused: part 1 reaches beyond the largest double "
+            "(1.8e308 m) from the body origin");
+  EXPECT_FALSE(w.hasBody("far"));
+  slab.parts[1].pose.t = Vec3(-1.79e308, 0.0, 0.0);  // its end at -1.790005e308
+  ASSERT_EQ(w.addBody(slab), "");
+  ASSERT_TRUE(w.setPose("unit", at(0), 1.0));
+  ASSERT_TRUE(w.setPose("far", at(0), 1.0));
+  w.check(1.0);
+  std::string why;
+  const auto d = w.distance("far", "unit", 1.0, &why);
+  ASSERT_TRUE(d) << why;
+  EXPECT_NEAR(d->distance, -1.0, 1e-12);  // the ball of radius 0.5 about the unit box's centre
+}
 TEST(WorldModel, NearestRespectsFiltersAndStaleness) {
   WorldModel w(dyadic());
   ASSERT_EQ(w.addBody(sphere("a", 0.5, "g")), "");
