@@ -320,6 +320,7 @@ void Monitor::findUnknownParameters() {
   static const std::set<std::string> known = [] {
     std::set<std::string> k = {"fixed_frame",
                                "robot_description_param",
+                               "tf_prefix",
                                "robot_padding",
                                "robot_link_padding",
                                "robot_link_groups",
@@ -492,8 +493,20 @@ std::string Monitor::robotParamKey(const std::string& name, const std::string& f
   return nh_.searchParam(name, key) ? key : remapped;
 }
 
+std::string Monitor::robotTfPrefix() {
+  // As robot_state_publisher finds its tf_prefix: searched upward from the private namespace.
+  std::string key;
+  if (!pnh_.searchParam("tf_prefix", key)) return "";
+  std::string prefix;
+  if (!pnh_.getParam(key, prefix)) {
+    param_errors_.push_back("tf_prefix (" + key + "): not a string; the robot's links unprefixed");
+    return "";
+  }
+  return prefix;
+}
+
 void Monitor::loadRobot() {
-  std::string root_link;
+  std::string root_frame;
   // The URDF's parameter, searched upward from the node's namespace; the SRDF next to it (its
   // own upward search would take another robot's SRDF where this one has none).
   const std::string key = robotParamKey(robot_description_param_, "");
@@ -521,12 +534,14 @@ void Monitor::loadRobot() {
     unused("robot_link_padding", !robot_links_.padding.empty());
     unused("robot_link_groups", !robot_links_.group.empty());
   } else {
-    auto robot = bodiesFromUrdf(urdf, robot_padding_, limits_, mesh_loader_, robot_links_);
+    const std::string tf_prefix = robotTfPrefix();
+    auto robot =
+        bodiesFromUrdf(urdf, robot_padding_, limits_, mesh_loader_, robot_links_, tf_prefix);
     if (!robot) {
       robot_errors_.push_back("URDF '" + key + "': " + robot.error());
       rejectAtStartup(robot_errors_.back());
     } else {
-      root_link = robot->root_link;
+      root_frame = prefixedFrame(tf_prefix, robot->root_link);
       param_errors_.insert(param_errors_.end(), robot->link_errors.begin(),
                            robot->link_errors.end());
       for (const auto& e : robot->errors) {
@@ -555,6 +570,8 @@ void Monitor::loadRobot() {
       ROS_INFO_STREAM(name_ << ": robot '" << robot->robot_name << "': " << added.size()
                             << " links with collision geometry, " << adjacent
                             << " adjacent pairs disabled"
+                            << (tf_prefix.empty() ? std::string()
+                                                  : ", TF frames " + prefixedFrame(tf_prefix, "*"))
                             << (robot_errors_.empty()
                                     ? std::string()
                                     : ", " + std::to_string(robot_errors_.size()) +
@@ -609,7 +626,7 @@ void Monitor::loadRobot() {
       }
     }
   }
-  const std::string default_frame = root_link.empty() ? "world" : root_link;
+  const std::string default_frame = root_frame.empty() ? "world" : root_frame;
   const std::string given = typedParam<std::string>("fixed_frame", default_frame, "a string");
   // tf2 frames have no leading '/': dropped, and only then is the name checked ("/" was taken as
   // the frame '' without a word, and no TF-attached body was ever posed).

@@ -180,9 +180,14 @@ std::string checkUrdfStructure(const std::string& urdf_xml,
   return {};
 }
 
+std::string prefixedFrame(const std::string& tf_prefix, const std::string& frame) {
+  if (tf_prefix.empty() || (!frame.empty() && frame[0] == '/')) return tfFrameName(frame);
+  return tfFrameName(tf_prefix) + '/' + frame;
+}
+
 Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding,
                                      const Limits& limits, const MeshLoader& load_mesh,
-                                     const LinkSettings& links) {
+                                     const LinkSettings& links, const std::string& tf_prefix) {
   std::unordered_map<std::string, std::size_t> xml_collisions;  // link -> <collision> elements
   const std::string refused = checkUrdfStructure(urdf_xml, &xml_collisions);
   if (!refused.empty()) return Error{refused};
@@ -237,7 +242,7 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
     const double pad = own == links.padding.end() ? padding : own->second;
     collision_monitor::Body msg;
     msg.id = name;
-    msg.header.frame_id = name;
+    msg.header.frame_id = prefixedFrame(tf_prefix, name);
     msg.operation = collision_monitor::Body::ADD;
     msg.padding = pad;
     if (const auto group = links.group.find(name); group != links.group.end()) {

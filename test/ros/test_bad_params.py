@@ -348,6 +348,30 @@ class BadParams(unittest.TestCase):
         self.assertIn(ns + "/cm: robot 'r2': 1 links with collision geometry, 0 adjacent pairs "
                       "disabled, 1 links or collision elements left out (errors above)", lines)
 
+    def test_08b_tf_prefix_of_the_robots_namespace(self):
+        # robot_state_publisher's tf_prefix, found as it finds it (upward from the private
+        # namespace): the links on prefixed frames, the fixed frame the prefixed root link; one
+        # that is not a string is an invalid parameter, and the links stay unprefixed.
+        urdf = '''<robot name="r3">
+          <link name="base"><collision><geometry><box size="0.1 0.1 0.1"/></geometry>
+          </collision></link></robot>'''
+        ns = '/prefixed'
+        rospy.set_param(ns + '/robot_description', urdf)
+        rospy.set_param(ns + '/tf_prefix', '/cell/left')
+        lines = [m for _, m in fresh_node_lines(ns, ['_publish_markers:=false'], 'monitoring ')]
+        self.assertIn(ns + "/cm: robot 'r3': 1 links with collision geometry, 0 adjacent pairs "
+                      "disabled, TF frames cell/left/*", lines)
+        self.assertIn("monitoring 1 bodies in frame 'cell/left/base'",
+                      next(m for m in lines if 'monitoring ' in m))
+        ns = '/prefix_not_a_string'
+        rospy.set_param(ns + '/robot_description', urdf)
+        rospy.set_param(ns + '/tf_prefix', 7)
+        lines = fresh_node_lines(ns, ['_publish_markers:=false'], 'monitoring ')
+        self.assertIn((Log.ERROR, ns + "/cm: invalid parameter tf_prefix (" + ns + "/tf_prefix): "
+                       "not a string; the robot's links unprefixed"), lines)
+        self.assertIn("monitoring 1 bodies in frame 'base'",
+                      next(m for _, m in lines if 'monitoring ' in m))
+
     def test_09_every_documented_parameter_is_known(self):
         # The node's list of its parameters against docs/node.md's table: a fresh node given
         # each of them (any value: an invalid one is an ERROR, not an unknown name) names none as

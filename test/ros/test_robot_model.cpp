@@ -100,6 +100,34 @@ TEST(Urdf, PandaPrimitives) {
   EXPECT_EQ(robot->adjacent.size(), 10u);
 }
 
+// robot_state_publisher's tf_prefix (ROS 1, 1.15.2: prefix_frame(), as tf 1's resolve): the
+// values worked out by hand from its rules, then the Panda's links under one.
+TEST(Urdf, TfPrefixAsRobotStatePublisherAppliesIt) {
+  EXPECT_EQ(prefixedFrame("", "panda_link0"), "panda_link0");
+  EXPECT_EQ(prefixedFrame("left", "panda_link0"), "left/panda_link0");
+  EXPECT_EQ(prefixedFrame("/left", "panda_link0"), "left/panda_link0");  // one '/' dropped
+  EXPECT_EQ(prefixedFrame("cell/left", "hand"), "cell/left/hand");
+  EXPECT_EQ(prefixedFrame("left/", "hand"), "left//hand");  // as it publishes it
+  EXPECT_EQ(prefixedFrame("left", "/base"), "base");        // a global name takes no prefix
+  EXPECT_EQ(prefixedFrame("", "/base"), "base");
+
+  const std::string xml =
+      readFile(robotData() + "/robots/panda_description/urdf/panda_collision.urdf");
+  ASSERT_FALSE(xml.empty()) << "no Panda URDF under " << robotData();
+  auto plain = bodiesFromUrdf(xml, 0.0, Limits(), MeshLoader());
+  auto left = bodiesFromUrdf(xml, 0.0, Limits(), MeshLoader(), {}, "left");
+  ASSERT_TRUE(plain && left);
+  ASSERT_EQ(left->bodies.size(), 11u);
+  ASSERT_EQ(left->bodies.size(), plain->bodies.size());
+  for (std::size_t i = 0; i < left->bodies.size(); ++i) {
+    EXPECT_EQ(left->bodies[i].id, plain->bodies[i].id);  // ids stay the link names
+    EXPECT_EQ(left->bodies[i].frame, "left/" + plain->bodies[i].id);
+    EXPECT_EQ(left->bodies[i].parts.size(), plain->bodies[i].parts.size());
+  }
+  EXPECT_EQ(left->root_link, "panda_link0");
+  EXPECT_EQ(left->adjacent, plain->adjacent);  // by ids
+}
+
 TEST(Urdf, PaddingAndOrigins) {
   const std::string xml = R"(<robot name="r">
     <link name="base"><collision><origin xyz="1 0 0" rpy="0 0 0"/>

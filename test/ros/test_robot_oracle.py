@@ -36,6 +36,9 @@ stamp or at most a monitor's max_lag stamps later (MAX_LAG by default; 0 for a m
 checks slower than TF, whose catch-up goes over every stamp), at the oracle's distance there;
 each of the oracle's transitions is sent (pairs of a link with a cylinder that is not a capsule's
 left out).
+With ~tf_prefix (robot_oracle_panda.test: the Panda as the left arm of a cell, its
+robot_state_publisher's tf_prefix `left`), the links' TF frames are prefixed and each monitor's
+fixed frame and ~list_bodies frames are held to the prefixed names, the ids to the link names.
 A configuration counts only once ~state is stamped after the joint state that set it and no
 link is stale. The share of pairs in COLLISION and WARNING is asserted, so the sample means
 something.
@@ -271,11 +274,13 @@ class RobotOracle(unittest.TestCase):
         urdf = rospy.get_param('robot_description')
         srdf = rospy.get_param('robot_description_semantic', '')
         # The monitors: {namespace: {mesh_decomposition: hull or pieces, max_lag: /tf stamps by
-        # which a move's event may come late (MAX_LAG by default)}}.
+        # which a move's event may come late (MAX_LAG by default), ns: the namespace, where it
+        # is not the key}}.
         cls.monitors = []
         robots = {}  # one a mesh_decomposition: monitors of the same geometry share its oracle
         default = {'collision_monitor': {'mesh_decomposition': 'hull'}}
-        for ns, cfg in sorted(rospy.get_param('~monitors', default).items()):
+        for name, cfg in sorted(rospy.get_param('~monitors', default).items()):
+            ns = cfg.get('ns', name)  # a name with '/' would nest the parameter
             m = Monitor('/%s/' % ns)
             m.max_lag = cfg.get('max_lag', MAX_LAG)
             pieces = cfg.get('mesh_decomposition', 'hull') == 'pieces'
@@ -284,7 +289,14 @@ class RobotOracle(unittest.TestCase):
             cls.monitors.append((ns, m, robots[pieces]))
         cls.memo = {}  # the oracle's answers this configuration: (id(robot), when, what) -> value
         cls.robot = cls.monitors[0][2]
-        cls.fixed = cls.monitors[0][1].state.header.frame_id
+        # The links' TF frames: robot_state_publisher's tf_prefix, if it has one, then '/'.
+        prefix = rospy.get_param('~tf_prefix', '')
+
+        def frame(link):
+            return prefix + '/' + link if prefix else link
+        cls.frame = {link: frame(link) for link in cls.robot.parts}
+        [root] = cls.robot.kinematics.roots
+        cls.fixed = frame(root)
         cls.tf = tf2_ros.Buffer(rospy.Duration(60.0))  # a move's poses are read after it
         cls.listener = tf2_ros.TransformListener(cls.tf)
         # Seconds a move from one configuration to the next takes (0: a jump).
@@ -348,13 +360,20 @@ class RobotOracle(unittest.TestCase):
             # This test's TF buffer, too, at or after the configuration (stamp 0: only fixed
             # joints between the link and the fixed frame).
             def lookup():
-                t = self.tf.lookup_transform(self.fixed, link, rospy.Time(0), rospy.Duration(2.0))
+                t = self.tf.lookup_transform(self.fixed, self.frame[link], rospy.Time(0),
+                                             rospy.Duration(2.0))
                 return t if t.header.stamp.is_zero() or t.header.stamp >= since else None
             self.assertTrue(wait_for(lambda: lookup() is not None, 5.0), link)
             poses[link] = as_tf(lookup())
         return poses, (start.to_nsec(), since.to_nsec())
 
     def test_links_against_the_oracle(self):
+        # Each monitor attaches each link to its TF frame, the id being the link's name, and
+        # answers in the root link's frame.
+        for ns, m, _ in self.monitors:
+            self.assertEqual(m.state.header.frame_id, self.fixed, ns)
+            r = m.list_bodies()
+            self.assertEqual(dict(zip(r.ids, r.frames)), self.frame, ns)
         rng = random.Random(SEED)
         links = sorted(self.robot.parts)
         pairs = [(a, b) for i, a in enumerate(links) for b in links[i + 1:]]
@@ -497,7 +516,8 @@ class RobotOracle(unittest.TestCase):
 
         def poses(t):
             return self.oracle(robot, ('stamp', t), 'poses', lambda: {
-                link: as_tf(self.tf.lookup_transform(self.fixed, link, rospy.Time(0, t)))
+                link: as_tf(self.tf.lookup_transform(self.fixed, self.frame[link],
+                                                     rospy.Time(0, t)))
                 for link in links})
 
         bodies = {t: self.oracle(robot, ('stamp', t), 'bodies', lambda: {

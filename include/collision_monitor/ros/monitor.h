@@ -112,6 +112,9 @@ class Monitor {
   template <class T>
   T typedParam(const std::string& key, T fallback, const char* type);
   void loadRobot();
+  /// The robot's links' TF frames' prefix: robot_state_publisher's `tf_prefix`, searched upward
+  /// from the private namespace as it searches; "" when none (or not a string: param_errors_).
+  std::string robotTfPrefix();
   void loadParameterBodies();
   void setupDiagnostics();
   /// ~diagnostic_period, which diagnostic_updater reads itself at every report: a number

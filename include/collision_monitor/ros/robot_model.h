@@ -22,8 +22,9 @@ using IdPair = std::pair<std::string, std::string>;
 struct RobotBodies {
   std::string robot_name;
   std::string root_link;
-  /// One body per link with <collision> elements: id = frame = link name, origin Urdf,
-  /// pose from TF, parts = its collision geometries (box, sphere, cylinder, mesh hull).
+  /// One body per link with <collision> elements: id = link name, frame = the link's TF frame
+  /// (prefixedFrame() of the tf_prefix and the link name), origin Urdf, pose from TF, parts = its
+  /// collision geometries (box, sphere, cylinder, mesh hull).
   std::vector<world::BodySpec> bodies;
   /// Links joined by a joint, where links without collision geometry are skipped over: each
   /// body's nearest ancestor that is itself a body (so panda_link7 and panda_hand are adjacent
@@ -60,15 +61,22 @@ constexpr std::size_t kMaxUrdfDepth = 1000;
 std::string checkUrdfStructure(const std::string& urdf_xml,
                                std::unordered_map<std::string, std::size_t>* collisions = nullptr);
 
+/// The TF frame robot_state_publisher (ROS 1, 1.15.2 and later) publishes for link `frame` under
+/// its `tf_prefix` parameter, as tf 1 resolved names: a frame with a leading '/' loses it and takes
+/// no prefix; else the prefix, less one leading '/', and a '/' when it is not empty, then the
+/// frame ("left" and "panda_link0": "left/panda_link0"; "" and "panda_link0": "panda_link0").
+std::string prefixedFrame(const std::string& tf_prefix, const std::string& frame);
+
 /// Parses a URDF string with urdf::parseURDF after checkUrdfStructure. Fails when the XML is not a
 /// URDF or its structure is refused. A refused <collision> element (and one urdfdom dropped for
 /// want of geometry) is listed in `errors` and left out of its link, which keeps the others; a
 /// link whose every element is refused is left out. `padding` (m, >= 0) inflates every part of
 /// a link that `links.padding` does not name; a named link takes its own. Links are in no group
-/// unless `links.group` names them.
+/// unless `links.group` names them. Each link is attached to prefixedFrame(tf_prefix, link).
 Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding,
                                      const Limits& limits, const MeshLoader& load_mesh,
-                                     const LinkSettings& links = {});
+                                     const LinkSettings& links = {},
+                                     const std::string& tf_prefix = "");
 
 /// The collision rules of an SRDF (srdfdom 0.6, as MoveIt's allowed collision matrix reads
 /// them): a pair is never checked when <disable_collisions> names it; else it is checked when
