@@ -376,11 +376,9 @@ void Monitor::readParameters() {
   // contact_distance alone above the default warning distance: the warning distance follows it,
   // to the value ~set_parameters would use (it was an ERROR for the whole run about a parameter
   // nobody set).
-  if (!pnh_.hasParam("warning_distance") && std::isfinite(t.contact_distance) &&
-      t.contact_distance > t.warning_distance) {
+  if (!pnh_.hasParam("warning_distance") && raiseWarningToContact(&t)) {
     ROS_INFO_STREAM(name_ << ": warning_distance not set: " << t.contact_distance
                           << " m, the contact_distance given");
-    t.warning_distance = t.contact_distance;
   }
   validate(&t, d, &param_errors_);
 
@@ -467,6 +465,10 @@ void Monitor::applyTunables(const Tunables& t) {
 
 void Monitor::onReconfigure(collision_monitor::MonitorConfig& config, std::uint32_t) {
   Tunables t = fromConfig(config);
+  // A change of contact_distance alone past the warning distance in force: the warning distance
+  // follows, as at start-up (the request carries every value: it was refused as an ERROR about
+  // a warning_distance nobody sent). The change's INFO line says so.
+  if (t.warning_distance == tunables_.warning_distance) raiseWarningToContact(&t);
   std::vector<std::string> errors;
   validate(&t, tunables_, &errors);
   if (!errors.empty()) {
@@ -611,6 +613,14 @@ void Monitor::loadRobot() {
             world_->enablePair(a, b);
             ++enabled;
           }
+        }
+        // srdfdom logs an error and goes on: the rules are taken by link name all the same.
+        // Another robot's SRDF (one left on the parameter server by an earlier launch) applied
+        // no rule with an INFO line only.
+        if (robot && rules->robot_name != robot->robot_name) {
+          ROS_WARN_STREAM(name_ << ": SRDF '" << skey << "' is of robot '" << rules->robot_name
+                                << "', the URDF of robot '" << robot->robot_name
+                                << "': its rules apply by link name");
         }
         if (rules->num_skipped != 0) {
           ROS_WARN_STREAM(name_ << ": SRDF '" << skey << "': " << rules->num_skipped

@@ -322,6 +322,7 @@ Expected<SrdfCollisions> collisionsFromSrdf(const std::string& srdf_xml) {
   const tinyxml2::XMLElement* robot = doc.FirstChildElement("robot");
   if (robot == nullptr) return Error{"SRDF has no <robot> root element"};
   SrdfCollisions out;
+  if (const char* name = robot->Attribute("name")) out.robot_name = name;
   // Link names trimmed of white space, as srdfdom does.
   const auto attribute = [&](const tinyxml2::XMLElement* e,
                              const char* name) -> std::optional<std::string> {

@@ -1,6 +1,7 @@
 #include "collision_monitor/ros/tunables.h"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
 
 #include "collision_monitor/core/backend.h"
@@ -35,6 +36,13 @@ void validate(Tunables* t, const Tunables& fallback, std::vector<std::string>* e
                       fallback.backend);
     t->backend = fallback.backend;
   }
+}
+
+bool raiseWarningToContact(Tunables* t) {
+  if (!std::isfinite(t->contact_distance) || t->contact_distance <= t->warning_distance)
+    return false;
+  t->warning_distance = t->contact_distance;
+  return true;
 }
 
 world::Settings worldSettings(const Tunables& t, world::Settings limits) {

@@ -372,6 +372,37 @@ class BadParams(unittest.TestCase):
         self.assertIn("monitoring 1 bodies in frame 'base'",
                       next(m for _, m in lines if 'monitoring ' in m))
 
+    def test_08c_an_srdf_of_another_robot(self):
+        # An SRDF whose robot is not the URDF's (another robot's, left by an earlier launch):
+        # its rules apply by link name, as srdfdom applies them, and a WARN says whose it is (an
+        # INFO line's count was all there was). The URDF's own robot: no such line.
+        urdf = '''<robot name="r4">
+          <link name="base"><collision><geometry><box size="0.1 0.1 0.1"/></geometry>
+          </collision></link>
+          <link name="arm"><collision><geometry><sphere radius="0.05"/></geometry>
+          </collision></link>
+          <link name="tool"><collision><geometry><sphere radius="0.05"/></geometry>
+          </collision></link>
+          <joint name="j1" type="fixed"><parent link="base"/><child link="arm"/></joint>
+          <joint name="j2" type="fixed"><parent link="arm"/><child link="tool"/></joint>
+        </robot>'''
+        for robot, warned in (('panda', True), ('r4', False)):
+            ns = '/srdf_of_' + robot
+            rospy.set_param(ns + '/robot_description', urdf)
+            rospy.set_param(ns + '/robot_description_semantic',
+                            '<robot name="%s"><disable_collisions link1="base" link2="tool"/>'
+                            '<disable_collisions link1="panda_link0" link2="panda_link1"/>'
+                            '</robot>' % robot)
+            lines = fresh_node_lines(ns, ['_publish_markers:=false'], 'monitoring ')
+            self.assertIn((Log.INFO, ns + '/cm: SRDF: 1 pairs disabled, 0 links disabled by '
+                           'default, 0 pairs enabled, 1 rules on links without collision '
+                           'geometry or not in the URDF left out'), lines)
+            warning = (Log.WARN, ns + "/cm: SRDF '" + ns + "/robot_description_semantic' is of "
+                       "robot 'panda', the URDF of robot 'r4': its rules apply by link name")
+            self.assertEqual(warning in lines, warned, lines)
+            self.assertEqual([m for level, m in lines if level >= Log.WARN and 'SRDF' in m],
+                             [warning[1]] if warned else [])
+
     def test_09_every_documented_parameter_is_known(self):
         # The node's list of its parameters against docs/node.md's table: a fresh node given
         # each of them (any value: an invalid one is an ERROR, not an unknown name) names none as

@@ -23,12 +23,13 @@ NAME = '/cm_launched/'
 
 
 @contextlib.contextmanager
-def roslaunch(*args):
-    """collision_monitor.launch with `args`, run by roslaunch until the block ends; it must exit
-    0 on SIGINT. Its output is printed at the end."""
-    name = [a for a in args if a.startswith('node_name:=')][0].split(':=')[1]
+def roslaunch(*args, launch_file=LAUNCH):
+    """`launch_file` (collision_monitor.launch) with `args`, run by roslaunch until the block
+    ends; it must exit 0 on SIGINT. Its output is printed at the end."""
+    name = next((a.split(':=')[1] for a in args if a.startswith('node_name:=')),
+                os.path.splitext(os.path.basename(launch_file))[0])
     log = open(os.path.join(os.environ.get('ROS_HOME', '/tmp'), name + '_roslaunch.log'), 'w+')
-    launch = subprocess.Popen(['roslaunch', LAUNCH] + list(args), stdout=log,
+    launch = subprocess.Popen(['roslaunch', launch_file] + list(args), stdout=log,
                               stderr=subprocess.STDOUT, start_new_session=True)
     try:
         yield launch
@@ -83,6 +84,23 @@ class LaunchFile(unittest.TestCase):
             finally:
                 sub.unregister()
 
+    def test_contact_distance_alone_raises_the_warning_distance(self):
+        # Bug: the launch file always set warning_distance (0.05), so contact_distance:=0.1
+        # alone was an invalid warning_distance, /diagnostics ERROR for the whole run, where the
+        # node started without the launch file raises it without an error (docs/node.md).
+        for args, warning in ((['contact_distance:=0.1'], 0.1),
+                              (['contact_distance:=0.1', 'warning_distance:=0.2'], 0.2)):
+            with roslaunch('node_name:=cm_contact', *args):
+                m = Monitor('/cm_contact/')
+                self.assertTrue(wait_for(lambda: m.diagnostics is not None, 10.0))
+                d = m.diagnostics
+                self.assertEqual([kv.value for kv in d.values if kv.key == 'invalid parameter'],
+                                 [], args)
+                self.assertEqual(d.level, DiagnosticStatus.OK, d.message)
+                # The values in force, as dynamic_reconfigure writes them back.
+                self.assertEqual(rospy.get_param('/cm_contact/warning_distance'), warning, args)
+                self.assertEqual(m.diag_value('warning_distance'), str(warning), args)
+
     def test_shipped_example_bodies_file(self):
         # config/example_bodies.yaml, as README and the launch file point users to it: every
         # body, pair and parameter in it is valid.
@@ -96,6 +114,32 @@ class LaunchFile(unittest.TestCase):
             r = m.get_distance('table', 'table_leg', '')
             self.assertFalse(r.success)
             self.assertIn('the pair is disabled (disabled_pairs parameter)', r.message)
+
+    def test_demo_after_the_panda_demo_on_one_master(self):
+        # What launch/panda_demo.launch leaves on a master that stays up: demo_joint_motion's
+        # ~scene and the Panda's SRDF. Bug: demo.launch set neither, so its demo_joint_motion
+        # moved the Panda's joints (robot_state_publisher: "not found in URDF"), the demo arm's
+        # moving links had no TF (UNKNOWN for the whole run) and its monitor read the Panda's
+        # SRDF as the demo arm's.
+        srdf = os.path.join(os.environ.get('CM_ROBOT_DATA') or os.path.join(PKG, '../shared/data'),
+                            'example-robot-data/robots/panda_description/srdf/panda.srdf')
+        rospy.set_param('/demo_joint_motion/scene', 'panda_demo_scene')
+        rospy.set_param('/robot_description_semantic', open(srdf).read())
+        arm = {'turret_link', 'upper_arm_link', 'forearm_link', 'wrist_link', 'hand_link',
+               'gripper_link'}
+        try:
+            with roslaunch('duration:=0', 'monitor_output:=log',
+                           launch_file=os.path.join(PKG, 'launch', 'demo.launch')):
+                m = Monitor('/collision_monitor/')
+                self.assertTrue(arm <= set(m.ids()), m.ids())
+                self.assertTrue(wait_for(lambda: not arm & set(m.state.stale_bodies), 15.0),
+                                m.state.stale_bodies)
+                self.assertFalse(rospy.has_param('/demo_joint_motion/scene'))
+                self.assertEqual(rospy.get_param('/robot_description_semantic'), '')
+        finally:  # the other tests' monitors have no robot
+            for p in ('/robot_description', '/robot_description_semantic'):
+                if rospy.has_param(p):
+                    rospy.delete_param(p)
 
     def test_every_shipped_launch_file_documents_its_arguments(self):
         # roslaunch --ros-args lists an argument whose default is empty as required; none of the

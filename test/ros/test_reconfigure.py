@@ -112,6 +112,16 @@ class Reconfigure(unittest.TestCase):
                                  == ('0.3', '0.25', '0.005', '2', 'gjk'), 5.0),
                         [self.m.diag_value(k) for k in in_force])
 
+        # contact_distance alone past the warning distance in force: the warning distance
+        # follows it, nothing refused (dynparam sends every value: it was refused as an ERROR
+        # about the warning_distance 0.3 it carried).
+        rejected1 = int(self.m.diag_value('rejected inputs (total)'))
+        r = self.update(contact_distance=0.35)
+        self.assertEqual((r['warning_distance'], r['contact_distance']), (0.35, 0.35))
+        self.assertTrue(wait_for(lambda: self.m.diag_value('warning_distance') == '0.35', 5.0))
+        rospy.sleep(1.5)  # a report more: a refusal would be counted in it
+        self.assertEqual(int(self.m.diag_value('rejected inputs (total)')), rejected1)
+
         since = time.monotonic()
         self.update(warning_distance=0.05, contact_distance=0.0)
         self.assertTrue(self.m.wait_event(CollisionEvent.COLLISION_END, 'a', 'b', 3.0, since))

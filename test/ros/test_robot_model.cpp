@@ -668,6 +668,7 @@ TEST(Srdf, PandaDisabledPairs) {
   auto rules =
       collisionsFromSrdf(readFile(robotData() + "/robots/panda_description/srdf/panda.srdf"));
   ASSERT_TRUE(rules) << rules.error();
+  EXPECT_EQ(rules->robot_name, "panda");
   EXPECT_EQ(rules->disabled.size(), 35u);
   EXPECT_TRUE(hasPair(rules->disabled, "panda_link0", "panda_link1"));
   EXPECT_TRUE(rules->default_off.empty());
@@ -678,6 +679,7 @@ TEST(Srdf, PandaDisabledPairs) {
 TEST(Srdf, MalformedAndPartial) {
   EXPECT_FALSE(collisionsFromSrdf("<robot><disable_collisions"));
   EXPECT_FALSE(collisionsFromSrdf("<notrobot/>"));
+  EXPECT_EQ(collisionsFromSrdf("<robot/>")->robot_name, "");  // no name: not that of a URDF
   auto p = collisionsFromSrdf(
       R"(<robot name="r"><disable_collisions link1="a" link2="b" reason="Adjacent"/>
          <disable_collisions link1="c"/></robot>)");

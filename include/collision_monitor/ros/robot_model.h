@@ -83,6 +83,7 @@ Expected<RobotBodies> bodiesFromUrdf(const std::string& urdf_xml, double padding
 /// <enable_collisions> names it; else it is never checked when either link is named by
 /// <disable_default_collisions link=""/>.
 struct SrdfCollisions {
+  std::string robot_name;                ///< <robot name="">: whose rules they are
   std::vector<IdPair> disabled;          ///< <disable_collisions link1 link2>, document order
   std::vector<std::string> default_off;  ///< <disable_default_collisions link>
   std::vector<IdPair> enabled;           ///< <enable_collisions link1 link2>

@@ -61,6 +61,11 @@ void checkNumber(const std::string& key, double* value, double fallback, Valid v
 /// contact_distance becomes fallback's warning_distance, or contact_distance if that is larger.
 void validate(Tunables* t, const Tunables& fallback, std::vector<std::string>* errors);
 
+/// A warning_distance nobody chose (not set at start-up; left as it is by a change, which
+/// dynamic_reconfigure's clients send with every value) follows a finite contact_distance above
+/// it. Whether it was raised.
+bool raiseWarningToContact(Tunables* t);
+
 /// `limits` (max_* and the rest) with the world model's values of `t`. `t` must be valid.
 world::Settings worldSettings(const Tunables& t, world::Settings limits);
 
