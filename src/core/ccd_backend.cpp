@@ -215,10 +215,17 @@ class LibccdNarrowPhase final : public NarrowPhase {
     if (!libccdCanAnswer(a, pose_a, b, pose_b)) {
       return core::intersect(a, pose_a, b, pose_b, cache, query_);
     }
-    if (!ccdIntersect(a, pose_a, b, pose_b, ccd_)) return false;
-    // libccd's GJK can claim contact for pairs that are apart (see contradicts()): contact is
-    // confirmed by the penetration query, which checks libccd's answer against the supports
-    // (overlaps are the rare case in a monitor).
+    // Neither of libccd's answers is a certificate. Its GJK can claim contact for pairs that are
+    // apart (see contradicts()); and it ends "apart" on a search direction shorter than its
+    // epsilon or a flat simplex, where no support point failed to pass the origin: a sphere 3.2 mm
+    // into a cone of 0.5 m (2 of 39,787 random near-contact pairs, all cone and sphere; test
+    // LibccdIntersectConfirmsApartWithOurs), two points at one place. Apart is confirmed by our
+    // GJK's boolean query, contact by the penetration query, which checks libccd's answer against
+    // the supports: the answer is signedDistance()'s.
+    if (!ccdIntersect(a, pose_a, b, pose_b, ccd_) &&
+        !core::intersect(a, pose_a, b, pose_b, cache, query_)) {
+      return false;
+    }
     return signedDistance(a, pose_a, b, pose_b, cache).distance <= 0.0;
   }
   ContactResult signedDistance(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,

@@ -4,6 +4,7 @@
 // EPA on curved shapes is slow). CM_SWEEP_SCALE scales the pair counts.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -320,6 +321,59 @@ TEST(Backend, LibccdIntersectCountsTouchingAsContact) {
     EXPECT_EQ(np->signedDistance(cube, at(Vec3::Zero()), cube, pose_b, nullptr).distance, 0.0)
         << cm::toString(type);
     EXPECT_TRUE(np->intersect(cube, at(Vec3::Zero()), cube, pose_b, nullptr)) << cm::toString(type);
+  }
+}
+
+TEST(Backend, LibccdIntersectConfirmsApartWithOurs) {
+  // libccd's GJK ends "apart" where no support point failed to pass the origin (a search
+  // direction shorter than its epsilon, a flat simplex). Found by an outside audit of the core
+  // API: a sphere 3.2 mm into a cone of about 0.5 m, 1e3 m out (2 of 39,787 random near-contact
+  // pairs, both cone and sphere), and zero-size shapes at one place. The exact signed distance:
+  // the sphere's centre in the cone's frame, its distance in the (rho, z) half-plane to the
+  // cone's section, the triangle (0, -h), (R, -h), (0, h) (the centre is outside it), minus the
+  // radius.
+  const double h = 0.26888411750700647, R = 0.51215245242205709, r = 0.53603926580776096;
+  const auto cone = cm::ConvexShape::cone(2.0 * h, R);
+  const auto sphere = cm::ConvexShape::sphere(r);
+  const cm::Transform3 pose_a =
+      cm::makeTransform(Eigen::Quaterniond(-0.16500338153895458, 0.85603364111893931,
+                                           -0.48949016352710878, 0.019485101066336309)
+                            .normalized(),
+                        Vec3(-457.46965541296026, 799.5444344107774, 391.47755004610161));
+  const cm::Transform3 pose_b =
+      cm::makeTransform(Eigen::Quaterniond(0.11205160757482825, 0.6547312773270616,
+                                           0.66686194449777558, -0.33773738127458802)
+                            .normalized(),
+                        Vec3(-456.84110838608507, 798.71246586491179, 391.54020160634639));
+  const auto exactFor = [&](const cm::Transform3& pose) {
+    const Vec3 c = pose_a.R.transpose() * (pose.t - pose_a.t);
+    const Eigen::Vector2d q(std::hypot(c.x(), c.y()), c.z());
+    const auto segment = [&q](const Eigen::Vector2d& p0, const Eigen::Vector2d& p1) {
+      const Eigen::Vector2d d = p1 - p0;
+      return (q - (p0 + std::clamp((q - p0).dot(d) / d.squaredNorm(), 0.0, 1.0) * d)).norm();
+    };
+    EXPECT_GT(q.x() * 2.0 * h + R * (q.y() - h), 0.0);  // beyond the slant side: outside
+    return std::min(segment({0.0, -h}, {R, -h}), segment({R, -h}, {0.0, h})) - r;
+  };
+  const double exact = exactFor(pose_b);
+  EXPECT_NEAR(exact, -0.0031669091, 1e-10);
+  // The case is libccd's: its GJK says apart (Debian's libccd 2.1).
+  EXPECT_FALSE(cm::ccdIntersect(cone, pose_a, sphere, pose_b));
+  const Vec3 o(1.0, 2.0, 3.0);
+  for (const auto type : {cm::BackendType::Libccd, cm::BackendType::Gjk}) {
+    const auto np = cm::makeNarrowPhase(type);
+    EXPECT_TRUE(np->intersect(cone, pose_a, sphere, pose_b, nullptr)) << cm::toString(type);
+    EXPECT_NEAR(np->signedDistance(cone, pose_a, sphere, pose_b, nullptr).distance, exact, 1e-9)
+        << cm::toString(type);
+    for (const auto& zero : {cm::ConvexShape::sphere(0.0), cm::ConvexShape::point(Vec3::Zero()),
+                             cm::ConvexShape::box(Vec3::Zero())}) {
+      EXPECT_TRUE(np->intersect(zero, at(o), zero, at(o), nullptr))
+          << cm::toString(type) << " " << zero.describe();
+    }
+    // Apart stays apart: the sphere moved a tenth of the way further from the cone.
+    const cm::Transform3 apart = at(pose_b.t + 0.1 * (pose_b.t - pose_a.t));
+    ASSERT_GT(exactFor(apart), 0.05);
+    EXPECT_FALSE(np->intersect(cone, pose_a, sphere, apart, nullptr)) << cm::toString(type);
   }
 }
 

@@ -2,7 +2,7 @@
 /// Narrow-phase backends behind one interface, selectable at run time: our GJK/EPA ("gjk") and
 /// libccd ("libccd": ccdGJKIntersect and ccdGJKPenetration, MPR selectable in CcdOptions). libccd
 /// 2.1 has no distance query, so the libccd backend answers separation distances with our GJK
-/// distance and says so in name().
+/// distance; and neither of libccd's verdicts is taken on trust (ccd_backend.cpp).
 #pragma once
 
 #include <memory>
@@ -24,6 +24,9 @@ class NarrowPhase {
  public:
   virtual ~NarrowPhase() = default;
   virtual BackendType type() const = 0;
+  /// Same contract as core::intersect() (overlap or touch). Libccd: libccd's GJK first, its
+  /// verdict confirmed (apart by our GJK's boolean query, contact by signedDistance()), so it
+  /// agrees with signedDistance()'s sign.
   virtual bool intersect(const ConvexShape& a, const Transform3& pose_a, const ConvexShape& b,
                          const Transform3& pose_b, PairCache* cache) const = 0;
   /// Same contract as core::signedDistance(), with libccd's accuracy for Libccd: its EPA's depth

@@ -25,7 +25,10 @@ std::vector<std::array<int, 3>> hullTriangles(const Polytope<3>& poly);
 
 /// Facets of the convex hull of `points` as planes n.x <= offset with unit outward n (qhull).
 /// The signed distance of a point inside a full-dimensional hull is max over facets of
-/// (n.x - offset) (negative); outside it needs a projection onto the facets.
+/// (n.x - offset) (negative); outside it needs a projection onto the facets. Only for a
+/// full-dimensional hull: coplanar points give the two faces of a slab of zero thickness (and
+/// their edges' planes), collinear or coincident points no plane at all, which a membership test
+/// would read as "everything inside".
 struct HullPlane {
   Vec3 normal;
   double offset;

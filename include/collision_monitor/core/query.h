@@ -53,7 +53,9 @@ struct QueryOptions {
 /// Result of distance / signedDistance / penetration.
 struct ContactResult {
   Status status = Status::FailedToConverge;
-  /// Signed distance in metres: > 0 separation, < 0 penetration depth, 0 touching.
+  /// Signed distance in metres: > 0 separation, < 0 penetration depth; status Touching: within
+  /// touch_tolerance of 0 (often 0 or -0, not always: 2.6e-14 for a 10 m box and a 1 mm sphere
+  /// 1e3 m out; the libccd backend's penetration gives 0). Decide on `status`, not `== 0`.
   /// For distance() on overlapping shapes: 0 (status Penetrating, depth not computed).
   double distance = std::numeric_limits<double>::infinity();
   Vec3 point_a = Vec3::Zero();  ///< witness point on A, common frame
