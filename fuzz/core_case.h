@@ -824,16 +824,17 @@ inline Outcome runCase(const std::uint8_t* data, std::size_t len) {
   // size on boxes, a few 1e-6 on padded ones), and its GJK works with absolute epsilons in the
   // pair's unit-size frame: on thin, long or tiny shapes its boolean verdicts are wrong (up to
   // 1.9e-5 of the size on a needle by a disc and a 2e6 m triangle through a 4 m cylinder; a
-  // 4e-245 m overlap missed), every ~1,000 inputs of this domain. intersect() is libccd's own
-  // verdict, so it is checked here only for no crash, no hang (hit_ccd is computed above); its
-  // agreement with the oracle is tested on the realistic sweep (test_ccd_backend). The backend's
-  // signedDistance is checked against the supports and our GJK (ccd_backend.cpp): its sign must
-  // agree outside a 1e-4 band.
+  // 4e-245 m overlap missed), every ~1,000 inputs of this domain. The backend checks both of
+  // libccd's verdicts (ccd_backend.cpp): its intersect() confirms "apart" with our GJK and contact
+  // with its signedDistance, which is checked against the supports and our GJK. Their answers
+  // must agree with the reference outside a 1e-4 band.
   // libccd runs about the shapes' frame origins (not offset()), so its scale includes the offsets.
   const double ccd_size =
       A.boundingRadius() + B.boundingRadius() + (b.pose.t - a.pose.t).stableNorm();
   const double ccd_tol = 1e-4 * ccd_size + tol;
-  (void)hit_ccd;
+  if (ref > ccd_tol && hit_ccd) return fail("libccd intersect() true but apart: " + describe(sd));
+  if (ref < -ccd_tol && !hit_ccd)
+    return fail("libccd intersect() false but overlapping: " + describe(sd));
   // Its depth is not checked: on degenerate cores (a zero-width box) libccd reports touching
   // (depth 0) where the depth is hundreds of metres (test_core_hostile, LibccdFlatBoxDepth).
   if (ref > ccd_tol && !(ccd.distance > 0.0))
