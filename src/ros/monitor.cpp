@@ -329,6 +329,7 @@ void Monitor::findUnknownParameters() {
                                "max_vertices_per_part",
                                "max_parts_per_body",
                                "max_unknown_pairs",
+                               "ignore_unknown_pose_ids",
                                "mesh_roots",
                                "mesh_decomposition",
                                "bodies",
@@ -382,6 +383,8 @@ void Monitor::readParameters() {
   }
   validate(&t, d, &param_errors_);
 
+  ignore_unknown_pose_ids_ =
+      typedParam("ignore_unknown_pose_ids", false, typeName(ignore_unknown_pose_ids_));
   robot_padding_ = typedParam("robot_padding", 0.0, "a number");
   checkNumber(
       "robot_padding", &robot_padding_, 0.0, [](double v) { return v >= 0.0; }, ">= 0",
@@ -978,12 +981,17 @@ bool Monitor::applyPosesLocked(const PendingPoses& p) {
   // back.)
   const std::optional<world::Stamp> arrived = arrivedAt(std::min(p.arrived, now_time));
   std::vector<std::string> unknown, attached;
-  std::size_t superseded = 0;
+  std::size_t superseded = 0, ignored = 0;
   bool applied = false;
   for (const auto& u : p.updates) {
     auto it = tracked_.find(u.id);
     if (it == tracked_.end()) {
-      unknown.push_back(u.id);
+      // A pose topic names one body: an unknown id there is this monitor's own business.
+      if (ignore_unknown_pose_ids_ && !p.pose_topic) {
+        ++ignored;
+      } else {
+        unknown.push_back(u.id);
+      }
     } else if (p.pose_topic && it->second.pose_topic != *p.pose_topic) {
       // Sent to the body this one replaced: it posed the new body with a pose nobody sent it
       // (stamped 0, for good), or was refused as for a TF body.
@@ -998,6 +1006,10 @@ bool Monitor::applyPosesLocked(const PendingPoses& p) {
     ++pose_msgs_applied_;
     new_poses_ = true;
   }
+  if (ignored != 0) {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    stats_.unknown_pose_ids_ignored += ignored;
+  }
   if (!unknown.empty() || !attached.empty()) {
     std::string what = p.source + ": poses ignored for";
     if (!unknown.empty()) what += " unknown bodies: " + joined(unknown);
@@ -1007,7 +1019,7 @@ bool Monitor::applyPosesLocked(const PendingPoses& p) {
     }
     reject(p.source, what);
   }
-  return unknown.size() + attached.size() + superseded < p.updates.size();
+  return unknown.size() + attached.size() + superseded + ignored < p.updates.size();
 }
 
 void Monitor::onBody(const ros::MessageEvent<const Checked<collision_monitor::Body>>& event) {
@@ -1848,6 +1860,9 @@ void Monitor::setupDiagnostics() {
     s.add("checks (total)", now.cycles);
     s.add("ROS time jumps back (total)", now.time_jumps_back);
     s.add("~body_poses messages (total)", now.poses_msgs);
+    if (ignore_unknown_pose_ids_) {
+      s.add("~body_poses entries for unknown ids ignored (total)", now.unknown_pose_ids_ignored);
+    }
     s.add("pose_topic messages (total)", now.pose_topic_msgs);
     s.add("pose messages applied (total)", now.pose_msgs_applied);
     s.add("checks with new poses (total)", now.checks_with_new_poses);

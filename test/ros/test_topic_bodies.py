@@ -1244,6 +1244,49 @@ class TopicBodies(unittest.TestCase):
         self.assertIn('unknown', last)
         self.assertNotIn('nobody_here', self.m.ids())
 
+    def test_30b_a_shared_pose_stream_with_ignore_unknown_pose_ids(self):
+        # capped_monitor (topic_bodies.test) sets ignore_unknown_pose_ids: a ~body_poses stream
+        # that also carries other monitors' ids poses its own bodies, and the other ids are
+        # dropped without an error (counted apart); a TF-attached id is still refused. Bug: a
+        # shared motion-capture stream logged an ERROR a second and held /diagnostics at WARN.
+        capped = Monitor('/capped_monitor/')
+        ids = ['w1', 'w2', 'w_tf']
+        capped.add(sphere_body('w1', 0.5))
+        capped.add(sphere_body('w2', 0.5))
+        capped.add(sphere_body('w_tf', 0.1, frame='world', pose_from_topic=False))
+        try:
+            self.assertTrue(wait_for(lambda: set(ids) <= set(capped.ids()), 5.0), capped.ids())
+
+            def report():
+                capped.diagnostics = None
+                self.assertTrue(wait_for(lambda: capped.diagnostics is not None, 5.0))
+                return (int(capped.diag_value('rejected inputs (total)')),
+                        int(capped.diag_value('~body_poses entries for unknown ids ignored '
+                                              '(total)')))
+
+            rejected0, ignored0 = report()
+            msg = BodyPoses(ids=['other_a', 'w1', 'other_b', 'w2'],
+                            poses=[pose(0, 0, 0), pose(0, 0, 0), pose(0, 0, 0), pose(1.7, 0, 0)])
+            msg.header.frame_id = 'world'
+            for _ in range(3):
+                msg.header.stamp = rospy.Time.now()
+                capped.poses_pub.publish(msg)
+                rospy.sleep(0.1)
+            r = capped.get_distance('w1', 'w2', '')
+            self.assertTrue(r.success, r.message)
+            self.assertAlmostEqual(r.result.distance, 0.7, places=9)
+            self.assertEqual(report(), (rejected0, ignored0 + 6))
+            msg = BodyPoses(ids=['w_tf'], poses=[pose(0, 0, 0)])
+            msg.header.frame_id = 'world'
+            msg.header.stamp = rospy.Time.now()
+            capped.poses_pub.publish(msg)
+            self.assertTrue(wait_for(lambda: report() == (rejected0 + 1, ignored0 + 6), 5.0))
+            self.assertIn('bodies attached to TF', capped.diag_value('last rejection'))
+        finally:  # test_31 counts this monitor's bodies without a pose
+            for i in ids:
+                capped.add(Body(id=i, operation=Body.REMOVE))
+            self.assertTrue(wait_for(lambda: not set(ids) & set(capped.ids()), 5.0))
+
     def test_31_unknown_pairs_beyond_max_unknown_pairs_are_counted(self):
         # ~check_collision reports every body without a fresh pose as an UNKNOWN pair, at most
         # max_unknown_pairs of them, and its message says how many there are in all and how

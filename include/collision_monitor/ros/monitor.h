@@ -239,6 +239,9 @@ class Monitor {
   std::atomic<bool> publish_markers_{true};
   bool markers_published_ = false;  ///< loop thread: arrays went out since the last clear
   double robot_padding_ = 0.0;
+  /// ~body_poses entries for ids this monitor does not track are dropped without a word (a pose
+  /// stream shared by monitors that each watch some of its ids); start-up only.
+  bool ignore_unknown_pose_ids_ = false;
   LinkSettings robot_links_;  ///< robot_link_padding, robot_link_groups
   std::string robot_description_param_ = "robot_description";
   MeshDecomposition mesh_decomposition_ = MeshDecomposition::Hull;  ///< start-up only
@@ -331,6 +334,7 @@ class Monitor {
     std::size_t bodies_msgs = 0, poses_msgs = 0, pose_topic_msgs = 0, cycles = 0;
     std::size_t pose_msgs_applied = 0, checks_with_new_poses = 0;  // copies taken by each check
     std::size_t rejected = 0;
+    std::size_t unknown_pose_ids_ignored = 0;  ///< with ignore_unknown_pose_ids
     std::size_t time_jumps_back = 0;  ///< ROS time more than kTimeJumpTolerance behind the last
     std::string last_rejection;
     double cycle_time_max = 0.0, cycle_time_sum = 0.0;
