@@ -124,7 +124,8 @@ class LaunchFile(unittest.TestCase):
         srdf = os.path.join(os.environ.get('CM_ROBOT_DATA') or os.path.join(PKG, '../shared/data'),
                             'example-robot-data/robots/panda_description/srdf/panda.srdf')
         rospy.set_param('/demo_joint_motion/scene', 'panda_demo_scene')
-        rospy.set_param('/robot_description_semantic', open(srdf).read())
+        with open(srdf) as f:
+            rospy.set_param('/robot_description_semantic', f.read())
         arm = {'turret_link', 'upper_arm_link', 'forearm_link', 'wrist_link', 'hand_link',
                'gripper_link'}
         try:
